@@ -1,0 +1,41 @@
+# mpmsim: `make run` and `make test` are the two commands in the README.
+# Both create .venv if it is missing and install mpmsim (with test extras) into it.
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-stamp
+DECK   ?= inputs/disks.yaml
+
+.PHONY: run test bench examples docs clean-cache
+
+$(STAMP): pyproject.toml
+	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
+		{ echo "mpmsim needs Python 3.11 or newer ($(PYTHON) is older)"; exit 1; }
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	@touch $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/mpmsim run $(DECK)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+bench: $(STAMP)
+	$(BIN)/python bench/column.py
+
+# every deck in inputs/, as a batch; a summary line per deck
+examples: $(STAMP)
+	@status=0; for deck in inputs/*.yaml; do \
+		printf '%-40s ' "$$deck"; \
+		if $(BIN)/mpmsim run "$$deck" --quiet; then echo ok; else echo "FAILED (exit $$?)"; status=1; fi; \
+	done; exit $$status
+
+docs: $(STAMP)
+	$(BIN)/python -m mpmsim.deck.reference > docs/deck-reference.md
+
+# numba caches kernels next to the sources; clear them after editing a shared helper
+clean-cache:
+	find mpmsim -name '*.nbi' -delete -o -name '*.nbc' -delete

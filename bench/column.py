@@ -1,0 +1,69 @@
+"""Benchmark: particle-steps per second on the standard column problem, per task.
+
+The LR paper's 40 x 100 mm neo-Hookean column, 1 mm cells, 4 particles per cell (16 000
+particles), uGIMP, one material, rigid platen at 0.05% of the wave speed; a fixed number
+of steps with 1 and 2 threads. Reference for scale: a C++ code does 0.82 M particle-steps/s
+on 1 thread and 1.5 M on 2 threads on this problem.
+
+    python bench/column.py [--steps N] [--threads 1 2] [--deck inputs/column.yaml]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numba
+
+from mpmsim.deck import load_deck
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def measure(deck: Path, steps: int, threads: int, warmup: int = 5) -> tuple[float, dict[str, float], int]:
+    numba.set_num_threads(threads)
+    sim = Simulation(build_scene(load_deck(deck)), out_dir=None, threads=threads)
+    for _ in range(warmup):
+        sim.step()
+    for k in sim.timers:
+        sim.timers[k] = 0.0
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        sim.step()
+    wall = time.perf_counter() - t0
+    n = sim.state.particles.n
+    return n * steps / wall, dict(sim.timers), n
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--deck", type=Path, default=ROOT / "bench" / "column.yaml")
+    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    numba.set_num_threads(1)
+    Simulation(build_scene(load_deck(args.deck)), out_dir=None, threads=1).step()  # load/compile kernels
+    print(f"warm start (load deck, build scene, first step incl. JIT/cache load): {time.perf_counter() - t0:.2f} s")
+    reference = {1: 0.82e6, 2: 1.5e6}
+    for th in args.threads:
+        if th > numba.config.NUMBA_NUM_THREADS:
+            print(f"skipping {th} threads: this machine allows {numba.config.NUMBA_NUM_THREADS}")
+            continue
+        rate, timers, n = measure(args.deck, args.steps, th)
+        ref = reference.get(th)
+        vs = f"  (C++ reference {ref / 1e6:.2f} M: x{rate / ref:.2f})" if ref else ""
+        print(f"\n{th} thread(s): {n} particles x {args.steps} steps: {rate / 1e6:.3f} M particle-steps/s{vs}")
+        total = sum(timers.values())
+        for name, sec in timers.items():
+            if name == "output":
+                continue
+            print(f"  {name:22s} {sec / args.steps * 1e6:9.1f} us/step  {100 * sec / total:5.1f} %"
+                  f"  {n * args.steps / sec / 1e6 if sec > 0 else float('inf'):9.2f} M p-steps/s")
+
+
+if __name__ == "__main__":
+    main()

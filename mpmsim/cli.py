@@ -1,0 +1,184 @@
+"""Command line: `mpmsim run DECK`, `mpmsim check DECK`, `mpmsim --version`.
+
+Exit codes: 0 ok, 2 bad deck (or bad command line), 3 run stopped as unstable.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from . import __version__
+from .errors import DeckError, InstabilityError
+
+EXIT_BAD_DECK = 2
+EXIT_UNSTABLE = 3
+# particle-steps per second on one thread from `make bench` (2D uGIMP column); for estimates
+NOMINAL_RATE = 2.0e6
+
+app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, no_args_is_help=True,
+                  help="Material point method simulator for multimaterial contact mechanics.")
+out = Console()
+err = Console(stderr=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        print(f"mpmsim {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(version: Optional[bool] = typer.Option(None, "--version", callback=_version, is_eager=True,
+                                                 help="Print the version and exit.")) -> None:
+    """mpmsim: one YAML deck in; VTU time series and CSV histories out."""
+
+
+def _load_scene(deck: Path):
+    from .deck import load_deck
+    from .scene import build_scene
+
+    try:
+        return build_scene(load_deck(deck))
+    except DeckError as exc:
+        err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
+
+
+@app.command()
+def run(
+    deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
+    out_dir: Optional[Path] = typer.Option(None, "--out", help="Output directory (overrides the deck)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar, timing table or file list."),
+    threads: Optional[int] = typer.Option(None, "--threads", help="Worker threads (default: all cores)."),
+) -> None:
+    """Run a deck: VTU series (+ .pvd for ParaView) and a CSV history."""
+    import numba
+
+    from .solver import Simulation, default_output_dir
+
+    scene = _load_scene(deck)
+    if threads is not None:
+        numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    directory = out_dir if out_dir is not None else default_output_dir(scene.loaded)
+    sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads())
+    st, end = sim.state, scene.deck.time.end
+    tu = _units(scene).time
+    progress = None
+    if not quiet:
+        progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                            TextColumn("t = {task.fields[t]} / {task.fields[end]} " + tu),
+                            TextColumn("{task.fields[rate]} steps/s"), TimeRemainingColumn(),
+                            console=out, transient=False)
+    last = [0.0, 0, time.perf_counter()]
+
+    def report(state) -> None:
+        now = time.perf_counter()
+        if now - last[0] < 0.1:
+            return
+        rate = (state.step - last[1]) / max(now - last[2], 1e-9)
+        last[:] = [now, state.step, now]
+        progress.update(bar, completed=state.t, t=f"{state.t:.4g}", rate=f"{rate:,.0f}")
+
+    try:
+        if progress is not None:
+            with progress:
+                bar = progress.add_task(scene.loaded.stem, total=end, t="0", end=f"{end:g}", rate="-")
+                result = sim.run(report)
+                progress.update(bar, completed=end, t=f"{st.t:.4g}")
+        else:
+            result = sim.run()
+    except InstabilityError as exc:
+        err.print(f"[bold red]mpmsim: run stopped[/]: {exc}", highlight=False, soft_wrap=True)
+        err.print(f"output so far (including the failing state) is in {directory}", highlight=False)
+        raise typer.Exit(EXIT_UNSTABLE) from None
+    if quiet:
+        return
+    _timing_table(result, sim)
+    out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
+    out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
+
+
+def _units(scene):
+    from .deck.units import unit_system
+
+    return unit_system(scene.deck.units)
+
+
+def _timing_table(result, sim) -> None:
+    n = sim.state.particles.n
+    steps = max(result.steps, 1)
+    table = Table(title=f"{result.steps} steps, {n} particles, {result.wall_time:.2f} s wall, "
+                        f"{result.rate / 1e6:.2f} M particle-steps/s")
+    for col in ("task", "time (s)", "%", "us/step", "M particle-steps/s"):
+        table.add_column(col, justify="left" if col == "task" else "right")
+    total = sum(result.timers.values()) or 1.0
+    for name, sec in result.timers.items():
+        rate = f"{n * steps / sec / 1e6:.1f}" if sec > 0 and name != "output" else "-"
+        table.add_row(name, f"{sec:.3f}", f"{100 * sec / total:.1f}", f"{sec / steps * 1e6:.1f}", rate)
+    out.print(table)
+
+
+@app.command()
+def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
+    """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
+    from .state import State
+    from .tasks import build_task_list
+
+    scene = _load_scene(deck)
+    d, g, u = scene.deck, scene.grid, _units(scene)
+    state = State.from_scene(scene, threads=1)
+    cells = g.cells
+    out.print(f"[bold]{scene.loaded.path}[/]: {d.title}", highlight=False)
+    out.print(f"analysis {d.analysis}, units {u.name} (length {u.length}, time {u.time}, stress {u.stress})",
+              highlight=False)
+    dims = " x ".join(str(c) for c in cells)
+    sizes = " x ".join(f"{h:g}" for h in g.h)
+    box = " x ".join(f"[{a:g}, {b:g}]" for a, b in zip(g.domain_lo, g.domain_hi))
+    faces = ", ".join(f"{f}={getattr(d.grid.boundaries, f)}" for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * g.dim])
+    out.print(f"grid: {dims} cells of {sizes} {u.length}; domain {box}; "
+              f"{g.n_nodes} nodes with {g.ghost} ghost layer(s); faces {faces}", highlight=False)
+    P = state.particles
+    occupied = np.unique(np.floor((P.x - g.domain_lo) / g.h).astype(np.int64), axis=0)
+    out.print(f"active cells: {len(occupied)} of {int(np.prod(cells))} hold particles", highlight=False)
+    per = ", ".join(f"{m}: {int(np.sum(P.mat == i))}" for i, m in enumerate(scene.materials.deformable))
+    rig = ", ".join(f"{m}: {int(np.sum(state.rigid.mat == i))}" for i, m in enumerate(scene.materials.rigid))
+    out.print(f"particles: {P.n} deformable ({per})" + (f"; {state.rigid.n} rigid ({rig})" if rig else ""),
+              highlight=False)
+    if d.time.dt is not None:
+        dt, how = d.time.dt, "fixed"
+    else:
+        cfl = d.time.cfl if d.time.cfl is not None else 0.5
+        speed = state.wave_max
+        if state.n_rigid_materials:
+            speed = max(speed, float(np.abs(state.rigid_v_start).max()))
+        dt, how = cfl * g.h.min() / speed, f"CFL {cfl:g}, max wave speed + |v| = {speed:.4g} {u.velocity}"
+    steps = int(np.ceil(d.time.end / dt))
+    out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
+              highlight=False)
+    ps = steps * P.n
+    out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
+              f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
+    out.print("[bold]tasks per step[/] (only what this scene needs):")
+    for i, t in enumerate(build_task_list(scene), 1):
+        out.print(f"  {i:2d}. {t.name:22s} {t.why}", highlight=False)
+
+
+def main() -> None:
+    try:
+        app()
+    except KeyboardInterrupt:
+        print("interrupted; output written so far is kept", file=sys.stderr)
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

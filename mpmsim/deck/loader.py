@@ -1,0 +1,185 @@
+"""Read a YAML deck, validate it, and report problems by key path and YAML line.
+
+`load_deck(path)` returns a `LoadedDeck` or raises `DeckError` whose message names the
+file, the line, the key path (e.g. `materials.steel.nu`) and what is wrong.
+"""
+
+from __future__ import annotations
+
+import difflib
+import typing
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from ..errors import DeckError
+from . import schema
+from .schema import Deck
+
+
+@dataclass
+class LoadedDeck:
+    deck: Deck
+    path: Path
+    data: dict  # the raw mapping, for tools that vary keys (sweeps)
+
+    @property
+    def base_dir(self) -> Path:
+        return self.path.parent
+
+    @property
+    def stem(self) -> str:
+        return self.path.stem
+
+
+def load_deck(path: str | Path) -> LoadedDeck:
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise DeckError(((), f"cannot read deck file: {exc.strerror or exc}"), source=str(path)) from None
+    return load_deck_text(text, path)
+
+
+def load_deck_text(text: str, path: Path) -> LoadedDeck:
+    source = str(path)
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else None
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise DeckError(((), f"YAML syntax error: {problem}"), source=source, lines=[line]) from None
+    if data is None:
+        raise DeckError(((), "the deck is empty"), source=source, lines=[1])
+    if not isinstance(data, dict):
+        raise DeckError(((), "the deck must be a mapping of keys (title:, grid:, ...)"),
+                        source=source, lines=[1])
+    _reject_duplicate_keys(root, source)
+    try:
+        deck = Deck.model_validate(data)
+    except ValidationError as exc:
+        problems = _problems_from_validation(exc, root)
+        raise _with_lines(problems, root, source) from None
+    from .semantics import check_deck  # late import: semantics needs the scene helpers
+
+    problems = check_deck(deck, path.parent)
+    if problems:
+        raise _with_lines(problems, root, source)
+    return LoadedDeck(deck=deck, path=path, data=data)
+
+
+def raise_at(problems: list[tuple[tuple, str]], loaded: LoadedDeck) -> typing.NoReturn:
+    """Raise DeckError for problems found after loading (e.g. by the scene builder)."""
+    root = yaml.compose(loaded.path.read_text(), Loader=yaml.SafeLoader)
+    raise _with_lines(problems, root, str(loaded.path))
+
+
+# --------------------------------------------------------------------------- helpers
+def _with_lines(problems, root, source) -> DeckError:
+    lines = [_line_of(root, path) for path, _ in problems]
+    return DeckError(problems, source=source, lines=lines)
+
+
+def _reject_duplicate_keys(node, source):
+    if isinstance(node, yaml.MappingNode):
+        seen = {}
+        for key, value in node.value:
+            k = key.value
+            if k in seen:
+                raise DeckError(((k,), f"duplicate key '{k}' (first given on line {seen[k]})"),
+                                source=source, lines=[key.start_mark.line + 1])
+            seen[k] = key.start_mark.line + 1
+            _reject_duplicate_keys(value, source)
+    elif isinstance(node, yaml.SequenceNode):
+        for item in node.value:
+            _reject_duplicate_keys(item, source)
+
+
+def _line_of(root, path) -> int | None:
+    """Line of the deepest node of `path` present in the YAML (1-based)."""
+    if root is None:
+        return None
+    node, line = root, root.start_mark.line + 1
+    for key in path:
+        if isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                if k.value == str(key):
+                    node, line = v, k.start_mark.line + 1
+                    break
+            else:
+                break
+        elif isinstance(node, yaml.SequenceNode) and isinstance(key, int) and 0 <= key < len(node.value):
+            node = node.value[key]
+            line = node.start_mark.line + 1
+        else:
+            break
+    return line
+
+
+def _all_models() -> list[type[BaseModel]]:
+    return [c for c in vars(schema).values()
+            if isinstance(c, type) and issubclass(c, BaseModel) and c is not BaseModel]
+
+
+_TAGS = {"linear_elastic", "neo_hookean", "rigid", *schema.SHAPES_2D, *schema.SHAPES_3D, "box"}
+_BRANCHES = {c.__name__ for c in _all_models()} | {"list[float]", "list[int]", "float", "int"}
+_FIELD_NAMES = sorted({name for c in _all_models() for name in c.model_fields})
+
+
+def _clean_loc(loc, data) -> tuple:
+    """Drop the discriminator tags and union-branch names pydantic puts into error paths."""
+    out = []
+    node = data
+    for i, key in enumerate(loc):
+        is_last = i == len(loc) - 1
+        if isinstance(key, str) and not is_last and (key in _BRANCHES or "[" in key):
+            continue
+        if isinstance(key, str) and not is_last and key in _TAGS and not (isinstance(node, dict) and key in node):
+            continue
+        out.append(key)
+        if isinstance(node, dict):
+            node = node.get(key)
+        elif isinstance(node, list) and isinstance(key, int) and 0 <= key < len(node):
+            node = node[key]
+        else:
+            node = None
+    return tuple(out)
+
+
+def _message(err) -> str:
+    kind, msg, loc = err["type"], err["msg"], err["loc"]
+    if kind == "extra_forbidden":
+        key = str(loc[-1]) if loc else "?"
+        close = difflib.get_close_matches(key, _FIELD_NAMES, n=1, cutoff=0.75)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        return f"unknown key '{key}'{hint}"
+    if kind == "missing":
+        return "required key is missing"
+    if kind == "union_tag_invalid":
+        ctx = err.get("ctx", {})
+        tag, expected = ctx.get("tag"), ctx.get("expected_tags", "")
+        close = difflib.get_close_matches(str(tag), [t.strip(" '") for t in str(expected).split(",")], n=1)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        return f"'{tag}' is not one of {expected}{hint}"
+    if kind == "union_tag_not_found":
+        return f"needs a '{err.get('ctx', {}).get('discriminator', 'type').strip(chr(39))}' key"
+    return msg[0].lower() + msg[1:] if msg else kind
+
+
+def _problems_from_validation(exc: ValidationError, root) -> list[tuple[tuple, str]]:
+    data = yaml.safe_load(yaml.serialize(root)) if root is not None else {}
+    merged: dict[tuple, list[str]] = {}
+    for err in exc.errors():
+        path = _clean_loc(err["loc"], data)
+        msg = _message(err)
+        msgs = merged.setdefault(path, [])
+        if msg not in msgs:
+            msgs.append(msg)
+    problems = []
+    for path, msgs in merged.items():
+        problems.append((path, msgs[0] if len(msgs) == 1 else "does not match any allowed form: " + "; or ".join(msgs)))
+    return problems

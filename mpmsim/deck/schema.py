@@ -1,0 +1,278 @@
+"""The problem deck: pydantic models. The schema is the documentation.
+
+Every model forbids unknown keys. Field descriptions are what `docs/deck-reference.md`
+prints (regenerate it with `python -m mpmsim.deck.reference`). Checks that need more
+than one field, or the analysis dimension, live in `mpmsim.deck.semantics`.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Vector = list[float]
+Face = Literal["free", "fixed", "roller", "slip"]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+# --------------------------------------------------------------------------- materials
+class LinearElastic(Strict):
+    """Isotropic linear elastic, integrated as hypoelastic with the Hughes–Winget rotation
+    (objective for large rotations, linear in strain increments)."""
+
+    type: Literal["linear_elastic"]
+    E: float = Field(gt=0, description="Young's modulus (stress unit).")
+    nu: float = Field(gt=-1.0, lt=0.5, description="Poisson's ratio, -1 < nu < 0.5.")
+    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
+
+
+class NeoHookean(Strict):
+    """Compressible neo-Hookean solid, LR paper Eq. (18):
+    W = G/2 (I1/J^(2/3) - 3) + K/2 ((J^2 - 1)/2 - ln J)."""
+
+    type: Literal["neo_hookean"]
+    K: float = Field(gt=0, description="Bulk modulus (stress unit).")
+    G: float = Field(ge=0, description="Shear modulus (stress unit); 0 gives a fluid-like solid.")
+    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
+
+
+class VelocityTable(Strict):
+    """Piecewise-linear velocity in time: held at the first value before `times[0]` and at
+    the last value after `times[-1]`."""
+
+    times: list[float] = Field(min_length=1, description="Strictly increasing times.")
+    values: list[Vector] = Field(min_length=1, description="One velocity vector per time.")
+
+
+class Rigid(Strict):
+    """Rigid material moving with a prescribed velocity. Its particles impose that velocity
+    on every grid node they touch (non-zero shape function), in the constrained directions."""
+
+    type: Literal["rigid"]
+    velocity: Vector | VelocityTable = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        description="Constant velocity vector, or a table {times, values} (piecewise linear).",
+    )
+    constrain: list[Literal["x", "y", "z"]] | None = Field(
+        default=None,
+        description="Velocity components imposed on the nodes it touches (default: all).",
+    )
+
+
+Material = Annotated[Union[LinearElastic, NeoHookean, Rigid], Field(discriminator="type")]
+
+
+# --------------------------------------------------------------------------- bodies
+class SineVelocity(Strict):
+    """v(x) = amplitude * sin(2 pi (x[axis] - origin) / wavelength): a vibration mode."""
+
+    amplitude: Vector = Field(description="Velocity vector at the crest.")
+    axis: Literal["x", "y", "z"] = Field(description="Coordinate the sine varies along.")
+    wavelength: float = Field(gt=0, description="Wavelength (length unit).")
+    origin: float = Field(default=0.0, description="Coordinate of the sine's zero.")
+
+
+class BodyBase(Strict):
+    material: str = Field(description="Name of a material in `materials`.")
+    velocity: Vector | SineVelocity | None = Field(
+        default=None,
+        description="Initial velocity: a vector, or a sine mode {amplitude, axis, wavelength, origin}. "
+        "Not allowed for rigid materials (their velocity is prescribed).",
+    )
+    z_range: list[float] | None = Field(
+        default=None,
+        description="3D only, 2D shapes: extrude the shape between z_range[0] and z_range[1].",
+    )
+
+
+class Rectangle(BodyBase):
+    shape: Literal["rectangle"]
+    min: Vector = Field(description="Lower corner [x, y].")
+    max: Vector = Field(description="Upper corner [x, y].")
+
+
+class Box(BodyBase):
+    shape: Literal["box"]
+    min: Vector = Field(description="Lower corner [x, y, z] (3D).")
+    max: Vector = Field(description="Upper corner [x, y, z] (3D).")
+
+
+class Circle(BodyBase):
+    shape: Literal["circle"]
+    center: Vector
+    radius: float = Field(gt=0)
+
+
+class Sphere(BodyBase):
+    shape: Literal["sphere"]
+    center: Vector = Field(description="Centre [x, y, z] (3D).")
+    radius: float = Field(gt=0)
+
+
+class Ellipse(BodyBase):
+    shape: Literal["ellipse"]
+    center: Vector
+    semi_axes: Vector = Field(description="Semi-axes [a, b] along the rotated x and y axes.")
+    angle: float = Field(default=0.0, description="Rotation of the a axis from x, in degrees.")
+
+
+class Ellipsoid(BodyBase):
+    shape: Literal["ellipsoid"]
+    center: Vector = Field(description="Centre [x, y, z] (3D).")
+    semi_axes: Vector = Field(description="Semi-axes [a, b, c] along x, y, z.")
+
+
+class Polygon(BodyBase):
+    shape: Literal["polygon"]
+    vertices: list[Vector] = Field(min_length=3, description="Vertices [[x, y], ...] in order.")
+
+
+class Annulus(BodyBase):
+    shape: Literal["annulus"]
+    center: Vector
+    inner_radius: float = Field(ge=0)
+    outer_radius: float = Field(gt=0)
+
+
+class ImageMapEntry(Strict):
+    """One pixel class. Give `grey` (an inclusive range of grey levels 0–255) or `color`
+    (an exact [r, g, b]); pixels matching no entry are empty."""
+
+    material: str
+    grey: list[int] | None = Field(default=None, description="[low, high] grey levels, inclusive.")
+    color: list[int] | None = Field(default=None, description="[r, g, b], each 0–255.")
+
+
+class Image(BodyBase):
+    """A PNG (or any image Pillow reads); each pixel becomes material by its grey level or colour.
+    `material` is not used: the map assigns materials."""
+
+    shape: Literal["image"]
+    material: str = Field(default="", description="Unused for images (the map assigns materials).")
+    file: str = Field(description="Image path, relative to the deck's directory.")
+    pixel_size: float = Field(gt=0, description="Edge length of one pixel (length unit).")
+    origin: Vector = Field(description="Model coordinates of the image's lower-left corner.")
+    map: list[ImageMapEntry] = Field(min_length=1, description="Pixel classes to materials.")
+
+
+Body = Annotated[
+    Union[Rectangle, Box, Circle, Sphere, Ellipse, Ellipsoid, Polygon, Annulus, Image],
+    Field(discriminator="shape"),
+]
+
+SHAPES_2D = {"rectangle", "circle", "ellipse", "polygon", "annulus", "image"}
+SHAPES_3D = {"box", "sphere", "ellipsoid"}
+
+
+# --------------------------------------------------------------------------- grid
+class Domain(Strict):
+    min: Vector = Field(description="Lower corner of the region material may occupy.")
+    max: Vector = Field(description="Upper corner.")
+
+
+class Boundaries(Strict):
+    """Condition on each face of the domain: `free`, `fixed` (all velocity components zero),
+    `roller` or its synonym `slip` (normal component zero). Constrained faces act on the
+    face's grid line and the ghost nodes beyond it."""
+
+    xmin: Face = "free"
+    xmax: Face = "free"
+    ymin: Face = "free"
+    ymax: Face = "free"
+    zmin: Face = "free"
+    zmax: Face = "free"
+
+
+class Grid(Strict):
+    cell_size: float | list[float] = Field(
+        description="Cell edge length, or one length per direction (uneven cells).")
+    domain: Domain | None = Field(
+        default=None,
+        description="Region material may occupy. Default: the bounding box of all bodies and "
+        "of every rigid body's prescribed path, plus `margin` cells on free faces. "
+        "A constrained face is placed on the bodies' edge.",
+    )
+    margin: int = Field(default=2, ge=0, description="Free-face margin, in cells, of the default domain.")
+    boundaries: Boundaries = Field(default_factory=Boundaries)
+
+
+# --------------------------------------------------------------------------- run control
+class Time(Strict):
+    end: float = Field(gt=0, description="End time (time unit).")
+    cfl: float | None = Field(
+        default=None, gt=0, le=1.0,
+        description="Time step = cfl × min cell size / max(wave speed + |velocity|), recomputed "
+        "every step from the current state. Default 0.5. Give either cfl or dt.",
+    )
+    dt: float | None = Field(default=None, gt=0, description="Fixed time step instead of the CFL rule.")
+
+
+class Update(Strict):
+    scheme: Literal["flip", "pic"] = Field(
+        default="flip",
+        description="Particle update. flip: V += dt S a, x += dt S(v+ - a dt/2) (second order). "
+        "pic: V = S v+, x += dt [S v + (V_new - V_old)/2].",
+    )
+    stress: Literal["usf", "usl", "usavg"] = Field(
+        default="usavg",
+        description="When the stress is updated: usf (before forces), usl (after the particle "
+        "update, from re-extrapolated momenta), usavg (half at each).",
+    )
+
+
+class Output(Strict):
+    directory: str | None = Field(
+        default=None,
+        description="Output directory, relative to the deck's directory. Default: "
+        "results/<deck name> under the current directory. `mpmsim run --out` overrides.",
+    )
+    vtu_interval: float | None = Field(
+        default=None, gt=0, description="Simulated time between VTU files. Default: end/20.")
+    history_interval: float | None = Field(
+        default=None, gt=0, description="Simulated time between CSV history rows. Default: end/200.")
+
+
+class Stability(Strict):
+    energy_factor: float = Field(
+        default=1.2, gt=1.0,
+        description="Stop when kinetic plus strain energy exceeds this factor times the energy "
+        "put in (initial kinetic energy plus the work of walls, rigid materials and gravity).",
+    )
+    check_every: int = Field(
+        default=10, ge=1,
+        description="Steps between energy checks (NaN, inversion and leaving the grid are checked every step).",
+    )
+
+
+class Deck(Strict):
+    title: str = Field(description="One line saying what the scene is.")
+    units: Literal["SI", "mm-g-ms"] = Field(
+        default="SI", description="Named consistent unit system (see docs/units.md).")
+    analysis: Literal["plane_strain", "3d", "axisymmetric"] = Field(
+        default="plane_strain",
+        description="plane_strain (2D) or 3d. axisymmetric is reserved and not yet available.",
+    )
+    thickness: float = Field(default=1.0, gt=0, description="Out-of-plane thickness in 2D.")
+    grid: Grid
+    shape_function: Literal["linear", "gimp"] = Field(
+        default="gimp", description="Particle–grid shape function: linear, or gimp (uGIMP).")
+    particles_per_direction: int = Field(
+        default=2, ge=1, le=8,
+        description="Particles per cell along each direction (2 gives 4 per cell in 2D, 8 in 3D).",
+    )
+    materials: dict[str, Material] = Field(min_length=1)
+    bodies: list[Body] = Field(
+        min_length=1, description="Bodies in order; a later body overwrites earlier ones where they overlap.")
+    gravity: Vector | None = Field(default=None, description="Body acceleration vector.")
+    time: Time
+    update: Update = Field(default_factory=Update)
+    output: Output = Field(default_factory=Output)
+    stability: Stability = Field(default_factory=Stability)
+
+    @property
+    def dim(self) -> int:
+        return 3 if self.analysis == "3d" else 2

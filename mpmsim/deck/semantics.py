@@ -1,0 +1,145 @@
+"""Checks that span several keys or depend on the analysis dimension.
+
+Each check returns (key path, message) pairs; the loader adds the YAML line.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .schema import SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, SineVelocity, VelocityTable
+from .units import unit_system
+
+
+def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
+    problems: list[tuple[tuple, str]] = []
+    add = lambda path, msg: problems.append((tuple(path), msg))  # noqa: E731
+    if deck.analysis == "axisymmetric":
+        add(["analysis"], "axisymmetric analysis is reserved in the schema but not available yet; "
+                          "use plane_strain or 3d")
+        return problems
+    dim = deck.dim
+    axes = "xyz"[:dim]
+
+    def vec(path, v, n=dim, what="vector"):
+        if v is not None and len(v) != n:
+            add(path, f"{what} needs {n} components for {deck.analysis} analysis, got {len(v)}")
+
+    # grid
+    cs = deck.grid.cell_size
+    if isinstance(cs, list):
+        vec(["grid", "cell_size"], cs, what="cell_size list")
+        for i, h in enumerate(cs):
+            if h <= 0:
+                add(["grid", "cell_size", i], "cell size must be > 0")
+    if deck.grid.domain is not None:
+        d = deck.grid.domain
+        vec(["grid", "domain", "min"], d.min)
+        vec(["grid", "domain", "max"], d.max)
+        if len(d.min) == dim and len(d.max) == dim:
+            for k in range(dim):
+                if d.max[k] <= d.min[k]:
+                    add(["grid", "domain", "max", k], f"domain max {axes[k]} must exceed min")
+    if dim == 2:
+        for face in ("zmin", "zmax"):
+            if getattr(deck.grid.boundaries, face) != "free":
+                add(["grid", "boundaries", face], "z faces exist only in 3d analysis")
+
+    vec(["gravity"], deck.gravity)
+    if deck.time.cfl is not None and deck.time.dt is not None:
+        add(["time", "dt"], "give either time.cfl or time.dt, not both")
+
+    # materials
+    units = unit_system(deck.units)
+    for name, mat in deck.materials.items():
+        density = getattr(mat, "density", None)
+        if density is not None and density > units.max_density:
+            add(["materials", name, "density"],
+                f"density {density:g} is implausible in {units.name} units: density is in {units.density}")
+        if isinstance(mat, Rigid):
+            if isinstance(mat.velocity, VelocityTable):
+                tab = mat.velocity
+                if len(tab.times) != len(tab.values):
+                    add(["materials", name, "velocity", "values"],
+                        f"{len(tab.values)} values for {len(tab.times)} times")
+                if any(b <= a for a, b in zip(tab.times, tab.times[1:])):
+                    add(["materials", name, "velocity", "times"], "times must be strictly increasing")
+                for i, v in enumerate(tab.values):
+                    vec(["materials", name, "velocity", "values", i], v)
+            elif "velocity" in mat.model_fields_set:
+                vec(["materials", name, "velocity"], mat.velocity)
+            for c in mat.constrain or []:
+                if c not in axes:
+                    add(["materials", name, "constrain"], f"'{c}' is not a direction of a {dim}D analysis")
+
+    if not any(not isinstance(m, Rigid) for m in deck.materials.values()):
+        add(["materials"], "at least one deformable (non-rigid) material is needed")
+
+    # bodies
+    for i, body in enumerate(deck.bodies):
+        path = ["bodies", i]
+        shape = body.shape
+        if dim == 2 and shape in SHAPES_3D:
+            add(path + ["shape"], f"'{shape}' is a 3D shape; this is a plane_strain deck")
+        if dim == 2 and body.z_range is not None:
+            add(path + ["z_range"], "z_range is only for 3D analysis")
+        if dim == 3 and shape in SHAPES_2D:
+            if body.z_range is None:
+                add(path + ["z_range"], f"a '{shape}' in a 3d deck needs z_range: [z0, z1] to extrude it")
+            elif len(body.z_range) != 2 or body.z_range[1] <= body.z_range[0]:
+                add(path + ["z_range"], "z_range must be [z0, z1] with z1 > z0")
+        pdim = 2 if shape in SHAPES_2D else 3
+        for key in ("min", "max", "center", "semi_axes", "origin"):
+            if hasattr(body, key):
+                vec(path + [key], getattr(body, key), n=pdim)
+        if shape in ("rectangle", "box") and len(body.min) == len(body.max):
+            for k in range(len(body.min)):
+                if body.max[k] <= body.min[k]:
+                    add(path + ["max", k], f"max {'xyz'[k]} must exceed min")
+        if shape in ("ellipse", "ellipsoid"):
+            if any(a <= 0 for a in body.semi_axes):
+                add(path + ["semi_axes"], "semi-axes must be > 0")
+        if shape == "polygon":
+            for j, v in enumerate(body.vertices):
+                vec(path + ["vertices", j], v, n=2)
+        if shape == "annulus" and body.inner_radius >= body.outer_radius:
+            add(path + ["inner_radius"], "inner_radius must be smaller than outer_radius")
+        if isinstance(body.velocity, SineVelocity):
+            vec(path + ["velocity", "amplitude"], body.velocity.amplitude)
+            if body.velocity.axis not in axes:
+                add(path + ["velocity", "axis"], f"'{body.velocity.axis}' is not an axis of a {dim}D analysis")
+        else:
+            vec(path + ["velocity"], body.velocity)
+
+        names = [e.material for e in body.map] if isinstance(body, Image) else [body.material]
+        for j, mname in enumerate(names):
+            mpath = path + (["map", j, "material"] if isinstance(body, Image) else ["material"])
+            if mname not in deck.materials:
+                add(mpath, f"no material named '{mname}' (materials: {', '.join(deck.materials)})")
+            elif isinstance(deck.materials[mname], Rigid) and body.velocity is not None:
+                add(path + ["velocity"], f"material '{mname}' is rigid: its velocity is set in the material")
+        if isinstance(body, Image):
+            _check_image(body, base_dir, path, add)
+    return problems
+
+
+def _check_image(body: Image, base_dir: Path, path, add):
+    for j, entry in enumerate(body.map):
+        epath = path + ["map", j]
+        if (entry.grey is None) == (entry.color is None):
+            add(epath, "give exactly one of grey: [low, high] or color: [r, g, b]")
+        if entry.grey is not None and (len(entry.grey) != 2 or not 0 <= entry.grey[0] <= entry.grey[1] <= 255):
+            add(epath + ["grey"], "grey must be [low, high] with 0 <= low <= high <= 255")
+        if entry.color is not None and (len(entry.color) != 3 or not all(0 <= c <= 255 for c in entry.color)):
+            add(epath + ["color"], "color must be [r, g, b] with each 0..255")
+    file = (base_dir / body.file)
+    if not file.is_file():
+        add(path + ["file"], f"image file not found: {file}")
+        return
+    try:
+        from PIL import Image as PILImage
+
+        with PILImage.open(file) as im:
+            im.verify()
+    except Exception as exc:  # Pillow raises many types for unreadable images
+        add(path + ["file"], f"cannot read image {file}: {exc}")

@@ -1,0 +1,105 @@
+"""Numba helpers shared by the grid tasks: the active box, node numbering, particle chunks,
+and the slab ordering that lets particle-to-grid scatters run on several threads.
+
+Scatter kernels (particle -> grid) must not let two threads add into one node at once.
+Particles are binned into slabs along one axis by their lowest node index; a slab is at
+least as wide as any particle's node span, so slabs two apart never share a node. All
+even slabs run in parallel, then all odd slabs. With one thread there is a single slab
+and no binning cost.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+
+def n_threads() -> int:
+    return numba.get_num_threads()
+
+
+@njit(cache=True, inline="always")
+def chunk_range(c, nchunk, n):
+    size = (n + nchunk - 1) // nchunk
+    start = c * size
+    stop = min(n, start + size)
+    return start, stop
+
+
+@njit(cache=True, inline="always")
+def box_node(q, lo, hi, shape):
+    """Flat node index of the q-th node in the box [lo, hi] (inclusive), and its (i, j, k)."""
+    nx = hi[0] - lo[0] + 1
+    ny = hi[1] - lo[1] + 1
+    i = lo[0] + q % nx
+    j = lo[1] + (q // nx) % ny
+    k = lo[2] + q // (nx * ny)
+    return i + shape[0] * (j + shape[1] * k), i, j, k
+
+
+@njit(cache=True, inline="always")
+def box_size(lo, hi):
+    return (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1)
+
+
+@njit(parallel=True, cache=True)
+def zero_box(lo, hi, shape, field):
+    """Zero rows of a (n_nodes, ncomp) field inside the box."""
+    nq = box_size(lo, hi)
+    for q in prange(nq):
+        node, i, j, k = box_node(q, lo, hi, shape)
+        for c in range(field.shape[1]):
+            field[node, c] = 0.0
+
+
+@njit(cache=True)
+def bin_slabs(lowest, axis, lo_axis, width, nslab, order, ptr):
+    """Counting sort of particles into slabs by their lowest node index along `axis`."""
+    n = lowest.shape[0]
+    key = np.empty(n, dtype=np.int64)
+    for s in range(nslab + 1):
+        ptr[s] = 0
+    for p in range(n):
+        s = (lowest[p, axis] - lo_axis) // width
+        s = min(max(s, 0), nslab - 1)
+        key[p] = s
+        ptr[s + 1] += 1
+    for s in range(nslab):
+        ptr[s + 1] += ptr[s]
+    fill = ptr[:-1].copy()
+    for p in range(n):
+        s = key[p]
+        order[fill[s]] = p
+        fill[s] += 1
+
+
+class ActiveBox:
+    """Node box touched by particles this step, and the slab ordering for scatters."""
+
+    def __init__(self, shape: np.ndarray):
+        self.shape = np.asarray(shape, dtype=np.int64)
+        self.lo = np.zeros(3, dtype=np.int64)
+        self.hi = np.zeros(3, dtype=np.int64)
+        self.order = np.zeros(0, dtype=np.int64)
+        self.ptr = np.zeros(2, dtype=np.int64)
+
+    def update(self, boxes, lowest: np.ndarray, span: int, threads: int) -> None:
+        """Set the box to the union of (lo, hi) node boxes; bin particles with `lowest` into slabs."""
+        lo = np.min([b[0] for b in boxes], axis=0)
+        hi = np.max([b[1] for b in boxes], axis=0)
+        self.lo[:] = np.maximum(lo, 0)
+        self.hi[:] = np.minimum(hi, self.shape - 1)
+        n = len(lowest)
+        if self.order.shape[0] != n:
+            self.order = np.arange(n, dtype=np.int64)
+        if threads <= 1:
+            self.order[:] = np.arange(n)
+            self.ptr = np.array([0, n], dtype=np.int64)
+            return
+        extent = self.hi - self.lo + 1
+        axis = int(np.argmax(extent))
+        width = max(span, 1)
+        nslab = max(1, int(np.ceil(extent[axis] / width)))
+        self.ptr = np.zeros(nslab + 1, dtype=np.int64)
+        bin_slabs(lowest, axis, self.lo[axis], width, nslab, self.order, self.ptr)

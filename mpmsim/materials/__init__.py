@@ -1,0 +1,95 @@
+"""Materials: a small registry from deck entries to (type code, property row) for the kernels.
+
+Deformable materials are numbered 0..n-1 in deck order; rigid materials are numbered
+separately 0..r-1 (they live in their own particle set). The constitutive kernels
+dispatch on the integer type code; the property row layout per type is fixed here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..deck.schema import Deck, LinearElastic, NeoHookean, Rigid, VelocityTable
+
+LINEAR_ELASTIC = 0
+NEO_HOOKEAN = 1
+TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean"}
+
+# property row: linear_elastic [lambda, mu, E, nu]; neo_hookean [K, G, 0, 0]
+NPROP = 4
+
+
+@dataclass
+class RigidMotion:
+    """Prescribed rigid velocity: piecewise linear in time, held constant outside the table."""
+
+    times: np.ndarray  # (k,)
+    values: np.ndarray  # (k, dim)
+
+    def velocity(self, t: float) -> np.ndarray:
+        return np.array([np.interp(t, self.times, self.values[:, d]) for d in range(self.values.shape[1])])
+
+    def displacement_envelope(self, t_end: float) -> tuple[np.ndarray, np.ndarray]:
+        """Min and max displacement over [0, t_end] (exact at table breakpoints)."""
+        ts = np.union1d(np.linspace(0.0, t_end, 1001), self.times[(self.times > 0) & (self.times < t_end)])
+        v = np.stack([self.velocity(t) for t in ts])
+        d = np.concatenate([np.zeros((1, v.shape[1])), np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(ts)[:, None], axis=0)])
+        return d.min(axis=0), d.max(axis=0)
+
+
+@dataclass
+class MaterialTable:
+    names: list[str]  # all materials, deck order (the VTU "material" id)
+    deformable: list[str]
+    rigid: list[str]
+    type_code: np.ndarray  # (n_deformable,) int64
+    props: np.ndarray  # (n_deformable, NPROP)
+    density: np.ndarray  # (n_deformable,)
+    motions: list[RigidMotion] = field(default_factory=list)
+    constrain: np.ndarray = None  # (n_rigid, dim) bool: components each rigid material imposes
+
+    def is_rigid(self, name: str) -> bool:
+        return name in self.rigid
+
+    def local_index(self, name: str) -> int:
+        return self.rigid.index(name) if name in self.rigid else self.deformable.index(name)
+
+    def global_id(self, name: str) -> int:
+        return self.names.index(name)
+
+
+def build_material_table(deck: Deck) -> MaterialTable:
+    dim = deck.dim
+    names = list(deck.materials)
+    deformable = [n for n in names if not isinstance(deck.materials[n], Rigid)]
+    rigid = [n for n in names if isinstance(deck.materials[n], Rigid)]
+    codes = np.zeros(len(deformable), dtype=np.int64)
+    props = np.zeros((len(deformable), NPROP))
+    density = np.zeros(len(deformable))
+    for k, n in enumerate(deformable):
+        m = deck.materials[n]
+        density[k] = m.density
+        if isinstance(m, LinearElastic):
+            lam = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu))
+            mu = m.E / (2 * (1 + m.nu))
+            codes[k], props[k] = LINEAR_ELASTIC, (lam, mu, m.E, m.nu)
+        elif isinstance(m, NeoHookean):
+            codes[k], props[k] = NEO_HOOKEAN, (m.K, m.G, 0.0, 0.0)
+        else:  # pragma: no cover
+            raise TypeError(type(m))
+    motions, constrain = [], np.zeros((len(rigid), dim), dtype=np.bool_)
+    for k, n in enumerate(rigid):
+        m = deck.materials[n]
+        if isinstance(m.velocity, VelocityTable):
+            motion = RigidMotion(np.array(m.velocity.times, float), np.array(m.velocity.values, float))
+        else:
+            v = np.zeros(dim)
+            v[: min(dim, len(m.velocity))] = m.velocity[:dim]
+            motion = RigidMotion(np.array([0.0]), v[None, :])
+        motions.append(motion)
+        axes = m.constrain if m.constrain is not None else list("xyz"[:dim])
+        for a in axes:
+            constrain[k, "xyz".index(a)] = True
+    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain)

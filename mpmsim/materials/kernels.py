@@ -1,0 +1,144 @@
+"""Constitutive kernels. One dispatch on the material type code; 2D plane strain runs the
+same 3x3 algebra with F33 = 1 and zero out-of-plane velocity gradient.
+
+Stress is Cauchy, stored in Voigt order [xx, yy, zz, xy, yz, xz] (ParaView's order for
+symmetric tensors).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from . import NEO_HOOKEAN
+
+# Voigt slot of tensor component (a, b)
+VOIGT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2]], dtype=np.int64)
+
+
+@njit(cache=True, inline="always")
+def det3(A):
+    return (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+            - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+            + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+
+
+@njit(cache=True, inline="always")
+def inv3(A, out):
+    d = det3(A)
+    out[0, 0] = (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]) / d
+    out[0, 1] = (A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]) / d
+    out[0, 2] = (A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]) / d
+    out[1, 0] = (A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]) / d
+    out[1, 1] = (A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]) / d
+    out[1, 2] = (A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]) / d
+    out[2, 0] = (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]) / d
+    out[2, 1] = (A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]) / d
+    out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) / d
+
+
+@njit(cache=True, inline="always")
+def neo_hookean_stress(K, G, F3, s):
+    """Cauchy stress of Eq. (18): sigma = K/2 (J - 1/J) I + G J^(-5/3) dev(F F^T)."""
+    J = det3(F3)
+    bxx = F3[0, 0] ** 2 + F3[0, 1] ** 2 + F3[0, 2] ** 2
+    byy = F3[1, 0] ** 2 + F3[1, 1] ** 2 + F3[1, 2] ** 2
+    bzz = F3[2, 0] ** 2 + F3[2, 1] ** 2 + F3[2, 2] ** 2
+    bxy = F3[0, 0] * F3[1, 0] + F3[0, 1] * F3[1, 1] + F3[0, 2] * F3[1, 2]
+    byz = F3[1, 0] * F3[2, 0] + F3[1, 1] * F3[2, 1] + F3[1, 2] * F3[2, 2]
+    bxz = F3[0, 0] * F3[2, 0] + F3[0, 1] * F3[2, 1] + F3[0, 2] * F3[2, 2]
+    tr3 = (bxx + byy + bzz) / 3.0
+    pres = 0.5 * K * (J - 1.0 / J)
+    cj = np.cbrt(J)
+    c = G / (J * cj * cj)  # G J^(-5/3) without the slow pow
+    s[0] = pres + c * (bxx - tr3)
+    s[1] = pres + c * (byy - tr3)
+    s[2] = pres + c * (bzz - tr3)
+    s[3] = c * bxy
+    s[4] = c * byz
+    s[5] = c * bxz
+    # wave-speed modulus: tangent bulk modulus + 4/3 of the stretched shear modulus
+    # (Gershgorin bound on the largest eigenvalue of B; exact at B = I)
+    bmax = max(bxx + abs(bxy) + abs(bxz), max(byy + abs(bxy) + abs(byz), bzz + abs(bxz) + abs(byz)))
+    return 0.5 * K * (J + 1.0 / J) + 4.0 / 3.0 * c * bmax
+
+
+@njit(cache=True, inline="always")
+def neo_hookean_energy(K, G, F3):
+    """Strain energy per reference volume, Eq. (18)."""
+    J = det3(F3)
+    i1 = 0.0
+    for a in range(3):
+        for b in range(3):
+            i1 += F3[a, b] * F3[a, b]
+    return 0.5 * G * (i1 * J ** (-2.0 / 3.0) - 3.0) + 0.5 * K * (0.5 * (J * J - 1.0) - np.log(J))
+
+
+@njit(cache=True, inline="always")
+def hypoelastic_stress(lam, mu, L, dt, s, W, A, Ai, Q):
+    """Linear elastic increment with the Hughes–Winget rotation:
+    sigma <- Q sigma Q^T + lam tr(de) I + 2 mu de,  Q = (I - W/2)^-1 (I + W/2)."""
+    for a in range(3):
+        for b in range(3):
+            W[a, b] = 0.5 * (L[a, b] - L[b, a]) * dt
+    for a in range(3):
+        for b in range(3):
+            A[a, b] = (1.0 if a == b else 0.0) - 0.5 * W[a, b]
+    inv3(A, Ai)
+    for a in range(3):
+        for b in range(3):
+            q = 0.0
+            for c in range(3):
+                q += Ai[a, c] * ((1.0 if c == b else 0.0) + 0.5 * W[c, b])
+            Q[a, b] = q
+    # rotate: A <- sigma (3x3), then Q sigma Q^T into s
+    for a in range(3):
+        for b in range(3):
+            A[a, b] = s[VOIGT[a, b]]
+    for a in range(3):
+        for b in range(a, 3):
+            r = 0.0
+            for c in range(3):
+                for d in range(3):
+                    r += Q[a, c] * A[c, d] * Q[b, d]
+            W[a, b] = r  # W reused as the rotated stress (upper triangle)
+    tr = (L[0, 0] + L[1, 1] + L[2, 2]) * dt
+    s[0] = W[0, 0] + lam * tr + 2.0 * mu * L[0, 0] * dt
+    s[1] = W[1, 1] + lam * tr + 2.0 * mu * L[1, 1] * dt
+    s[2] = W[2, 2] + lam * tr + 2.0 * mu * L[2, 2] * dt
+    s[3] = W[0, 1] + mu * (L[0, 1] + L[1, 0]) * dt
+    s[4] = W[1, 2] + mu * (L[1, 2] + L[2, 1]) * dt
+    s[5] = W[0, 2] + mu * (L[0, 2] + L[2, 0]) * dt
+    return lam + 2.0 * mu
+
+
+@njit(cache=True, inline="always")
+def linear_elastic_energy(E, nu, mu, s):
+    """Complementary energy density 1/2 sigma : C^-1 : sigma (exact for linear elasticity)."""
+    normal = s[0] ** 2 + s[1] ** 2 + s[2] ** 2 - 2.0 * nu * (s[0] * s[1] + s[1] * s[2] + s[0] * s[2])
+    shear = s[3] ** 2 + s[4] ** 2 + s[5] ** 2
+    return 0.5 * normal / E + 0.5 * shear / mu
+
+
+@njit(cache=True, inline="always")
+def constitutive_update(code, props, F3, L, dt, s, W, A, Ai, Q):
+    """Update stress row `s` for deformation F3 (already updated) and velocity gradient L over
+    dt. Returns the longitudinal modulus used for the wave speed."""
+    if code == NEO_HOOKEAN:
+        return neo_hookean_stress(props[0], props[1], F3, s)
+    return hypoelastic_stress(props[0], props[1], L, dt, s, W, A, Ai, Q)
+
+
+@njit(cache=True, inline="always")
+def energy_density(code, props, F3, s, J):
+    """Strain energy per *current* volume."""
+    if code == NEO_HOOKEAN:
+        return neo_hookean_energy(props[0], props[1], F3) / J
+    return linear_elastic_energy(props[2], props[3], props[1], s)
+
+
+@njit(cache=True, inline="always")
+def initial_modulus(code, props):
+    if code == NEO_HOOKEAN:
+        return props[0] + 4.0 / 3.0 * props[1]
+    return props[0] + 2.0 * props[1]

@@ -1,0 +1,2 @@
+"""Output: VTU time series with a ParaView .pvd collection, CSV history. Files are written
+whole (temporary name, then rename) or not at all."""

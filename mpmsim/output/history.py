@@ -1,0 +1,78 @@
+"""CSV history of global quantities: one row per history time, header 'name [unit]'.
+
+Stress is the volume-weighted Cauchy average over deformable particles (notes §8).
+Reaction forces are what each constrained face or rigid material exerts on the material,
+from the last step (instantaneous, not averaged). In 2D, forces and energies are for the
+deck's thickness.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..deck.units import unit_system
+from ..globals import KINETIC, MOMENTUM, STRAIN, VOLUME, particle_sums
+from ..scene.grid import FACES
+from .atomic import write_text
+
+STRESS_NAMES = ("sxx", "syy", "szz", "sxy", "syz", "sxz")
+
+
+class History:
+    """Rows in memory; `flush` rewrites the CSV whole."""
+
+    def __init__(self, state, path: Path | None = None):
+        self.path = Path(path) if path is not None else None
+        u = unit_system(state.scene.deck.units)
+        dim = state.dim
+        axes = "xyz"[:dim]
+        self.columns: list[tuple[str, str]] = [("time", u.time), ("step", "-"), ("dt", u.time)]
+        stress_cols = STRESS_NAMES[:4] if dim == 2 else STRESS_NAMES
+        self._stress_idx = [STRESS_NAMES.index(s) for s in stress_cols]
+        self.columns += [(s, u.stress) for s in stress_cols]
+        self.columns += [("kinetic_energy", u.energy), ("strain_energy", u.energy)]
+        self.columns += [(f"p{a}", u.momentum.split(" (")[0]) for a in axes]
+        self._faces = [f for f, t in zip(FACES[: 2 * dim], state.grid.face_type[: 2 * dim]) if t != 0]
+        for f in self._faces:
+            self.columns += [(f"F_{f}_{a}", u.force) for a in axes]
+        for r in state.materials.rigid:
+            self.columns += [(f"F_{r}_{a}", u.force) for a in axes]
+            self.columns += [(f"u_{r}_{a}", u.length) for a in axes]
+        self.rows: list[list[float]] = []
+
+    @property
+    def names(self) -> list[str]:
+        return [n for n, _ in self.columns]
+
+    def record(self, state) -> None:
+        s = particle_sums(state)
+        row = [state.t, state.step, state.dt]
+        row += [s[i] / s[VOLUME] for i in self._stress_idx]
+        row += [s[KINETIC], s[STRAIN]]
+        row += list(s[MOMENTUM][: state.dim])
+        face_index = {f: i for i, f in enumerate(FACES)}
+        for f in self._faces:
+            row += list(state.reaction[face_index[f]])
+        for r in range(state.n_rigid_materials):
+            row += list(state.reaction[6 + r]) + list(state.rigid_disp[r])
+        self.rows.append(row)
+
+    def column(self, name: str) -> np.ndarray:
+        return np.array([r[self.names.index(name)] for r in self.rows])
+
+    def flush(self) -> None:
+        if self.path is None:
+            return
+        header = ",".join(f"{n} [{u}]" for n, u in self.columns)
+        body = "\n".join(",".join(f"{v:.10g}" for v in row) for row in self.rows)
+        write_text(self.path, header + "\n" + body + ("\n" if body else ""))
+
+
+def read_history(path: str | Path) -> dict[str, np.ndarray]:
+    """Columns of a history CSV by name (unit suffix dropped)."""
+    with open(path) as fh:
+        header = fh.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {h.split(" [")[0]: data[:, i] for i, h in enumerate(header)}

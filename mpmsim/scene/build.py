@@ -1,0 +1,159 @@
+"""Deck -> Scene: size the grid from the bodies, fill bodies with particles.
+
+Particles sit on a lattice aligned with the grid, `particles_per_direction` per cell edge,
+so each particle's domain tiles its cell. Bodies are filled in deck order; a later body
+takes the lattice sites of earlier ones it overlaps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..deck.loader import LoadedDeck, raise_at
+from ..deck.schema import Image, SineVelocity
+from ..materials import MaterialTable, build_material_table
+from .geometry import bbox, body_materials, inside
+from .grid import FACE_CODES, FACES, GHOST_LAYERS, GridSpec, plan_grid
+
+
+@dataclass
+class ParticleSeed:
+    x: np.ndarray  # (n, dim)
+    v: np.ndarray  # (n, dim)
+    vol: np.ndarray  # (n,) initial volume (2D: area x thickness)
+    mat: np.ndarray  # (n,) local material index (deformable or rigid numbering)
+    body: np.ndarray  # (n,) deck body index
+
+
+@dataclass
+class Scene:
+    loaded: LoadedDeck
+    grid: GridSpec
+    materials: MaterialTable
+    deformable: ParticleSeed
+    rigid: ParticleSeed
+    semi_size: np.ndarray  # (dim,) undeformed particle semi-lengths
+    thickness: float
+
+    @property
+    def deck(self):
+        return self.loaded.deck
+
+    @property
+    def dim(self) -> int:
+        return self.grid.dim
+
+
+def _cell_sizes(deck) -> np.ndarray:
+    cs = deck.grid.cell_size
+    return np.array(cs, float) if isinstance(cs, list) else np.full(deck.dim, float(cs))
+
+
+def build_scene(loaded: LoadedDeck) -> Scene:
+    deck = loaded.deck
+    base = loaded.base_dir
+    dim = deck.dim
+    h = _cell_sizes(deck)
+    mats = build_material_table(deck)
+    faces = [FACE_CODES[getattr(deck.grid.boundaries, f)] for f in FACES[: 2 * dim]]
+
+    boxes = [bbox(b, base) for b in deck.bodies]
+    if deck.grid.domain is not None:
+        lo, hi = np.array(deck.grid.domain.min, float), np.array(deck.grid.domain.max, float)
+        explicit = True
+    else:
+        lo = np.min([b[0] for b in boxes], axis=0)
+        hi = np.max([b[1] for b in boxes], axis=0)
+        # cover every rigid body's prescribed path
+        for body, (blo, bhi) in zip(deck.bodies, boxes):
+            name = getattr(body, "material", "")
+            if name in mats.rigid:
+                dmin, dmax = mats.motions[mats.rigid.index(name)].displacement_envelope(deck.time.end)
+                lo = np.minimum(lo, blo + dmin)
+                hi = np.maximum(hi, bhi + dmax)
+        for a in range(dim):
+            if faces[2 * a] == 0:
+                lo[a] -= deck.grid.margin * h[a]
+            if faces[2 * a + 1] == 0:
+                hi[a] += deck.grid.margin * h[a]
+        explicit = False
+    grid, problem = plan_grid(dim, h, lo, hi, faces, explicit, GHOST_LAYERS[deck.shape_function])
+    if problem:
+        raise_at([(("grid", "domain" if explicit else "cell_size"), problem)], loaded)
+
+    ppd = deck.particles_per_direction
+    spacing = h / ppd
+    n_lat = (grid.shape[:dim] - 1) * ppd
+    keys, owners, mat_names = [], [], []
+    problems = []
+    for i, (body, (blo, bhi)) in enumerate(zip(deck.bodies, boxes)):
+        klo = np.maximum(np.floor((blo - grid.origin) / spacing - 0.5).astype(int), 0)
+        khi = np.minimum(np.ceil((bhi - grid.origin) / spacing - 0.5).astype(int), n_lat - 1)
+        if np.any(khi < klo):
+            problems.append((("bodies", i), "lies outside the grid"))
+            continue
+        axes = [np.arange(klo[a], khi[a] + 1) for a in range(dim)]
+        k = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
+        pts = grid.origin + (k + 0.5) * spacing
+        sel = inside(body, pts, base)
+        if not sel.any():
+            problems.append((("bodies", i), "holds no particle centre: it is smaller than the "
+                                            f"particle spacing {spacing.min():g} or misplaced"))
+            continue
+        k, pts = k[sel], pts[sel]
+        outside = np.any((pts < grid.domain_lo) | (pts > grid.domain_hi), axis=1)
+        if outside.any():
+            problems.append((("bodies", i), "extends outside grid.domain"))
+            continue
+        flat = k[:, 0] + n_lat[0] * (k[:, 1] + (n_lat[1] * k[:, 2] if dim == 3 else 0))
+        cls = body_materials(body, pts, base)
+        names = [e.material for e in body.map] if isinstance(body, Image) else [body.material]
+        keys.append(flat)
+        owners.append(np.full(len(flat), i))
+        mat_names.append(np.array(names, dtype=object)[cls])
+    if problems:
+        raise_at(problems, loaded)
+
+    keys = np.concatenate(keys)
+    owners = np.concatenate(owners)
+    mat_names = np.concatenate(mat_names)
+    # later bodies win: keep the last occurrence of each lattice site
+    rev = slice(None, None, -1)
+    _, first_in_rev = np.unique(keys[rev], return_index=True)
+    keep = np.sort(len(keys) - 1 - first_in_rev)
+    keys, owners, mat_names = keys[keep], owners[keep], mat_names[keep]
+
+    kk = np.empty((len(keys), dim), dtype=int)
+    rem = keys.copy()
+    for a in range(dim):
+        kk[:, a] = rem % n_lat[a]
+        rem //= n_lat[a]
+    x = grid.origin + (kk + 0.5) * spacing
+    vol = np.prod(spacing) * (deck.thickness if dim == 2 else 1.0)
+
+    rigid_mask = np.array([m in mats.rigid for m in mat_names], dtype=bool)
+    seeds = []
+    for want_rigid in (False, True):
+        sel = rigid_mask == want_rigid
+        xs, own, names = x[sel], owners[sel], mat_names[sel]
+        mat = np.array([mats.local_index(m) for m in names], dtype=np.int64)
+        v = np.zeros_like(xs)
+        for i in np.unique(own):
+            on = own == i
+            body = deck.bodies[i]
+            if want_rigid:
+                for r in np.unique(mat[on]):
+                    v[on & (mat == r)] = mats.motions[r].velocity(0.0)
+            elif isinstance(body.velocity, SineVelocity):
+                sv = body.velocity
+                phase = 2 * np.pi * (xs[on, "xyz".index(sv.axis)] - sv.origin) / sv.wavelength
+                v[on] = np.sin(phase)[:, None] * np.array(sv.amplitude)[None, :]
+            elif body.velocity is not None:
+                v[on] = np.array(body.velocity)
+        seeds.append(ParticleSeed(xs, v, np.full(len(xs), vol), mat, own.astype(np.int64)))
+    deformable, rigid = seeds
+    if len(deformable.x) == 0:
+        raise_at([(("bodies",), "no body made of a deformable material holds any particle")], loaded)
+    return Scene(loaded, grid, mats, deformable, rigid, 0.5 * spacing, deck.thickness)

@@ -1,0 +1,75 @@
+"""The background grid: sized from the scene, not a fixed box.
+
+The *domain* is where material may go; particles leaving it stop the run. The grid adds
+`ghost` node layers outside the domain so every shape function near the edge has its
+nodes. Node (i, j, k) sits at origin + (i, j, k) * h; flat index i + nx * (j + ny * k).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
+FREE, FIXED, ROLLER = 0, 1, 2
+FACE_CODES = {"free": FREE, "fixed": FIXED, "roller": ROLLER, "slip": ROLLER}
+
+# layers of ghost nodes outside the domain each shape function needs
+GHOST_LAYERS = {"linear": 1, "gimp": 1}
+
+
+@dataclass
+class GridSpec:
+    dim: int
+    h: np.ndarray  # (dim,) cell sizes
+    origin: np.ndarray  # (dim,) position of node 0
+    shape: np.ndarray  # (3,) nodes per direction (nz = 1 in 2D)
+    ghost: int
+    domain_lo: np.ndarray  # (dim,)
+    domain_hi: np.ndarray
+    face_type: np.ndarray  # (6,) FREE / FIXED / ROLLER per face in FACES order
+    wall_index: np.ndarray  # (6,) node index of each face's grid line along its axis
+
+    @property
+    def n_nodes(self) -> int:
+        return int(np.prod(self.shape))
+
+    @property
+    def cells(self) -> np.ndarray:
+        return np.round((self.domain_hi - self.domain_lo) / self.h).astype(int)
+
+    def node_position(self, ijk) -> np.ndarray:
+        return self.origin + np.asarray(ijk)[: self.dim] * self.h
+
+
+def plan_grid(dim, h, lo, hi, faces, explicit: bool, ghost: int) -> tuple[GridSpec | None, str | None]:
+    """Place grid lines so constrained faces lie on grid lines at the domain's edge.
+
+    `lo`, `hi` are the requested domain bounds. Returns (grid, None) or (None, problem).
+    """
+    lo, hi = np.array(lo, float), np.array(hi, float)
+    n = np.zeros(dim, dtype=int)
+    for a in range(dim):
+        fixed_lo = faces[2 * a] != FREE
+        fixed_hi = faces[2 * a + 1] != FREE
+        cells = (hi[a] - lo[a]) / h[a]
+        whole = abs(cells - round(cells)) < 1e-6 * max(1.0, cells)
+        n[a] = int(round(cells)) if whole else int(np.ceil(cells))
+        if fixed_lo and fixed_hi and not whole:
+            return None, (f"both {'xyz'[a]} faces are constrained but the {'xyz'[a]} extent "
+                          f"{hi[a] - lo[a]:g} is not a whole number of cells of size {h[a]:g}; "
+                          "set grid.domain or change cell_size")
+        if fixed_hi and not fixed_lo and not explicit:
+            lo[a] = hi[a] - n[a] * h[a]  # keep the constrained face on the bodies' edge
+        else:
+            hi[a] = lo[a] + n[a] * h[a]
+    origin = lo - ghost * h
+    shape = np.ones(3, dtype=int)
+    shape[:dim] = n + 1 + 2 * ghost
+    wall = np.zeros(6, dtype=int)
+    for a in range(dim):
+        wall[2 * a] = ghost
+        wall[2 * a + 1] = ghost + n[a]
+    face_type = np.array(faces, dtype=np.int64)
+    return GridSpec(dim, np.array(h, float), origin, shape, ghost, lo, hi, face_type, wall), None

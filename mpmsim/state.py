@@ -1,0 +1,158 @@
+"""Simulation state as struct-of-arrays numpy data.
+
+Particles (deformable) and rigid particles are separate sets: kernels over deformable
+particles never branch on rigidity, and rigid particles only extrapolate volume for the
+velocity conditions they impose. Grid fields cover the whole (scene-sized) grid but every
+task touches only the active node box.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .gridops import ActiveBox, n_threads
+from .materials import NEO_HOOKEAN, MaterialTable
+from .scene import Scene
+from .scene.grid import GridSpec
+from .shapes import ShapeData, ShapeFunction, shape_function
+
+
+@dataclass
+class Particles:
+    x: np.ndarray  # (n, dim) position
+    v: np.ndarray  # (n, dim) velocity
+    mass: np.ndarray  # (n,)
+    vol0: np.ndarray  # (n,) initial volume
+    vol: np.ndarray  # (n,) current volume = vol0 * J
+    F: np.ndarray  # (n, dim, dim) deformation gradient (2D: F33 = 1)
+    stress: np.ndarray  # (n, 6) Cauchy stress, Voigt [xx, yy, zz, xy, yz, xz]
+    mat: np.ndarray  # (n,) deformable material index
+    body: np.ndarray  # (n,) deck body index
+    x0: np.ndarray  # (n, dim) initial position
+
+    @property
+    def n(self) -> int:
+        return len(self.mass)
+
+
+@dataclass
+class RigidParticles:
+    x: np.ndarray
+    v: np.ndarray
+    vol: np.ndarray
+    mat: np.ndarray  # rigid material index
+    body: np.ndarray
+    x0: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.vol)
+
+
+@dataclass
+class GridFields:
+    mass: np.ndarray  # (nn,)
+    mom: np.ndarray  # (nn, dim) momentum p (after extrapolation; BCs never edit it)
+    force: np.ndarray  # (nn, dim)
+    vel: np.ndarray  # (nn, dim) velocity for the stress update (BCs applied)
+    vnew: np.ndarray  # (nn, dim) updated velocity v+ = p+/m
+    acc: np.ndarray  # (nn, dim) acceleration a = f/m (BC forces included)
+    rigid_vol: np.ndarray  # (nn, n_rigid) volume of each rigid material seen by the node
+
+    @classmethod
+    def allocate(cls, nn: int, dim: int, n_rigid: int) -> "GridFields":
+        z = lambda *s: np.zeros(s)  # noqa: E731
+        return cls(z(nn), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, max(n_rigid, 1)))
+
+
+@dataclass
+class StepFlags:
+    """What kernels found wrong this step: (particle index, code, value) or none."""
+
+    bad_particle: int = -1
+    bad_code: int = 0
+    bad_value: float = 0.0
+
+    def set(self, p: int, code: int, value: float) -> None:
+        if self.bad_particle < 0:
+            self.bad_particle, self.bad_code, self.bad_value = p, code, value
+
+
+@dataclass
+class State:
+    scene: Scene
+    grid: GridSpec
+    materials: MaterialTable
+    shape: ShapeFunction
+    particles: Particles
+    rigid: RigidParticles
+    sd: ShapeData  # shape data of deformable particles
+    rigid_sd: ShapeData
+    fields: GridFields
+    box: ActiveBox
+    gravity: np.ndarray  # (dim,)
+    threads: int
+    nchunk: int
+    t: float = 0.0
+    dt: float = 0.0
+    step: int = 0
+    wave_max: float = 0.0  # max(c + |v|) over particles from the last stress update
+    rigid_v_start: np.ndarray = None  # (n_rigid, dim) prescribed velocity at t
+    rigid_v_end: np.ndarray = None  # at t + dt
+    rigid_disp: np.ndarray = None  # (n_rigid, dim) displacement since t = 0
+    reaction: np.ndarray = None  # (6 + n_rigid, dim) force walls/rigid bodies exert on material
+    kinetic_energy: float = 0.0
+    energy_budget: float = 0.0  # initial energy + |work| of walls, rigid materials, gravity
+    energy_floor: float = 0.0  # round-off scale of kinetic energy (sum m c^2 x 1e-12)
+    flags: StepFlags = field(default_factory=StepFlags)
+
+    @property
+    def dim(self) -> int:
+        return self.grid.dim
+
+    @property
+    def n_rigid_materials(self) -> int:
+        return len(self.materials.rigid)
+
+    @classmethod
+    def from_scene(cls, scene: Scene, threads: int | None = None) -> "State":
+        dim = scene.dim
+        mats = scene.materials
+        seed = scene.deformable
+        mass = seed.vol * mats.density[seed.mat]
+        n = len(mass)
+        F = np.zeros((n, dim, dim))
+        for a in range(dim):
+            F[:, a, a] = 1.0
+        particles = Particles(seed.x.copy(), seed.v.copy(), mass, seed.vol.copy(), seed.vol.copy(), F,
+                              np.zeros((n, 6)), seed.mat.copy(), seed.body.copy(), seed.x.copy())
+        rs = scene.rigid
+        rigid = RigidParticles(rs.x.copy(), rs.v.copy(), rs.vol.copy(), rs.mat.copy(), rs.body.copy(), rs.x.copy())
+        sf = shape_function(scene.deck.shape_function)
+        K = sf.nodes_per_particle(dim)
+        threads = threads or n_threads()
+        nr = len(mats.rigid)
+        g = np.zeros(dim)
+        if scene.deck.gravity is not None:
+            g[:] = scene.deck.gravity
+        state = cls(
+            scene=scene, grid=scene.grid, materials=mats, shape=sf, particles=particles, rigid=rigid,
+            sd=ShapeData.empty(n, K, dim), rigid_sd=ShapeData.empty(rigid.n, K, dim),
+            fields=GridFields.allocate(scene.grid.n_nodes, dim, nr), box=ActiveBox(scene.grid.shape),
+            gravity=g, threads=threads, nchunk=max(1, 4 * threads),
+        )
+        state.rigid_v_start = np.array([m.velocity(0.0) for m in mats.motions]).reshape(nr, dim)
+        state.rigid_v_end = state.rigid_v_start.copy()
+        state.rigid_disp = np.zeros((nr, dim))
+        state.reaction = np.zeros((6 + nr, dim))
+        state.kinetic_energy = 0.5 * float(np.sum(mass[:, None] * particles.v**2))
+        state.energy_budget = state.kinetic_energy
+        modulus = np.where(mats.type_code == NEO_HOOKEAN, mats.props[:, 0] + 4 / 3 * mats.props[:, 1],
+                           mats.props[:, 0] + 2 * mats.props[:, 1])
+        c0 = np.sqrt(modulus / mats.density)
+        state.energy_floor = 1e-12 * float(np.sum(mass * c0[particles.mat] ** 2))
+        speed = c0[particles.mat] + np.sqrt(np.sum(particles.v**2, axis=1))
+        state.wave_max = float(speed.max())
+        return state

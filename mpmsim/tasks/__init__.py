@@ -1,0 +1,55 @@
+"""The time step as a list of named tasks, built once from the deck.
+
+Only what the scene needs is in the list: no stress-first task for USL, no rigid motion
+without rigid materials. Each entry says why it is there (`mpmsim check` prints it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from .extrapolate import extrapolate
+from .forces import forces
+from .grid_update import grid_update
+from .particle_update import move_rigid, particle_update
+from .setup import compute_shape_functions, set_time_step
+from .stability import check_stability
+from .stress import update_stress_first, update_stress_last
+
+
+@dataclass(frozen=True)
+class Task:
+    name: str
+    run: Callable
+    why: str
+
+
+def build_task_list(scene) -> list[Task]:
+    deck = scene.deck
+    upd = deck.update
+    n_rigid = len(scene.materials.rigid)
+    faces = [f for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * scene.dim]
+             if getattr(deck.grid.boundaries, f) != "free"]
+    tasks = [
+        Task("time step", set_time_step,
+             f"fixed dt = {deck.time.dt:g}" if deck.time.dt else "CFL rule on current wave speeds, every step"),
+        Task("shape functions", compute_shape_functions,
+             f"{deck.shape_function} weights and the active node box"),
+        Task("extrapolate", extrapolate,
+             "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")),
+    ]
+    if upd.stress in ("usf", "usavg"):
+        tasks.append(Task("update stress first", update_stress_first,
+                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"))
+    tasks.append(Task("forces", forces, "internal forces" + (" and gravity" if deck.gravity and any(deck.gravity) else "")))
+    bc = ", ".join(faces + [f"rigid '{r}'" for r in scene.materials.rigid]) or "none"
+    tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
+    tasks.append(Task("particle update", particle_update, f"{upd.scheme} velocity and position update"))
+    if n_rigid:
+        tasks.append(Task("move rigid", move_rigid, "rigid materials follow their prescribed velocity"))
+    if upd.stress in ("usl", "usavg"):
+        tasks.append(Task("update stress last", update_stress_last,
+                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from re-extrapolated momenta"))
+    tasks.append(Task("check stability", check_stability, "NaN, inverted particles, leaving the grid, energy growth"))
+    return tasks

@@ -1,0 +1,41 @@
+"""Task: grid forces. f_i = -sum_p V_p sigma_p . G_ip + sum_p S_ip m_p g."""
+
+from __future__ import annotations
+
+from numba import njit, prange
+
+from ..gridops import zero_box
+from ..materials.kernels import VOIGT
+
+
+@njit(parallel=True, cache=True)
+def p2g_forces(order, ptr, nodes, S, G, vol, stress, pmass, gravity, has_gravity, gforce):
+    n_slab = ptr.size - 1
+    K = S.shape[1]
+    dim = G.shape[2]
+    for color in range(2):
+        for s in prange((n_slab - color + 1) // 2):
+            slab = color + 2 * s
+            for q in range(ptr[slab], ptr[slab + 1]):
+                p = order[q]
+                vp = vol[p]
+                for k in range(K):
+                    w = S[p, k]
+                    if w == 0.0:
+                        continue
+                    i = nodes[p, k]
+                    for a in range(dim):
+                        fa = 0.0
+                        for b in range(dim):
+                            fa -= stress[p, VOIGT[a, b]] * G[p, k, b]
+                        fa *= vp
+                        if has_gravity:
+                            fa += w * pmass[p] * gravity[a]
+                        gforce[i, a] += fa
+
+
+def forces(state) -> None:
+    f, box, P, sd = state.fields, state.box, state.particles, state.sd
+    zero_box(box.lo, box.hi, box.shape, f.force)
+    has_g = bool(state.gravity.any())
+    p2g_forces(box.order, box.ptr, sd.nodes, sd.S, sd.G, P.vol, P.stress, P.mass, state.gravity, has_g, f.force)

@@ -1,0 +1,56 @@
+"""Task: stop the run, with when/where/which material, when the state goes bad.
+
+Kernels flag the first bad particle they meet (NaN/Inf, J <= 0, left the grid); this task
+also watches kinetic energy against the energy put into the system.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..deck.units import unit_system
+from ..errors import InstabilityError
+from ..globals import KINETIC, STRAIN, particle_sums
+from .stress import BAD_MESSAGES
+
+REMEDY = "try a smaller time.cfl, or update.scheme: pic to damp FLIP ringing"
+
+
+def describe_particle(state, p: int) -> str:
+    P = state.particles
+    name = state.materials.deformable[int(P.mat[p])]
+    length = unit_system(state.scene.deck.units).length
+    pos = ", ".join(f"{c:.6g}" for c in P.x[p])
+    return f"particle {p} (material '{name}', body {int(P.body[p])}) at ({pos}) {length}"
+
+
+def where(state) -> str:
+    """The failing step: its number (1-based) and its end time."""
+    tu = unit_system(state.scene.deck.units).time
+    return f"step {state.step + 1}, t = {state.t + state.dt:.6g} {tu}"
+
+
+def check_stability(state) -> None:
+    fl = state.flags
+    if fl.bad_particle >= 0:
+        what = BAD_MESSAGES[fl.bad_code].format(value=fl.bad_value)
+        raise InstabilityError(f"unstable at {where(state)}: {describe_particle(state, fl.bad_particle)}: {what}",
+                               state.t, state.step)
+    stab = state.scene.deck.stability
+    if (state.step + 1) % stab.check_every == 0:
+        sums = particle_sums(state)
+        total = sums[KINETIC] + sums[STRAIN]
+        if total > stab.energy_factor * state.energy_budget + state.energy_floor:
+            P = state.particles
+            p = int(np.argmax(np.sum(P.v**2, axis=1)))
+            raise InstabilityError(
+                f"unstable at {where(state)}: kinetic + strain energy {sums[KINETIC]:.4g} + {sums[STRAIN]:.4g} "
+                f"grew past {stab.energy_factor:g} x the energy put in ({state.energy_budget:.4g}); fastest is "
+                f"{describe_particle(state, p)}; {REMEDY}", state.t, state.step)
+    if state.rigid.n:
+        R, g = state.rigid, state.grid
+        out = np.any((R.x < g.domain_lo) | (R.x > g.domain_hi), axis=1)
+        if out.any():
+            name = state.materials.rigid[int(R.mat[np.argmax(out)])]
+            raise InstabilityError(f"stopped at {where(state)}: rigid material '{name}' left the grid domain; "
+                                   "enlarge grid.domain", state.t, state.step)

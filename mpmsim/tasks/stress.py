@@ -1,0 +1,127 @@
+"""Tasks: update particle deformation and stress from grid velocities.
+
+grad V_p = sum_i v_i (x) G_ip;  F <- (I + dt grad V) F;  stress from the material.
+USF runs it once before the forces (velocities from the initial extrapolation), USL once
+after the particle update (from re-extrapolated momenta), USAVG half a step at each.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..gridops import chunk_range
+from ..materials.kernels import constitutive_update, det3
+from .boundary import set_grid_velocity
+from .extrapolate import reextrapolate_momentum
+
+BAD_NONE = 0
+BAD_NAN = 1
+BAD_INVERTED = 2
+BAD_LEFT_GRID = 3
+BAD_ENERGY = 4
+BAD_MESSAGES = {
+    BAD_NAN: "stress or velocity is not finite (NaN/Inf)",
+    BAD_INVERTED: "J = {value:.4g} <= 0: the particle inverted",
+    BAD_LEFT_GRID: "the particle left the grid domain",
+}
+
+
+@njit(parallel=True, cache=True)
+def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, code, props, density,
+                         nchunk, chunk_wave, chunk_bad, chunk_code, chunk_value):
+    n, K = nodes.shape
+    dim = F.shape[1]
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        L = np.zeros((3, 3))
+        F3 = np.zeros((3, 3))
+        W = np.zeros((3, 3))
+        A = np.zeros((3, 3))
+        Ai = np.zeros((3, 3))
+        Q = np.zeros((3, 3))
+        wave = 0.0
+        bad = -1
+        bad_code = 0
+        bad_value = 0.0
+        for p in range(start, stop):
+            for a in range(dim):
+                for b in range(dim):
+                    L[a, b] = 0.0
+            for k in range(K):
+                i = nodes[p, k]
+                for a in range(dim):
+                    va = gvel[i, a]
+                    for b in range(dim):
+                        L[a, b] += va * G[p, k, b]
+            # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
+            for a in range(3):
+                for b in range(3):
+                    if a < dim and b < dim:
+                        s = F[p, a, b]
+                        for m in range(dim):
+                            s += dt * L[a, m] * F[p, m, b]
+                        F3[a, b] = s
+                    else:
+                        F3[a, b] = 1.0 if a == b else 0.0
+            J = det3(F3)
+            if not (J > 0.0):
+                if bad < 0:
+                    bad, bad_code, bad_value = p, BAD_INVERTED, J
+                continue
+            for a in range(dim):
+                for b in range(dim):
+                    F[p, a, b] = F3[a, b]
+            vol[p] = vol0[p] * J
+            mt = mat[p]
+            modulus = constitutive_update(code[mt], props[mt], F3, L, dt, stress[p], W, A, Ai, Q)
+            speed2 = 0.0
+            for a in range(dim):
+                speed2 += pvel[p, a] * pvel[p, a]
+            cp = np.sqrt(modulus * J / density[mt]) + np.sqrt(speed2)
+            if cp > wave:
+                wave = cp
+            finite = True
+            for a in range(6):
+                if not np.isfinite(stress[p, a]):
+                    finite = False
+            if not finite and bad < 0:
+                bad, bad_code, bad_value = p, BAD_NAN, 0.0
+        chunk_wave[c] = wave
+        chunk_bad[c] = bad
+        chunk_code[c] = bad_code
+        chunk_value[c] = bad_value
+
+
+def _update_stress(state, dt) -> None:
+    P, f, m, sd = state.particles, state.fields, state.materials, state.sd
+    nc = state.nchunk
+    wave = np.zeros(nc)
+    bad = np.full(nc, -1, dtype=np.int64)
+    code = np.zeros(nc, dtype=np.int64)
+    value = np.zeros(nc)
+    update_stress_kernel(sd.nodes, sd.G, f.vel, dt, P.v, P.F, P.stress, P.vol, P.vol0, P.mat, m.type_code,
+                         m.props, m.density, nc, wave, bad, code, value)
+    state.wave_max = float(wave.max())
+    hits = np.nonzero(bad >= 0)[0]
+    if len(hits):
+        c = hits[0]
+        state.flags.set(int(bad[c]), int(code[c]), float(value[c]))
+
+
+def stress_fraction(state) -> float:
+    return 0.5 if state.scene.deck.update.stress == "usavg" else 1.0
+
+
+def update_stress_first(state) -> None:
+    """USF/USAVG: velocities from the initial extrapolation, BCs at the step's start."""
+    set_grid_velocity(state, state.rigid_v_start)
+    _update_stress(state, stress_fraction(state) * state.dt)
+
+
+def update_stress_last(state) -> None:
+    """USL/USAVG: re-extrapolate momenta from the updated particles (mass kept), BCs at the
+    step's end, then update."""
+    reextrapolate_momentum(state)
+    set_grid_velocity(state, state.rigid_v_end)
+    _update_stress(state, stress_fraction(state) * state.dt)

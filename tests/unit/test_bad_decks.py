@@ -1,0 +1,89 @@
+"""Bad decks: one message naming the key path and YAML line, exit code 2, never a traceback."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from mpmsim.cli import app
+
+BASE = """\
+title: base
+units: mm-g-ms
+grid:
+  cell_size: 1.0
+  boundaries: {ymin: fixed}
+materials:
+  block: {type: neo_hookean, K: 100.0, G: 50.0, density: 0.001}
+bodies:
+  - {shape: rectangle, min: [0, 0], max: [4, 4], material: block}
+time: {end: 0.1}
+"""
+
+# (name, text replacements on BASE (old, new) or a whole text, expected key path, expected line, words)
+CASES = [
+    ("yaml syntax", [("  cell_size: 1.0", "  cell_size: [1.0")], None, 5, "YAML syntax"),
+    ("unknown key with hint", [("title: base", "title: base\ntitel: again")], "titel", 2, "did you mean 'title'"),
+    ("missing required key", [("time: {end: 0.1}", "time: {cfl: 0.5}")], "time.end", 10, "required"),
+    ("negative modulus", [("K: 100.0", "K: -100.0")], "materials.block.K", 7, "greater than 0"),
+    ("wrong type", [("K: 100.0", "K: stiff")], "materials.block.K", 7, "number"),
+    ("unknown material type", [("type: neo_hookean", "type: neo_hokean")], "materials.block", 7, "neo_hookean"),
+    ("unknown shape", [("shape: rectangle", "shape: rectangel")], "bodies.0", 9, "rectangle"),
+    ("undefined material", [("material: block}", "material: stone}")], "bodies.0.material", 9, "no material named 'stone'"),
+    ("vector length", [("min: [0, 0], max: [4, 4]", "min: [0, 0, 0], max: [4, 4, 4]")], "bodies.0.min", 9, "2 components"),
+    ("3D shape in 2D", [("shape: rectangle, min: [0, 0], max: [4, 4]", "shape: sphere, center: [0, 0, 0], radius: 1")],
+     "bodies.0.shape", 9, "3D shape"),
+    ("axisymmetric reserved", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric")], "analysis", 3, "not available"),
+    ("bad enum", [("{ymin: fixed}", "{ymin: glued}")], "grid.boundaries.ymin", 5, "'fixed'"),
+    ("both cfl and dt", [("time: {end: 0.1}", "time: {end: 0.1, cfl: 0.5, dt: 0.001}")], "time.dt", 10, "either"),
+    ("implausible density", [("density: 0.001", "density: 2.78")], "materials.block.density", 7, "g/mm^3"),
+    ("missing image", [("  - {shape: rectangle, min: [0, 0], max: [4, 4], material: block}",
+                        "  - {shape: image, file: nowhere.png, pixel_size: 0.5, origin: [0, 0],\n"
+                        "     map: [{grey: [0, 10], material: block}]}")], "bodies.0.file", 9, "not found"),
+    ("rigid table", [("materials:\n", "materials:\n  platen: {type: rigid, velocity: {times: [0, 1, 1], values: [[0, 0], [0, 1], [0, 2]]}}\n")],
+     "materials.platen.velocity.times", 7, "strictly increasing"),
+    ("duplicate key", [("time: {end: 0.1}", "time: {end: 0.1}\ntime: {end: 0.2}")], "time", 11, "duplicate"),
+    ("domain misses body", [("  cell_size: 1.0", "  cell_size: 1.0\n  domain: {min: [0, 0], max: [2, 2]}")],
+     "bodies.0", 10, "outside grid.domain"),
+    ("empty deck", "", None, 1, "empty"),
+    ("constrained faces need whole cells", [("{ymin: fixed}", "{xmin: fixed, xmax: roller}"),
+                                           ("max: [4, 4]", "max: [4.5, 4]")], "grid.cell_size", 4, "whole number"),
+]
+
+
+def _text(spec) -> str:
+    if isinstance(spec, str):
+        return spec
+    text = BASE
+    for old, new in spec:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    return text
+
+
+def test_base_deck_is_valid(tmp_path):
+    deck = tmp_path / "base.yaml"
+    deck.write_text(BASE)
+    result = CliRunner().invoke(app, ["check", str(deck)])
+    assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize("name,spec,path,line,words", CASES, ids=[c[0] for c in CASES])
+def test_bad_deck_message(tmp_path, name, spec, path, line, words):
+    deck = tmp_path / "bad.yaml"
+    deck.write_text(_text(spec))
+    result = CliRunner().invoke(app, ["check", str(deck)])
+    out = result.output
+    assert result.exit_code == 2, out
+    assert "Traceback" not in out
+    assert f"line {line}" in out, out
+    if path is not None:
+        assert f": {path}: " in out, out
+    assert words in out, out
+
+
+def test_missing_deck_file(tmp_path):
+    result = CliRunner().invoke(app, ["run", str(tmp_path / "absent.yaml")])
+    assert result.exit_code == 2
+    assert "cannot read deck file" in result.output
+    assert "Traceback" not in result.output
