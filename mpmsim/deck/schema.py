@@ -237,10 +237,11 @@ class Output(Strict):
 
 
 class Stability(Strict):
-    energy_factor: float = Field(
-        default=1.2, gt=1.0,
-        description="Stop when kinetic plus strain energy exceeds this factor times the energy "
-        "put in (initial kinetic energy plus the work of walls, rigid materials and gravity).",
+    energy_tolerance: float = Field(
+        default=0.05, gt=0.0,
+        description="Energy balance check: stop when kinetic + strain energy exceeds the initial "
+        "energy plus the (signed) work of walls, rigid materials and gravity by more than this "
+        "fraction of (initial energy + |work|).",
     )
     check_every: int = Field(
         default=10, ge=1,

@@ -41,7 +41,7 @@ def grid_update_kernel(lo, hi, shape, dt, mass, mom, force, face_type, wall_inde
                 if owner != NO_BC:
                     f_bc = (m * vbc - mom[node, d]) / dt
                     dfc = f_bc - fd
-                    work += abs(dfc * vbc * dt)
+                    work += dfc * vbc * dt  # signed work done on the material
                     if owner == RIGID_OWNER:
                         wsum = 0.0
                         for r in range(n_rigid):
@@ -67,4 +67,4 @@ def grid_update(state) -> None:
                        f.rigid_vol, state.materials.constrain, state.rigid_v_end, nc, f.vnew, f.acc,
                        reaction, work)
     state.reaction[:] = reaction.sum(axis=0)
-    state.energy_budget += float(work.sum())
+    state.work_in += float(work.sum())

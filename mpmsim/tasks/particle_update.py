@@ -66,7 +66,7 @@ def particle_update_kernel(nodes, S, vnew, acc, dt, scheme, x, v, pmass, gravity
             elif bad < 0 and outside:
                 bad, code = p, BAD_LEFT_GRID
         chunk_ke[c] = ke
-        chunk_gwork[c] = abs(gwork)
+        chunk_gwork[c] = gwork
         chunk_bad[c] = bad
         chunk_code[c] = code
 
@@ -82,7 +82,7 @@ def particle_update(state) -> None:
     particle_update_kernel(sd.nodes, sd.S, f.vnew, f.acc, state.dt, scheme, P.x, P.v, P.mass, state.gravity,
                            g.domain_lo, g.domain_hi, nc, ke, gwork, bad, code)
     state.kinetic_energy = float(ke.sum())
-    state.energy_budget += float(gwork.sum())
+    state.work_in += float(gwork.sum())
     hits = np.nonzero(bad >= 0)[0]
     if len(hits):
         state.flags.set(int(bad[hits[0]]), int(code[hits[0]]), 0.0)

@@ -1,0 +1,32 @@
+"""Load the shipped example decks as dicts so validation runs the same scenes users run."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import yaml
+
+from ..conftest import ROOT, simulate
+
+
+def example(name: str) -> dict:
+    return yaml.safe_load((ROOT / "inputs" / f"{name}.yaml").read_text())
+
+
+def run_example(name: str, **overrides):
+    """Run inputs/<name>.yaml with dotted-key overrides, e.g. {"update.scheme": "pic"}."""
+    deck = copy.deepcopy(example(name))
+    for key, value in overrides.items():
+        node = deck
+        *parents, last = key.split(".")
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[last] = value
+    return simulate(deck), deck
+
+
+def zero_crossings(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Times where y changes sign, by linear interpolation."""
+    i = np.nonzero(np.sign(y[:-1]) * np.sign(y[1:]) < 0)[0]
+    return t[i] - y[i] * (t[i + 1] - t[i]) / (y[i + 1] - y[i])
