@@ -5,7 +5,7 @@ particles), uGIMP, one material, rigid platen at 0.05% of the wave speed; a fixe
 of steps with 1 and 2 threads. Reference for scale: a C++ code does 0.82 M particle-steps/s
 on 1 thread and 1.5 M on 2 threads on this problem.
 
-    python bench/column.py [--steps N] [--threads 1 2] [--deck inputs/column.yaml]
+    python bench/column.py [--steps N] [--threads 1 2] [--deck bench/column.yaml]
 """
 
 from __future__ import annotations

@@ -26,8 +26,8 @@ NOMINAL_RATE = 2.0e6
 
 app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, no_args_is_help=True,
                   help="Material point method simulator for multimaterial contact mechanics.")
-out = Console()
-err = Console(stderr=True)
+out = Console(soft_wrap=True)  # never break file paths across lines
+err = Console(stderr=True, soft_wrap=True)
 
 
 def _version(value: bool) -> None:

@@ -77,6 +77,8 @@ class SineVelocity(Strict):
 
 
 class BodyBase(Strict):
+    """Keys every body takes."""
+
     material: str = Field(description="Name of a material in `materials`.")
     velocity: Vector | SineVelocity | None = Field(
         default=None,
@@ -170,6 +172,8 @@ SHAPES_3D = {"box", "sphere", "ellipsoid"}
 
 # --------------------------------------------------------------------------- grid
 class Domain(Strict):
+    """Explicit domain; particles leaving it stop the run."""
+
     min: Vector = Field(description="Lower corner of the region material may occupy.")
     max: Vector = Field(description="Upper corner.")
 
@@ -188,6 +192,8 @@ class Boundaries(Strict):
 
 
 class Grid(Strict):
+    """The background grid. It is sized from the scene: only where material can go."""
+
     cell_size: float | list[float] = Field(
         description="Cell edge length, or one length per direction (uneven cells).")
     domain: Domain | None = Field(
@@ -202,6 +208,8 @@ class Grid(Strict):
 
 # --------------------------------------------------------------------------- run control
 class Time(Strict):
+    """Simulated time and the time step rule."""
+
     end: float = Field(gt=0, description="End time (time unit).")
     cfl: float | None = Field(
         default=None, gt=0, le=1.0,
@@ -212,6 +220,8 @@ class Time(Strict):
 
 
 class Update(Strict):
+    """Particle update and stress-update order (see docs/timestep.md)."""
+
     scheme: Literal["flip", "pic"] = Field(
         default="flip",
         description="Particle update. flip: V += dt S a, x += dt S(v+ - a dt/2) (second order). "
@@ -225,6 +235,8 @@ class Update(Strict):
 
 
 class Output(Strict):
+    """Where and how often to write the VTU series and the CSV history."""
+
     directory: str | None = Field(
         default=None,
         description="Output directory, relative to the deck's directory. Default: "
@@ -237,6 +249,9 @@ class Output(Strict):
 
 
 class Stability(Strict):
+    """When to stop a run as unstable. NaN/Inf, an inverted particle (J <= 0) and a particle
+    leaving the grid always stop it; the energy balance check is tunable."""
+
     energy_tolerance: float = Field(
         default=0.05, gt=0.0,
         description="Energy balance check: stop when kinetic + strain energy exceeds the initial "
@@ -250,6 +265,8 @@ class Stability(Strict):
 
 
 class Deck(Strict):
+    """The problem deck: one YAML file."""
+
     title: str = Field(description="One line saying what the scene is.")
     units: Literal["SI", "mm-g-ms"] = Field(
         default="SI", description="Named consistent unit system (see docs/units.md).")

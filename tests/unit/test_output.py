@@ -1,0 +1,157 @@
+"""Output: VTU files read back by VTK's own XML reader, the .pvd series, CSV history, atomic
+writes, and the command line's files and exit codes."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+import vtk
+from typer.testing import CliRunner
+from vtk.util.numpy_support import vtk_to_numpy
+
+from mpmsim.cli import app
+from mpmsim.output.atomic import atomic_path
+from mpmsim.output.history import read_history
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+
+from ..conftest import deck_from
+
+DECK = {
+    "title": "two blocks and a platen", "units": "mm-g-ms",
+    "grid": {"cell_size": 1.0, "boundaries": {"ymin": "fixed"}},
+    "materials": {"soft": {"type": "neo_hookean", "K": 100.0, "G": 30.0, "density": 0.001},
+                  "hard": {"type": "linear_elastic", "E": 500.0, "nu": 0.3, "density": 0.002},
+                  "platen": {"type": "rigid", "velocity": [0.0, -1.0]}},
+    "bodies": [{"shape": "rectangle", "min": [0, 0], "max": [4, 3], "material": "soft"},
+               {"shape": "rectangle", "min": [0, 3], "max": [4, 5], "material": "hard"},
+               {"shape": "rectangle", "min": [0, 5], "max": [4, 6], "material": "platen"}],
+    "time": {"end": 0.05},
+    "output": {"vtu_interval": 0.01, "history_interval": 0.005},
+}
+
+
+def read_vtu(path):
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    grid = reader.GetOutput()
+    pd = grid.GetPointData()
+    arrays = {pd.GetArrayName(i): vtk_to_numpy(pd.GetArray(i)) for i in range(pd.GetNumberOfArrays())}
+    return grid, vtk_to_numpy(grid.GetPoints().GetData()), arrays
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    sim = Simulation(build_scene(deck_from(DECK)), out_dir=out)
+    result = sim.run()
+    return sim, result, out
+
+
+def test_every_vtu_reads_back_with_vtk(finished):
+    sim, result, out = finished
+    assert len(result.files) == 6  # t = 0 and every 0.01 to the end
+    P, R = sim.state.particles, sim.state.rigid
+    n = P.n + R.n
+    for path in result.files:
+        grid, points, arrays = read_vtu(path)
+        assert grid.GetNumberOfPoints() == n and grid.GetNumberOfCells() == n
+        assert grid.GetCellType(0) == vtk.VTK_VERTEX
+        assert arrays["velocity"].shape == (n, 3)
+        assert arrays["stress"].shape == (n, 6)
+        assert arrays["deformation_gradient"].shape == (n, 9)
+        for name in ("J", "material", "mass", "volume", "rigid", "displacement", "body"):
+            assert name in arrays
+    # the last file holds the final state
+    grid, points, arrays = read_vtu(result.files[-1])
+    np.testing.assert_allclose(points[: P.n, :2], P.x)
+    np.testing.assert_allclose(arrays["stress"][: P.n], P.stress)
+    np.testing.assert_allclose(arrays["velocity"][: P.n, :2], P.v)
+    np.testing.assert_allclose(arrays["J"][: P.n], np.linalg.det(P.F))
+    # material ids are deck order: soft 0, hard 1, platen 2
+    assert set(arrays["material"][: P.n]) == {0, 1} and set(arrays["material"][P.n:]) == {2}
+
+
+def test_pvd_collection_lists_the_series(finished):
+    sim, result, out = finished
+    root = ET.parse(result.pvd_path).getroot()
+    sets = root.find("Collection").findall("DataSet")
+    times = [float(d.get("timestep")) for d in sets]
+    assert [out / d.get("file") for d in sets] == result.files
+    assert times == sorted(times) and times[0] == 0.0 and times[-1] == pytest.approx(0.05)
+    # a ParaView-compatible collection that VTK's own reader accepts
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    assert reader.CanReadFile(str(result.files[0]))
+
+
+def test_history_csv_has_units_and_every_row(finished):
+    sim, result, out = finished
+    header = result.history_path.read_text().splitlines()[0].split(",")
+    assert header[:4] == ["time [ms]", "step [-]", "dt [ms]", "sxx [MPa]"]
+    assert "kinetic_energy [mJ (= N mm)]" in header and "F_ymin_y [N]" in header
+    assert "F_platen_y [N]" in header and "u_platen_y [mm]" in header
+    cols = read_history(result.history_path)
+    assert len(cols["time"]) == len(sim.history.rows) == 11
+    np.testing.assert_allclose(cols["u_platen_y"][-1], -0.05, rtol=1e-6)
+    assert cols["F_platen_y"][-1] < 0  # the platen pushes the material down
+
+
+def test_no_temporary_files_are_left(finished):
+    sim, result, out = finished
+    assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_atomic_write_keeps_the_old_file_when_writing_fails(tmp_path):
+    target = tmp_path / "data.csv"
+    target.write_text("old")
+    with pytest.raises(RuntimeError):
+        with atomic_path(target) as tmp:
+            tmp.write_text("half-written")
+            raise RuntimeError("disk full")
+    assert target.read_text() == "old"
+    assert list(tmp_path.iterdir()) == [target]
+
+
+def test_cli_run_writes_series_and_reports_paths(tmp_path):
+    deck = tmp_path / "blocks.yaml"
+    import yaml
+
+    deck.write_text(yaml.safe_dump(DECK))
+    result = CliRunner().invoke(app, ["run", str(deck), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0, result.output
+    assert "blocks.pvd" in result.output and "blocks_history.csv" in result.output
+    assert "update stress first" in result.output  # the per-task timing table
+    assert (tmp_path / "o" / "blocks.pvd").is_file()
+
+
+def test_cli_unstable_run_exits_3_and_keeps_the_failing_state(tmp_path):
+    import yaml
+
+    bad = dict(DECK, time={"end": 1.0, "dt": 0.01})  # ~10 x the stable step
+    deck = tmp_path / "unstable.yaml"
+    deck.write_text(yaml.safe_dump(bad))
+    out = tmp_path / "o"
+    result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet"])
+    assert result.exit_code == 3, result.output
+    assert "unstable at step" in result.output and "Traceback" not in result.output
+    pvd = ET.parse(out / "unstable.pvd").getroot().find("Collection").findall("DataSet")
+    last = out / pvd[-1].get("file")
+    assert len(pvd) >= 2 and last.is_file()  # initial state and the failing state
+    cols = read_history(out / "unstable_history.csv")
+    assert cols["time"][-1] == pytest.approx(float(pvd[-1].get("timestep")))
+
+
+def test_version_and_check(tmp_path):
+    result = CliRunner().invoke(app, ["--version"])
+    assert result.exit_code == 0 and result.output.startswith("mpmsim ")
+    import yaml
+
+    deck = tmp_path / "blocks.yaml"
+    deck.write_text(yaml.safe_dump(DECK))
+    result = CliRunner().invoke(app, ["check", str(deck)])
+    assert result.exit_code == 0
+    assert "soft: 48" in result.output and "hard: 32" in result.output and "16 rigid" in result.output
+    assert "tasks per step" in result.output and "move rigid" in result.output
