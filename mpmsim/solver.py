@@ -90,8 +90,7 @@ class Simulation:
         eps = 1e-9 * end
         start = wallclock.perf_counter()
         if st.step == 0:  # the energy balance starts from the state as the caller left it
-            st.kinetic_energy = 0.5 * float((st.particles.mass[:, None] * st.particles.v**2).sum())
-            st.energy0 = st.kinetic_energy
+            st.energy0 = 0.5 * float((st.particles.mass[:, None] * st.particles.v**2).sum())
         self.history.record(st)
         self._write_output(vtu=True)
         next_vtu, next_hist = vtu_dt, hist_dt

@@ -103,7 +103,6 @@ class State:
     rigid_v_end: np.ndarray = None  # at t + dt
     rigid_disp: np.ndarray = None  # (n_rigid, dim) displacement since t = 0
     reaction: np.ndarray = None  # (6 + n_rigid, dim) force walls/rigid bodies exert on material
-    kinetic_energy: float = 0.0
     energy0: float = 0.0  # mechanical energy at the start of the run
     work_in: float = 0.0  # signed work done on the material by walls, rigid materials, gravity
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)
@@ -148,8 +147,7 @@ class State:
         state.rigid_v_end = state.rigid_v_start.copy()
         state.rigid_disp = np.zeros((nr, dim))
         state.reaction = np.zeros((6 + nr, dim))
-        state.kinetic_energy = 0.5 * float(np.sum(mass[:, None] * particles.v**2))
-        state.energy0 = state.kinetic_energy
+        state.energy0 = 0.5 * float(np.sum(mass[:, None] * particles.v**2))
         modulus = np.where(mats.type_code == NEO_HOOKEAN, mats.props[:, 0] + 4 / 3 * mats.props[:, 1],
                            mats.props[:, 0] + 2 * mats.props[:, 1])
         c0 = np.sqrt(modulus / mats.density)

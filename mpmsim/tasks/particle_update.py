@@ -21,14 +21,13 @@ SCHEMES = {"flip": FLIP, "pic": PIC}
 
 @njit(parallel=True, cache=True)
 def particle_update_kernel(nodes, S, vnew, acc, dt, scheme, x, v, pmass, gravity, lo, hi, nchunk,
-                           chunk_ke, chunk_gwork, chunk_bad, chunk_code):
+                           chunk_gwork, chunk_bad, chunk_code):
     n, K = S.shape
     dim = x.shape[1]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
         sa = np.zeros(3)
         sv = np.zeros(3)
-        ke = 0.0
         gwork = 0.0
         bad = -1
         code = 0
@@ -42,30 +41,27 @@ def particle_update_kernel(nodes, S, vnew, acc, dt, scheme, x, v, pmass, gravity
                 for d in range(dim):
                     sa[d] += w * acc[i, d]
                     sv[d] += w * vnew[i, d]
-            v2 = 0.0
             outside = False
             finite = True
             for d in range(dim):
                 vold = v[p, d]
                 if scheme == FLIP:
                     vn = vold + dt * sa[d]
-                    x[p, d] += dt * (sv[d] - 0.5 * dt * sa[d])
+                    dx = dt * (sv[d] - 0.5 * dt * sa[d])
                 else:
                     vn = sv[d]
-                    x[p, d] += dt * ((sv[d] - dt * sa[d]) + 0.5 * (vn - vold))
+                    dx = dt * ((sv[d] - dt * sa[d]) + 0.5 * (vn - vold))
+                x[p, d] += dx
                 v[p, d] = vn
-                v2 += vn * vn
-                gwork += pmass[p] * gravity[d] * vn * dt
+                gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
                 if x[p, d] < lo[d] or x[p, d] > hi[d]:
                     outside = True
                 if not (np.isfinite(vn) and np.isfinite(x[p, d])):
                     finite = False
-            ke += 0.5 * pmass[p] * v2
             if bad < 0 and not finite:
                 bad, code = p, BAD_NAN
             elif bad < 0 and outside:
                 bad, code = p, BAD_LEFT_GRID
-        chunk_ke[c] = ke
         chunk_gwork[c] = gwork
         chunk_bad[c] = bad
         chunk_code[c] = code
@@ -74,14 +70,12 @@ def particle_update_kernel(nodes, S, vnew, acc, dt, scheme, x, v, pmass, gravity
 def particle_update(state) -> None:
     P, f, sd, g = state.particles, state.fields, state.sd, state.grid
     nc = state.nchunk
-    ke = np.zeros(nc)
     gwork = np.zeros(nc)
     bad = np.full(nc, -1, dtype=np.int64)
     code = np.zeros(nc, dtype=np.int64)
     scheme = SCHEMES[state.scene.deck.update.scheme]
     particle_update_kernel(sd.nodes, sd.S, f.vnew, f.acc, state.dt, scheme, P.x, P.v, P.mass, state.gravity,
-                           g.domain_lo, g.domain_hi, nc, ke, gwork, bad, code)
-    state.kinetic_energy = float(ke.sum())
+                           g.domain_lo, g.domain_hi, nc, gwork, bad, code)
     state.work_in += float(gwork.sum())
     hits = np.nonzero(bad >= 0)[0]
     if len(hits):
