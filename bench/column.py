@@ -5,7 +5,9 @@ particles), uGIMP, one material, rigid platen at 0.05% of the wave speed; a fixe
 of steps with 1 and 2 threads. Reference for scale: a C++ code does 0.82 M particle-steps/s
 on 1 thread and 1.5 M on 2 threads on this problem.
 
-    python bench/column.py [--steps N] [--threads 1 2] [--deck bench/column.yaml]
+    python bench/column.py [--steps N] [--threads 1 2] [--deck bench/column.yaml] [--matrix-steps N]
+
+Then a table for every shape function x {FLIP, XPIC(5), APIC} (all threads).
 """
 
 from __future__ import annotations
@@ -15,17 +17,31 @@ import time
 from pathlib import Path
 
 import numba
+import yaml
 
-from mpmsim.deck import load_deck
+from mpmsim.deck import load_deck, load_deck_text
 from mpmsim.scene import build_scene
+from mpmsim.shapes import SHAPE_FUNCTIONS
 from mpmsim.solver import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
+SCHEMES = {"flip": {"scheme": "flip"}, "xpic(5)": {"scheme": "xpic", "order": 5}, "apic": {"scheme": "apic"}}
 
 
-def measure(deck: Path, steps: int, threads: int, warmup: int = 5) -> tuple[float, dict[str, float], int]:
+def load(deck: Path, shape: str | None = None, update: dict | None = None):
+    if shape is None and update is None:
+        return load_deck(deck)
+    data = yaml.safe_load(deck.read_text())
+    if shape:
+        data["shape_function"] = shape
+    if update:
+        data["update"] = {**data.get("update", {}), **update}
+    return load_deck_text(yaml.safe_dump(data), deck)
+
+
+def measure(deck: Path, steps: int, threads: int, warmup: int = 5, shape=None, update=None):
     numba.set_num_threads(threads)
-    sim = Simulation(build_scene(load_deck(deck)), out_dir=None, threads=threads)
+    sim = Simulation(build_scene(load(deck, shape, update)), out_dir=None, threads=threads)
     for _ in range(warmup):
         sim.step()
     for k in sim.timers:
@@ -43,6 +59,7 @@ def main() -> None:
     ap.add_argument("--deck", type=Path, default=ROOT / "bench" / "column.yaml")
     ap.add_argument("--steps", type=int, default=400)
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--matrix-steps", type=int, default=100, help="steps per shape x scheme cell (0: skip)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     numba.set_num_threads(1)
@@ -63,6 +80,17 @@ def main() -> None:
                 continue
             print(f"  {name:22s} {sec / args.steps * 1e6:9.1f} us/step  {100 * sec / total:5.1f} %"
                   f"  {n * args.steps / sec / 1e6 if sec > 0 else float('inf'):9.2f} M p-steps/s")
+    if args.matrix_steps <= 0:
+        return
+    threads = numba.config.NUMBA_NUM_THREADS
+    print(f"\nM particle-steps/s, every shape function x update ({threads} threads, {args.matrix_steps} steps):")
+    print(f"  {'shape':10s}" + "".join(f"{k:>10s}" for k in SCHEMES))
+    for shape in SHAPE_FUNCTIONS:
+        row = []
+        for update in SCHEMES.values():
+            rate, _, _ = measure(args.deck, args.matrix_steps, threads, warmup=3, shape=shape, update=update)
+            row.append(f"{rate / 1e6:10.2f}")
+        print(f"  {shape:10s}" + "".join(row), flush=True)
 
 
 if __name__ == "__main__":

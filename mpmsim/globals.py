@@ -46,3 +46,54 @@ def particle_sums(state) -> np.ndarray:
     out = np.zeros((state.nchunk, 12))
     global_sums(P.stress, P.vol, P.v, P.mass, P.F, P.mat, m.type_code, m.props, state.nchunk, out)
     return out.sum(axis=0)
+
+
+@njit(cache=True)
+def _noise_kernel(nodes, S, pmass, v, gm, gp):
+    """||V - S S+ V|| / ||V||: the part of the particle velocities the grid cannot represent."""
+    n, K = S.shape
+    dim = v.shape[1]
+    for p in range(n):  # zero only the nodes in use
+        for k in range(K):
+            i = nodes[p, k]
+            gm[i] = 0.0
+            for d in range(dim):
+                gp[i, d] = 0.0
+    for p in range(n):
+        for k in range(K):
+            w = S[p, k] * pmass[p]
+            i = nodes[p, k]
+            gm[i] += w
+            for d in range(dim):
+                gp[i, d] += w * v[p, d]
+    num = 0.0
+    den = 0.0
+    for p in range(n):
+        for d in range(dim):
+            sv = 0.0
+            for k in range(K):
+                i = nodes[p, k]
+                if gm[i] > 0.0:
+                    sv += S[p, k] * gp[i, d] / gm[i]
+            num += (v[p, d] - sv) ** 2
+            den += v[p, d] ** 2
+    return np.sqrt(num / den) if den > 0.0 else 0.0
+
+
+def velocity_noise(state) -> float:
+    """Null-space noise of the particle velocities, ||V - S S+ V|| / ||V||, with shape functions
+    evaluated at the current positions (history times only: it costs a P2G and a G2P)."""
+    from .shapes import ShapeData
+
+    P = state.particles
+    scratch = state._noise_scratch
+    if scratch is None:
+        K = state.sd.S.shape[1]
+        scratch = (ShapeData.empty(P.n, K, state.dim), np.zeros(state.grid.n_nodes),
+                   np.zeros((state.grid.n_nodes, state.dim)))
+        state._noise_scratch = scratch
+    sd, gm, gp = scratch
+    _, (bad, _) = state.shape.compute(P.x, P.F, state.scene.semi_size, state.grid, state.nchunk, sd)
+    if bad >= 0:
+        return float("nan")
+    return float(_noise_kernel(sd.nodes, sd.S, P.mass, P.v, gm, gp))

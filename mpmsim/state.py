@@ -17,6 +17,7 @@ from .materials import NEO_HOOKEAN, MaterialTable
 from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
+from .tasks.particle_update import SCHEMES
 
 
 @dataclass
@@ -31,6 +32,8 @@ class Particles:
     mat: np.ndarray  # (n,) deformable material index
     body: np.ndarray  # (n,) deck body index
     x0: np.ndarray  # (n, dim) initial position
+    B: np.ndarray  # (n, dim, dim) APIC affine matrix (a (1, dim, dim) placeholder otherwise)
+    C: np.ndarray  # (n, dim, dim) APIC B D^-1 for the current step (placeholder otherwise)
 
     @property
     def n(self) -> int:
@@ -59,12 +62,19 @@ class GridFields:
     vel: np.ndarray  # (nn, dim) velocity for the stress update (BCs applied)
     vnew: np.ndarray  # (nn, dim) updated velocity v+ = p+/m
     acc: np.ndarray  # (nn, dim) acceleration a = f/m (BC forces included)
+    vstart: np.ndarray  # (nn, dim) start velocity with velocity conditions imposed (p/m elsewhere)
     rigid_vol: np.ndarray  # (nn, n_rigid) volume of each rigid material seen by the node
+    vstar: np.ndarray  # (nn, dim) XPIC/FMPM filtered velocity; dv, tmp its scratch
+    dv: np.ndarray
+    tmp: np.ndarray
 
     @classmethod
-    def allocate(cls, nn: int, dim: int, n_rigid: int) -> "GridFields":
+    def allocate(cls, nn: int, dim: int, n_rigid: int, filtering: bool) -> "GridFields":
+        """Filter arrays exist only when the scene uses XPIC or FMPM."""
         z = lambda *s: np.zeros(s)  # noqa: E731
-        return cls(z(nn), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, max(n_rigid, 1)))
+        nf = nn if filtering else 1
+        return cls(z(nn), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim),
+                   z(nn, max(n_rigid, 1)), z(nf, dim), z(nf, dim), z(nf, dim))
 
 
 @dataclass
@@ -74,10 +84,15 @@ class StepFlags:
     bad_particle: int = -1
     bad_code: int = 0
     bad_value: float = 0.0
+    bad_rigid: int = -1  # a rigid particle whose support left the grid
 
     def set(self, p: int, code: int, value: float) -> None:
         if self.bad_particle < 0:
             self.bad_particle, self.bad_code, self.bad_value = p, code, value
+
+    def set_rigid(self, p: int, code: int) -> None:
+        if self.bad_rigid < 0:
+            self.bad_rigid = p
 
 
 @dataclass
@@ -95,6 +110,10 @@ class State:
     gravity: np.ndarray  # (dim,)
     threads: int
     nchunk: int
+    scheme_name: str  # particle update: flip, pic, xpic, fmpm, apic
+    scheme: int  # its kernel code
+    entry_offsets: np.ndarray  # (K, 3) node offset of shape entry k from the particle's lowest node
+    xref: np.ndarray  # positions the shape functions were evaluated at (APIC needs them after moving)
     t: float = 0.0
     dt: float = 0.0
     step: int = 0
@@ -107,6 +126,7 @@ class State:
     work_in: float = 0.0  # signed work done on the material by walls, rigid materials, gravity
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)
     flags: StepFlags = field(default_factory=StepFlags)
+    _noise_scratch: tuple | None = None  # shape data and grid arrays for the noise metric
 
     @property
     def dim(self) -> int:
@@ -126,8 +146,11 @@ class State:
         F = np.zeros((n, dim, dim))
         for a in range(dim):
             F[:, a, a] = 1.0
+        scheme_name = scene.deck.update.scheme
+        na = n if scheme_name == "apic" else 1
         particles = Particles(seed.x.copy(), seed.v.copy(), mass, seed.vol.copy(), seed.vol.copy(), F,
-                              np.zeros((n, 6)), seed.mat.copy(), seed.body.copy(), seed.x.copy())
+                              np.zeros((n, 6)), seed.mat.copy(), seed.body.copy(), seed.x.copy(),
+                              np.zeros((na, dim, dim)), np.zeros((na, dim, dim)))
         rs = scene.rigid
         rigid = RigidParticles(rs.x.copy(), rs.v.copy(), rs.vol.copy(), rs.mat.copy(), rs.body.copy(), rs.x.copy())
         sf = shape_function(scene.deck.shape_function)
@@ -137,11 +160,15 @@ class State:
         g = np.zeros(dim)
         if scene.deck.gravity is not None:
             g[:] = scene.deck.gravity
+        per = sf.per_axis
+        offsets = np.array([(k % per, (k // per) % per, k // (per * per)) for k in range(K)], dtype=np.int64)
         state = cls(
             scene=scene, grid=scene.grid, materials=mats, shape=sf, particles=particles, rigid=rigid,
             sd=ShapeData.empty(n, K, dim), rigid_sd=ShapeData.empty(rigid.n, K, dim),
-            fields=GridFields.allocate(scene.grid.n_nodes, dim, nr), box=ActiveBox(scene.grid.shape),
-            gravity=g, threads=threads, nchunk=max(1, 4 * threads),
+            fields=GridFields.allocate(scene.grid.n_nodes, dim, nr, scheme_name in ("xpic", "fmpm")),
+            box=ActiveBox(scene.grid.shape), gravity=g, threads=threads, nchunk=max(1, 4 * threads),
+            scheme_name=scheme_name, scheme=SCHEMES[scheme_name], entry_offsets=offsets,
+            xref=particles.x if scheme_name != "apic" else particles.x.copy(),
         )
         state.rigid_v_start = np.array([m.velocity(0.0) for m in mats.motions]).reshape(nr, dim)
         state.rigid_v_end = state.rigid_v_start.copy()

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 Vector = list[float]
 Face = Literal["free", "fixed", "roller", "slip"]
@@ -76,13 +76,23 @@ class SineVelocity(Strict):
     origin: float = Field(default=0.0, description="Coordinate of the sine's zero.")
 
 
+class RotationVelocity(Strict):
+    """Rigid rotation about `center` (plus an optional translation): v = w x (x - center) + translation."""
+
+    angular_velocity: float | Vector = Field(
+        description="Angular velocity (rad per time unit): a number in 2D, a vector [wx, wy, wz] in 3D.")
+    center: Vector = Field(description="A point on the rotation axis.")
+    translation: Vector | None = Field(default=None, description="Added uniform velocity.")
+
+
 class BodyBase(Strict):
     """Keys every body takes."""
 
     material: str = Field(description="Name of a material in `materials`.")
-    velocity: Vector | SineVelocity | None = Field(
+    velocity: Vector | SineVelocity | RotationVelocity | None = Field(
         default=None,
-        description="Initial velocity: a vector, or a sine mode {amplitude, axis, wavelength, origin}. "
+        description="Initial velocity: a vector, a sine mode {amplitude, axis, wavelength, origin}, "
+        "or a rigid rotation {angular_velocity, center, translation}. "
         "Not allowed for rigid materials (their velocity is prescribed).",
     )
     z_range: list[float] | None = Field(
@@ -222,16 +232,28 @@ class Time(Strict):
 class Update(Strict):
     """Particle update and stress-update order (see docs/timestep.md)."""
 
-    scheme: Literal["flip", "pic"] = Field(
+    scheme: Literal["flip", "pic", "xpic", "fmpm", "apic"] = Field(
         default="flip",
         description="Particle update. flip: V += dt S a, x += dt S(v+ - a dt/2) (second order). "
-        "pic: V = S v+, x += dt [S v + (V_new - V_old)/2].",
+        "pic: V = S v+. xpic: XPIC(order), V = S(v* + a dt) with v* the null-space-filtered "
+        "grid velocity; xpic with order 1 is pic. fmpm: FMPM(order), V = S v*(v+). apic: affine "
+        "PIC (exact angular momentum).",
+    )
+    order: int | None = Field(
+        default=None, ge=1, le=20,
+        description="Order m of xpic / fmpm (default 5): m - 1 extra grid passes per step.",
     )
     stress: Literal["usf", "usl", "usavg"] = Field(
         default="usavg",
         description="When the stress is updated: usf (before forces), usl (after the particle "
         "update, from re-extrapolated momenta), usavg (half at each).",
     )
+
+    @model_validator(mode="after")
+    def _default_order(self):
+        if self.order is None and self.scheme in ("xpic", "fmpm"):
+            self.order = 5
+        return self
 
 
 class Output(Strict):
@@ -276,8 +298,11 @@ class Deck(Strict):
     )
     thickness: float = Field(default=1.0, gt=0, description="Out-of-plane thickness in 2D.")
     grid: Grid
-    shape_function: Literal["linear", "gimp"] = Field(
-        default="gimp", description="Particle–grid shape function: linear, or gimp (uGIMP).")
+    shape_function: Literal["linear", "gimp", "cpdi", "cpdi_q", "bspline2", "bspline3", "b2cpdi"] = Field(
+        default="gimp",
+        description="Particle–grid shape function: linear; gimp (uGIMP); cpdi (linear CPDI on the "
+        "deformed particle domain); cpdi_q (9-point qCPDI, 2D); bspline2, bspline3 (quadratic, "
+        "cubic B-splines); b2cpdi (CPDI corners with quadratic B-splines).")
     particles_per_direction: int = Field(
         default=2, ge=1, le=8,
         description="Particles per cell along each direction (2 gives 4 per cell in 2D, 8 in 3D).",

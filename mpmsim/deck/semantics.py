@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .schema import SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, SineVelocity, VelocityTable
+from .schema import SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity, SineVelocity, VelocityTable
 from .units import unit_system
 
 
@@ -45,6 +45,11 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             if getattr(deck.grid.boundaries, face) != "free":
                 add(["grid", "boundaries", face], "z faces exist only in 3d analysis")
 
+    upd = deck.update
+    if upd.order is not None and upd.scheme not in ("xpic", "fmpm"):
+        add(["update", "order"], f"order applies to xpic and fmpm, not {upd.scheme}")
+    if dim == 3 and deck.shape_function == "cpdi_q":
+        add(["shape_function"], "cpdi_q (9-point qCPDI) is 2D only; use cpdi or b2cpdi in 3d")
     vec(["gravity"], deck.gravity)
     if deck.time.cfl is not None and deck.time.dt is not None:
         add(["time", "dt"], "give either time.cfl or time.dt, not both")
@@ -108,6 +113,15 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             vec(path + ["velocity", "amplitude"], body.velocity.amplitude)
             if body.velocity.axis not in axes:
                 add(path + ["velocity", "axis"], f"'{body.velocity.axis}' is not an axis of a {dim}D analysis")
+        elif isinstance(body.velocity, RotationVelocity):
+            rv = body.velocity
+            vec(path + ["velocity", "center"], rv.center)
+            vec(path + ["velocity", "translation"], rv.translation)
+            if dim == 2 and not isinstance(rv.angular_velocity, float):
+                add(path + ["velocity", "angular_velocity"], "in 2D the angular velocity is a number")
+            if dim == 3:
+                vec(path + ["velocity", "angular_velocity"],
+                    rv.angular_velocity if isinstance(rv.angular_velocity, list) else [rv.angular_velocity])
         else:
             vec(path + ["velocity"], body.velocity)
 

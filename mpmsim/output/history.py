@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..deck.units import unit_system
-from ..globals import KINETIC, MOMENTUM, STRAIN, VOLUME, particle_sums
+from ..globals import KINETIC, MOMENTUM, STRAIN, VOLUME, particle_sums, velocity_noise
 from ..scene.grid import FACES
 from .atomic import write_text
 
@@ -34,6 +34,7 @@ class History:
         self.columns += [(s, u.stress) for s in stress_cols]
         self.columns += [("kinetic_energy", u.energy), ("strain_energy", u.energy)]
         self.columns += [(f"p{a}", u.momentum.split(" (")[0]) for a in axes]
+        self.columns += [("velocity_noise", "-")]
         self._faces = [f for f, t in zip(FACES[: 2 * dim], state.grid.face_type[: 2 * dim]) if t != 0]
         for f in self._faces:
             self.columns += [(f"F_{f}_{a}", u.force) for a in axes]
@@ -52,6 +53,7 @@ class History:
         row += [s[i] / s[VOLUME] for i in self._stress_idx]
         row += [s[KINETIC], s[STRAIN]]
         row += list(s[MOMENTUM][: state.dim])
+        row.append(velocity_noise(state))
         face_index = {f: i for i, f in enumerate(FACES)}
         for f in self._faces:
             row += list(state.reaction[face_index[f]])

@@ -12,10 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..deck.loader import LoadedDeck, raise_at
-from ..deck.schema import Image, SineVelocity
+from ..deck.schema import Image, RotationVelocity, SineVelocity
 from ..materials import MaterialTable, build_material_table
 from .geometry import bbox, body_materials, inside
-from .grid import FACE_CODES, FACES, GHOST_LAYERS, GridSpec, plan_grid
+from ..shapes import shape_function
+from .grid import FACE_CODES, FACES, GridSpec, plan_grid
 
 
 @dataclass
@@ -79,7 +80,7 @@ def build_scene(loaded: LoadedDeck) -> Scene:
             if faces[2 * a + 1] == 0:
                 hi[a] += deck.grid.margin * h[a]
         explicit = False
-    grid, problem = plan_grid(dim, h, lo, hi, faces, explicit, GHOST_LAYERS[deck.shape_function])
+    grid, problem = plan_grid(dim, h, lo, hi, faces, explicit, shape_function(deck.shape_function).ghost)
     if problem:
         raise_at([(("grid", "domain" if explicit else "cell_size"), problem)], loaded)
 
@@ -150,6 +151,15 @@ def build_scene(loaded: LoadedDeck) -> Scene:
                 sv = body.velocity
                 phase = 2 * np.pi * (xs[on, "xyz".index(sv.axis)] - sv.origin) / sv.wavelength
                 v[on] = np.sin(phase)[:, None] * np.array(sv.amplitude)[None, :]
+            elif isinstance(body.velocity, RotationVelocity):
+                rv = body.velocity
+                r = xs[on] - np.array(rv.center)
+                if dim == 2:
+                    v[on] = rv.angular_velocity * np.stack([-r[:, 1], r[:, 0]], axis=1)
+                else:
+                    v[on] = np.cross(np.array(rv.angular_velocity), r)
+                if rv.translation is not None:
+                    v[on] += np.array(rv.translation)
             elif body.velocity is not None:
                 v[on] = np.array(body.velocity)
         seeds.append(ParticleSeed(xs, v, np.full(len(xs), vol), mat, own.astype(np.int64)))

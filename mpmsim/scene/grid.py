@@ -15,9 +15,6 @@ FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
 FREE, FIXED, ROLLER = 0, 1, 2
 FACE_CODES = {"free": FREE, "fixed": FIXED, "roller": ROLLER, "slip": ROLLER}
 
-# layers of ghost nodes outside the domain each shape function needs
-GHOST_LAYERS = {"linear": 1, "gimp": 1}
-
 
 @dataclass
 class GridSpec:

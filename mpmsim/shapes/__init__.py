@@ -1,9 +1,20 @@
 """Shape functions: fill each particle's node list, S_ip and G_ip once per step.
 
-Every later task (extrapolation, forces, stress, particle update) reads these arrays, so a
-new shape function only has to fill them. Tensor-product functions (linear, uGIMP) share
-one kernel; `span` is the largest node-index spread of one particle along an axis, used
-to size the parallel scatter slabs.
+Every later task (extrapolation, forces, stress, particle update, XPIC) reads these arrays,
+so a shape function only has to fill them. Two kernels serve all seven functions:
+
+| name | kernel | grid function | nodes/particle 2D, 3D | ghost layers |
+|---|---|---|---|---|
+| linear | tensor | linear | 4, 8 | 1 |
+| gimp | tensor | uGIMP (undeformed particle size) | 9, 27 | 1 |
+| bspline2 | tensor | quadratic B-spline | 9, 27 | 2 |
+| bspline3 | tensor | cubic B-spline | 16, 64 | 2 |
+| cpdi | cpdi | linear at the 2^dim corners of the deformed domain | 16, 64 | 3 |
+| cpdi_q | cpdi | linear at 9 points (2D only) | 16, - | 3 |
+| b2cpdi | cpdi | quadratic B-spline at the corners | 25, 125 | 3 |
+
+`span` (the largest node-index spread of one particle along an axis) sizes the parallel
+scatter slabs.
 """
 
 from __future__ import annotations
@@ -12,17 +23,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tensor import GIMP, LINEAR, tensor_shape_functions
+from .cpdi import BAD_DOMAIN, BAD_SPAN, CORNERS, NINE_POINT, cpdi_shape_functions
+from .grid_functions import BSPLINE2, BSPLINE3, GIMP, LINEAR, NODES
+from .tensor import BAD_SUPPORT, tensor_shape_functions
 
-KINDS = {"linear": LINEAR, "gimp": GIMP}
-NODES_PER_AXIS = {"linear": 2, "gimp": 3}
+SHAPE_BAD_MESSAGES = {
+    BAD_SUPPORT: "its shape-function support (a CPDI corner or spline node) left the grid",
+    BAD_SPAN: "its deformed CPDI domain spans more than two cells along an axis; refine the grid "
+              "or use more particles per cell",
+    BAD_DOMAIN: "its CPDI domain inverted (det F <= 0)",
+}
 
 
-@dataclass
+@dataclass(frozen=True)
 class ShapeFunction:
     name: str
-    kind: int
-    per_axis: int
+    grid_kind: int  # grid function (grid_functions kinds)
+    cpdi_scheme: int  # -1 for tensor-product functions, else CORNERS / NINE_POINT
+    ghost: int  # ghost node layers needed outside the domain
+    dims: tuple = (2, 3)
+
+    @property
+    def per_axis(self) -> int:
+        """Nodes per axis of one sample point (tensor) or of the CPDI node box."""
+        return NODES[self.grid_kind] + (2 if self.cpdi_scheme >= 0 else 0)
 
     def nodes_per_particle(self, dim: int) -> int:
         return self.per_axis**dim
@@ -31,17 +55,45 @@ class ShapeFunction:
     def span(self) -> int:
         return self.per_axis - 1
 
-    def compute(self, x, semi, grid, nchunk, sd: "ShapeData") -> tuple[np.ndarray, np.ndarray]:
-        """Fill `sd`; return the (lo, hi) node box the particles touch."""
+    @property
+    def uses_deformation(self) -> bool:
+        return self.cpdi_scheme >= 0
+
+    def compute(self, x, F, semi, grid, nchunk, sd: "ShapeData"):
+        """Fill `sd` for particles at x (F: deformation gradients, or None for rigid particles).
+        Returns ((lo, hi) node box, (first bad particle or -1, code))."""
         lo = np.empty((nchunk, 3), dtype=np.int64)
         hi = np.empty((nchunk, 3), dtype=np.int64)
-        tensor_shape_functions(x, grid.origin, grid.h, semi, self.kind, self.per_axis, grid.shape, nchunk,
-                               sd.nodes, sd.S, sd.G, sd.lowest, lo, hi)
-        return lo.min(axis=0), hi.max(axis=0)
+        bad = np.full(nchunk, -1, dtype=np.int64)
+        if self.cpdi_scheme < 0:
+            tensor_shape_functions(x, grid.origin, grid.h, semi, self.grid_kind, self.per_axis, grid.shape,
+                                   nchunk, sd.nodes, sd.S, sd.G, sd.lowest, lo, hi, bad)
+            code = np.full(nchunk, BAD_SUPPORT, dtype=np.int64)
+        else:
+            if F is None:
+                F = np.broadcast_to(np.eye(x.shape[1]), (len(x), x.shape[1], x.shape[1]))
+            code = np.zeros(nchunk, dtype=np.int64)
+            cpdi_shape_functions(x, F, grid.origin, grid.h, semi, self.grid_kind, NODES[self.grid_kind],
+                                 self.cpdi_scheme, self.per_axis, grid.shape, nchunk, sd.nodes, sd.S, sd.G,
+                                 sd.lowest, lo, hi, bad, code)
+        hits = np.nonzero(bad >= 0)[0]
+        first = (int(bad[hits[0]]), int(code[hits[0]])) if len(hits) else (-1, 0)
+        return (lo.min(axis=0), hi.max(axis=0)), first
+
+
+SHAPE_FUNCTIONS = {
+    "linear": ShapeFunction("linear", LINEAR, -1, 1),
+    "gimp": ShapeFunction("gimp", GIMP, -1, 1),
+    "bspline2": ShapeFunction("bspline2", BSPLINE2, -1, 2),
+    "bspline3": ShapeFunction("bspline3", BSPLINE3, -1, 2),
+    "cpdi": ShapeFunction("cpdi", LINEAR, CORNERS, 3),
+    "cpdi_q": ShapeFunction("cpdi_q", LINEAR, NINE_POINT, 3, dims=(2,)),
+    "b2cpdi": ShapeFunction("b2cpdi", BSPLINE2, CORNERS, 3),
+}
 
 
 def shape_function(name: str) -> ShapeFunction:
-    return ShapeFunction(name, KINDS[name], NODES_PER_AXIS[name])
+    return SHAPE_FUNCTIONS[name]
 
 
 @dataclass

@@ -1,12 +1,5 @@
-"""Tensor-product shape functions (linear, uGIMP) for 2D and 3D in one kernel.
-
-Per axis, a 1D function gives weights w and derivatives dw/dx on `per_axis` consecutive
-nodes starting at `base`; S_ip and G_ip are products over axes. uGIMP uses the undeformed
-particle semi-length l (in cell units), never updated (notes §7.1):
-    S(xi) = 1 - (xi^2 + l^2)/(2l)      0 <= xi < l
-          = 1 - xi                      l <= xi <= 1 - l
-          = (1 + l - xi)^2/(4l)         1 - l < xi < 1 + l
-"""
+"""Tensor-product shape functions (linear, uGIMP, quadratic and cubic B-splines), 2D and 3D
+in one kernel: S_ip and G_ip are products of the 1D weights of `grid_functions`."""
 
 from __future__ import annotations
 
@@ -14,51 +7,17 @@ import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range
+from .grid_functions import weights_1d
 
-LINEAR = 0
-GIMP = 1
-
-
-@njit(cache=True, inline="always")
-def gimp_1d(r, l):
-    """uGIMP weight and d/dr for signed distance r (cell units) from node to particle."""
-    xi = abs(r)
-    sgn = 1.0 if r >= 0.0 else -1.0
-    if xi < l:
-        return 1.0 - (xi * xi + l * l) / (2.0 * l), -sgn * xi / l
-    if xi <= 1.0 - l:
-        return 1.0 - xi, -sgn
-    if xi < 1.0 + l:
-        t = 1.0 + l - xi
-        return t * t / (4.0 * l), -sgn * t / (2.0 * l)
-    return 0.0, 0.0
-
-
-@njit(cache=True, inline="always")
-def weights_1d(kind, xi, l, inv_h, w, dw):
-    """Fill w[0:n], dw[0:n] for nodes base..base+n-1 along one axis; return base."""
-    if kind == LINEAR:
-        base = int(np.floor(xi))
-        t = xi - base
-        w[0] = 1.0 - t
-        w[1] = t
-        dw[0] = -inv_h
-        dw[1] = inv_h
-        return base
-    # GIMP: the nearest node and its two neighbours cover the support (l <= 1/2)
-    base = int(np.floor(xi + 0.5)) - 1
-    for a in range(3):
-        s, ds = gimp_1d(xi - (base + a), l)
-        w[a] = s
-        dw[a] = ds * inv_h
-    return base
+BAD_SUPPORT = 5  # a particle's support (or a CPDI sample point's) left the grid
 
 
 @njit(parallel=True, cache=True)
 def tensor_shape_functions(x, origin, h, semi, kind, per_axis, shape, nchunk, nodes, S, G, lowest,
-                           chunk_lo, chunk_hi):
+                           chunk_lo, chunk_hi, chunk_bad):
     """Fill nodes/S/G; `lowest[p]` is the particle's lowest node (i, j, k) and chunk_lo/hi the
-    node box each particle chunk touches (for the active box and the scatter slabs)."""
+    node box each particle chunk touches (active box and scatter slabs). A particle whose
+    nodes would fall outside the grid gets zero weights on node 0 and is flagged."""
     n, dim = x.shape
     K = S.shape[1]
     for c in prange(nchunk):
@@ -66,13 +25,30 @@ def tensor_shape_functions(x, origin, h, semi, kind, per_axis, shape, nchunk, no
         w = np.ones((3, 4))
         dw = np.zeros((3, 4))
         base = np.zeros(3, dtype=np.int64)
+        chunk_bad[c] = -1
         for d in range(3):
             chunk_lo[c, d] = 1 << 60 if d < dim else 0
             chunk_hi[c, d] = -1 if d < dim else 0
         for p in range(start, stop):
+            inside = True
             for d in range(dim):
                 xi = (x[p, d] - origin[d]) / h[d]
+                if not (xi > -1e9 and xi < 1e9):  # NaN or absurd position
+                    xi = 0.0
+                    inside = False
                 base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
+                if base[d] < 0 or base[d] + per_axis > shape[d]:
+                    inside = False
+            if not inside:
+                for k in range(K):
+                    nodes[p, k] = 0
+                    S[p, k] = 0.0
+                    for d in range(dim):
+                        G[p, k, d] = 0.0
+                if chunk_bad[c] < 0:
+                    chunk_bad[c] = p
+                continue
+            for d in range(dim):
                 lowest[p, d] = base[d]
                 chunk_lo[c, d] = min(chunk_lo[c, d], base[d])
                 chunk_hi[c, d] = max(chunk_hi[c, d], base[d] + per_axis - 1)

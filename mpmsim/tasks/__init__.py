@@ -16,6 +16,7 @@ from .particle_update import move_rigid, particle_update
 from .setup import compute_shape_functions, set_time_step
 from .stability import check_stability
 from .stress import update_stress_first, update_stress_last
+from .xpic import xpic
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,12 @@ def build_task_list(scene) -> list[Task]:
     tasks.append(Task("forces", forces, "internal forces" + (" and gravity" if deck.gravity and any(deck.gravity) else "")))
     bc = ", ".join(faces + [f"rigid '{r}'" for r in scene.materials.rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
-    tasks.append(Task("particle update", particle_update, f"{upd.scheme} velocity and position update"))
+    if upd.scheme in ("xpic", "fmpm"):
+        what = "start-of-step" if upd.scheme == "xpic" else "updated"
+        tasks.append(Task("xpic", xpic, f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
+                                        f"{upd.order - 1} extra grid passes"))
+    name = f"{upd.scheme}({upd.order})" if upd.order else upd.scheme
+    tasks.append(Task("particle update", particle_update, f"{name} velocity and position update"))
     if n_rigid:
         tasks.append(Task("move rigid", move_rigid, "rigid materials follow their prescribed velocity"))
     if upd.stress in ("usl", "usavg"):

@@ -5,10 +5,18 @@ A node component is constrained by a rigid material if any rigid particle touche
 is the volume-weighted mean of the touching rigid materials. Otherwise a fixed face
 constrains every component of the nodes on and beyond its grid line, a roller face only
 the normal one. Rigid materials take precedence over faces.
+
+On the face's grid line the constrained velocity is zero. Beyond it (ghost nodes) it is the
+mirror image, v_ghost = -v_mirror, so the velocity interpolated *at the wall* vanishes for
+every shape function: B-splines are not interpolatory, and with zero ghost velocities a
+quadratic spline still gives v(wall) = v_1/8 (a fixed-free bar then rings 1.3% slow, and
+material creeps through a confining wall). For linear and uGIMP particles inside the
+domain the ghost nodes carry no weight, so nothing changes for them.
 """
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit, prange
 
 from ..gridops import box_node, box_size
@@ -60,7 +68,71 @@ def grid_velocity(lo, hi, shape, mass, mom, face_type, wall_index, rigid_vol, co
                 vel[node, d] = 0.0
 
 
+@njit(cache=True, inline="always")
+def ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape):
+    """(mirror node or -2 for 'zero', face) if component d of node (i, j, k) is a constrained
+    ghost value of a face; (-1, -1) otherwise."""
+    for f in range(2 * dim):
+        t = face_type[f]
+        if t == 0:
+            continue
+        axis = f // 2
+        if not (t == FIXED or (t == ROLLER and d == axis)):
+            continue
+        idx = i if axis == 0 else (j if axis == 1 else k)
+        beyond = idx < wall_index[f] if f % 2 == 0 else idx > wall_index[f]
+        if not beyond:
+            continue
+        mi, mj, mk = i, j, k
+        m = 2 * wall_index[f] - idx
+        if axis == 0:
+            mi = m
+        elif axis == 1:
+            mj = m
+        else:
+            mk = m
+        for g in range(2 * dim):  # a mirror in another face's ghost layer (a corner): use zero
+            if face_type[g] == 0:
+                continue
+            ga = g // 2
+            gi = mi if ga == 0 else (mj if ga == 1 else mk)
+            if (gi < wall_index[g]) if g % 2 == 0 else (gi > wall_index[g]):
+                return -2, f
+        if mi < 0 or mj < 0 or mk < 0 or mi >= shape[0] or mj >= shape[1] or mk >= shape[2]:
+            return -2, f
+        return mi + shape[0] * (mj + shape[1] * mk), f
+    return -1, -1
+
+
+@njit(cache=True, inline="always")
+def rigid_holds(node, d, rigid_vol, constrain):
+    for r in range(constrain.shape[0]):
+        if constrain[r, d] and rigid_vol[node, r] > 0.0:
+            return True
+    return False
+
+
+@njit(parallel=True, cache=True)
+def mirror_ghosts(lo, hi, shape, face_type, wall_index, rigid_vol, constrain, field):
+    """Constrained ghost components take minus their mirror node's value."""
+    dim = field.shape[1]
+    for q in prange(box_size(lo, hi)):
+        node, i, j, k = box_node(q, lo, hi, shape)
+        for d in range(dim):
+            mirror, face = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
+            if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
+                continue
+            field[node, d] = -field[mirror, d] if mirror >= 0 else 0.0
+
+
+def has_walls(state) -> bool:
+    return bool(np.any(state.grid.face_type[: 2 * state.dim] != 0))
+
+
 def set_grid_velocity(state, rig_vel) -> None:
-    g, f = state.grid, state.fields
-    grid_velocity(state.box.lo, state.box.hi, state.box.shape, f.mass, f.mom, g.face_type, g.wall_index,
+    g, f, box = state.grid, state.fields, state.box
+    grid_velocity(box.lo, box.hi, box.shape, f.mass, f.mom, g.face_type, g.wall_index,
                   f.rigid_vol, state.materials.constrain, rig_vel, f.vel)
+    if has_walls(state):
+        mirror_ghosts(box.lo, box.hi, box.shape, g.face_type, g.wall_index, f.rigid_vol, state.materials.constrain,
+                      f.vel)

@@ -1,27 +1,34 @@
 """Task: extrapolate mass and momentum to the grid (and rigid volumes for their BCs).
 
-m_i = sum_p S_ip m_p,  p_i = sum_p S_ip m_p V_p. The same scatter, without mass, is the
-re-extrapolation of momentum that USL/USAVG runs after the particle update.
+m_i = sum_p S_ip m_p,  p_i = sum_p S_ip m_p (V_p + C_p (x_i - x_p)). The affine term is
+APIC's (C_p = B_p D_p^-1, D_p = sum_i S_ip (x_i - x_p)(x_i - x_p)^T from the same weights, so
+P2G then G2P reproduces any affine velocity field and conserves angular momentum); it is
+zero for the other schemes. The same scatter, without mass, is the re-extrapolation of
+momentum that USL/USAVG runs after the particle update.
 """
 
 from __future__ import annotations
 
+import numpy as np  # noqa: F401  (numba kernels use np)
 from numba import njit, prange
 
-from ..gridops import zero_box
+from ..gridops import chunk_range, zero_box
+from ..materials.kernels import inv3
 
 # a rigid particle constrains a node only where its weight is clearly non-zero
 RIGID_MIN_WEIGHT = 1e-12
 
 
 @njit(parallel=True, cache=True)
-def p2g_momentum(order, ptr, nodes, S, pmass, pvel, with_mass, gmass, gmom):
+def p2g_momentum(order, ptr, nodes, S, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, offs, origin, h,
+                 xref):
     n_slab = ptr.size - 1
     K = S.shape[1]
     dim = pvel.shape[1]
     for color in range(2):
         for s in prange((n_slab - color + 1) // 2):
             slab = color + 2 * s
+            r = np.zeros(3)
             for q in range(ptr[slab], ptr[slab + 1]):
                 p = order[q]
                 mp = pmass[p]
@@ -33,8 +40,48 @@ def p2g_momentum(order, ptr, nodes, S, pmass, pvel, with_mass, gmass, gmom):
                     wm = w * mp
                     if with_mass:
                         gmass[i] += wm
-                    for d in range(dim):
-                        gmom[i, d] += wm * pvel[p, d]
+                    if affine:
+                        for b in range(dim):
+                            r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - xref[p, b]
+                        for d in range(dim):
+                            vd = pvel[p, d]
+                            for b in range(dim):
+                                vd += C[p, d, b] * r[b]
+                            gmom[i, d] += wm * vd
+                    else:
+                        for d in range(dim):
+                            gmom[i, d] += wm * pvel[p, d]
+
+
+@njit(parallel=True, cache=True)
+def apic_affine(nodes, S, lowest, offs, origin, h, x, B, nchunk, C):
+    """C_p = B_p D_p^-1 with D_p = sum_i S_ip (x_i - x_p)(x_i - x_p)^T."""
+    n, K = S.shape
+    dim = x.shape[1]
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        D = np.zeros((3, 3))
+        Di = np.zeros((3, 3))
+        r = np.zeros(3)
+        for p in range(start, stop):
+            for a in range(3):
+                for b in range(3):
+                    D[a, b] = 0.0
+            D[2, 2] = 1.0 if dim == 2 else 0.0  # plane strain: pad so the 3x3 inverse serves
+            for k in range(K):
+                w = S[p, k]
+                for b in range(dim):
+                    r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
+                for a in range(dim):
+                    for b in range(dim):
+                        D[a, b] += w * r[a] * r[b]
+            inv3(D, Di)
+            for a in range(dim):
+                for b in range(dim):
+                    cab = 0.0
+                    for m in range(dim):
+                        cab += B[p, a, m] * Di[m, b]
+                    C[p, a, b] = cab
 
 
 @njit(cache=True)
@@ -48,11 +95,21 @@ def p2g_rigid_volume(nodes, S, vol, mat, rigid_vol):
                 rigid_vol[nodes[p, k], r] += w * vol[p]
 
 
+def _scatter_momentum(state, with_mass: bool) -> None:
+    f, box, P, sd, g = state.fields, state.box, state.particles, state.sd, state.grid
+    affine = state.scheme_name == "apic"
+    if affine:
+        apic_affine(sd.nodes, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, state.xref, P.B, state.nchunk,
+                    P.C)
+    p2g_momentum(box.order, box.ptr, sd.nodes, sd.S, P.mass, P.v, with_mass, f.mass, f.mom, affine, P.C, sd.lowest,
+                 state.entry_offsets, g.origin, g.h, state.xref)
+
+
 def extrapolate(state) -> None:
-    f, box, P, sd = state.fields, state.box, state.particles, state.sd
+    f, box = state.fields, state.box
     zero_box(box.lo, box.hi, box.shape, f.mass.reshape(-1, 1))
     zero_box(box.lo, box.hi, box.shape, f.mom)
-    p2g_momentum(box.order, box.ptr, sd.nodes, sd.S, P.mass, P.v, True, f.mass, f.mom)
+    _scatter_momentum(state, with_mass=True)
     if state.rigid.n:
         zero_box(box.lo, box.hi, box.shape, f.rigid_vol)
         R = state.rigid
@@ -60,6 +117,7 @@ def extrapolate(state) -> None:
 
 
 def reextrapolate_momentum(state) -> None:
-    f, box, P, sd = state.fields, state.box, state.particles, state.sd
+    f, box = state.fields, state.box
     zero_box(box.lo, box.hi, box.shape, f.mom)
-    p2g_momentum(box.order, box.ptr, sd.nodes, sd.S, P.mass, P.v, False, f.mass, f.mom)
+    _scatter_momentum(state, with_mass=False)
+

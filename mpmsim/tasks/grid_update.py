@@ -2,8 +2,10 @@
 
 For a constrained component the force is replaced by (m v_BC - p)/dt so the update lands
 exactly on v_BC (notes §1.1 step 9); the change is the reaction that the wall or rigid
-body exerts on the material. Then v+ = (p + f dt)/m and a = f/m; the particle update
-needs only these two (the start velocity is v+ - a dt).
+body exerts on the material. Then v+ = (p + f dt)/m and a = f/m. The task also leaves the
+start-of-step velocity with the velocity conditions imposed, v_e (= p/m where nothing is
+imposed): the position updates and XPIC's filter start from it, so particles beside a fixed
+wall do not creep through it with the unconstrained p/m of the wall nodes.
 """
 
 from __future__ import annotations
@@ -12,12 +14,12 @@ import numpy as np
 from numba import njit, prange
 
 from ..gridops import box_node, box_size, chunk_range
-from .boundary import NO_BC, RIGID_OWNER, node_bc
+from .boundary import NO_BC, RIGID_OWNER, ghost_mirror, has_walls, node_bc, rigid_holds
 
 
 @njit(parallel=True, cache=True)
 def grid_update_kernel(lo, hi, shape, dt, mass, mom, force, face_type, wall_index, rigid_vol, constrain,
-                       rig_vel, nchunk, vnew, acc, chunk_reaction, chunk_work):
+                       rig_vel_start, rig_vel, nchunk, vnew, acc, vstart, chunk_reaction, chunk_work):
     dim = mom.shape[1]
     nq = box_size(lo, hi)
     n_rigid = constrain.shape[0]
@@ -34,10 +36,17 @@ def grid_update_kernel(lo, hi, shape, dt, mass, mom, force, face_type, wall_inde
                 for d in range(dim):
                     vnew[node, d] = 0.0
                     acc[node, d] = 0.0
+                    vstart[node, d] = 0.0
                 continue
             for d in range(dim):
                 fd = force[node, d]
                 owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+                if owner != NO_BC:
+                    owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
+                                           rig_vel_start)
+                    vstart[node, d] = vbc0
+                else:
+                    vstart[node, d] = mom[node, d] / m
                 if owner != NO_BC:
                     f_bc = (m * vbc - mom[node, d]) / dt
                     dfc = f_bc - fd
@@ -58,13 +67,45 @@ def grid_update_kernel(lo, hi, shape, dt, mass, mom, force, face_type, wall_inde
         chunk_work[c] = work
 
 
+@njit(parallel=True, cache=True)
+def mirror_update(lo, hi, shape, dt, mass, mom, face_type, wall_index, rigid_vol, constrain, nchunk, vnew, acc,
+                  vstart, chunk_reaction):
+    """Second pass of the update: constrained ghost components take minus their mirror's new
+    velocity (boundary.py); the extra force is added to that face's reaction."""
+    dim = mom.shape[1]
+    nq = box_size(lo, hi)
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, nq)
+        for a in range(chunk_reaction.shape[1]):
+            for d in range(dim):
+                chunk_reaction[c, a, d] = 0.0
+        for q in range(start, stop):
+            node, i, j, k = box_node(q, lo, hi, shape)
+            m = mass[node]
+            if m <= 0.0:
+                continue
+            for d in range(dim):
+                mirror, face = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
+                if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
+                    continue
+                v = -vnew[mirror, d] if mirror >= 0 else 0.0
+                chunk_reaction[c, face, d] += m * (v - vnew[node, d]) / dt
+                vnew[node, d] = v
+                acc[node, d] = (v - mom[node, d] / m) / dt
+                vstart[node, d] = -vstart[mirror, d] if mirror >= 0 else 0.0
+
+
 def grid_update(state) -> None:
     g, f, box = state.grid, state.fields, state.box
     nc = state.nchunk
     reaction = np.zeros((nc,) + state.reaction.shape)
     work = np.zeros(nc)
     grid_update_kernel(box.lo, box.hi, box.shape, state.dt, f.mass, f.mom, f.force, g.face_type, g.wall_index,
-                       f.rigid_vol, state.materials.constrain, state.rigid_v_end, nc, f.vnew, f.acc,
-                       reaction, work)
+                       f.rigid_vol, state.materials.constrain, state.rigid_v_start, state.rigid_v_end, nc, f.vnew,
+                       f.acc, f.vstart, reaction, work)
     state.reaction[:] = reaction.sum(axis=0)
     state.work_in += float(work.sum())
+    if has_walls(state):
+        mirror_update(box.lo, box.hi, box.shape, state.dt, f.mass, f.mom, g.face_type, g.wall_index, f.rigid_vol,
+                      state.materials.constrain, nc, f.vnew, f.acc, f.vstart, reaction)
+        state.reaction += reaction.sum(axis=0)

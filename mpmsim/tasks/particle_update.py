@@ -1,9 +1,20 @@
 """Task: update particle velocities and positions from the grid (notes §1.4).
 
-With a = f/m and v+ = p+/m per node, and S q = sum_i S_ip q_i:
-  FLIP: V += dt S a;            x += dt S(v+ - a dt/2)   (= dt S (v + v+)/2, second order)
-  PIC:  V_new = S v+;           x += dt [S(v+ - a dt) + (V_new - V_old)/2]
-Rigid particles move with their prescribed velocity (trapezoidal in time).
+With a = f/m and v+ = p+/m per node, v the start-of-step lumped velocity (velocity
+conditions imposed, `vstart`), v* the XPIC/FMPM-filtered velocity, and S q = sum_i S_ip q_i:
+
+  FLIP:  V += dt S a;              x += dt S (v + v+)/2        (second order)
+  PIC:   V  = S v+;                x += dt [S v + (V_new - V_old)/2]
+  XPIC:  V  = S (v* + a dt);       x += dt [S v + (V_new - V_old)/2]   (published form; the
+         xpic task leaves v* + a dt, with the BC refinement documented there, in vstar)
+  FMPM:  V  = S v*  (v* from v+);  x += dt (V_new + V_old)/2
+  APIC:  V  = S v+, B = sum_i S_ip v+_i (x) (x_i - x_p);  x += dt V_new
+
+Away from velocity conditions v = v+ - a dt, so FLIP's position update is the notes' §1.4
+form x += dt S(v+ - a dt/2).
+
+All second-order forms are exact for constant acceleration. Rigid particles move with their
+prescribed velocity (trapezoidal in time).
 """
 
 from __future__ import annotations
@@ -14,20 +25,21 @@ from numba import njit, prange
 from ..gridops import chunk_range
 from .stress import BAD_LEFT_GRID, BAD_NAN
 
-FLIP = 0
-PIC = 1
-SCHEMES = {"flip": FLIP, "pic": PIC}
+FLIP, PIC, XPIC, FMPM, APIC = 0, 1, 2, 3, 4
+SCHEMES = {"flip": FLIP, "pic": PIC, "xpic": XPIC, "fmpm": FMPM, "apic": APIC}
 
 
 @njit(parallel=True, cache=True)
-def particle_update_kernel(nodes, S, vnew, acc, dt, scheme, x, v, pmass, gravity, lo, hi, nchunk,
-                           chunk_gwork, chunk_bad, chunk_code):
+def particle_update_kernel(nodes, S, lowest, offs, origin, h, vnew, acc, vstart, vstar, dt, scheme, x, v, B, pmass,
+                           gravity, lo, hi, nchunk, chunk_gwork, chunk_bad, chunk_code):
     n, K = S.shape
     dim = x.shape[1]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
         sa = np.zeros(3)
         sv = np.zeros(3)
+        s0 = np.zeros(3)
+        ss = np.zeros(3)
         gwork = 0.0
         bad = -1
         code = 0
@@ -35,22 +47,57 @@ def particle_update_kernel(nodes, S, vnew, acc, dt, scheme, x, v, pmass, gravity
             for d in range(dim):
                 sa[d] = 0.0
                 sv[d] = 0.0
-            for k in range(K):
+                s0[d] = 0.0
+                ss[d] = 0.0
+            if scheme == APIC:
+                for a in range(dim):
+                    for b in range(dim):
+                        B[p, a, b] = 0.0
+            for k in range(K):  # gather only the fields this scheme uses
                 w = S[p, k]
                 i = nodes[p, k]
-                for d in range(dim):
-                    sa[d] += w * acc[i, d]
-                    sv[d] += w * vnew[i, d]
+                if scheme == FLIP:
+                    for d in range(dim):
+                        sa[d] += w * acc[i, d]
+                        sv[d] += w * vnew[i, d]
+                        s0[d] += w * vstart[i, d]
+                elif scheme == PIC:
+                    for d in range(dim):
+                        sv[d] += w * vnew[i, d]
+                        s0[d] += w * vstart[i, d]
+                elif scheme == XPIC:
+                    for d in range(dim):
+                        ss[d] += w * vstar[i, d]
+                        s0[d] += w * vstart[i, d]
+                elif scheme == FMPM:
+                    for d in range(dim):
+                        ss[d] += w * vstar[i, d]
+                else:  # APIC
+                    for d in range(dim):
+                        sv[d] += w * vnew[i, d]
+                    for b in range(dim):
+                        rb = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
+                        for a in range(dim):
+                            B[p, a, b] += w * vnew[i, a] * rb
             outside = False
             finite = True
             for d in range(dim):
                 vold = v[p, d]
                 if scheme == FLIP:
                     vn = vold + dt * sa[d]
-                    dx = dt * (sv[d] - 0.5 * dt * sa[d])
-                else:
+                    dx = 0.5 * dt * (s0[d] + sv[d])
+                elif scheme == PIC:
                     vn = sv[d]
-                    dx = dt * ((sv[d] - dt * sa[d]) + 0.5 * (vn - vold))
+                    dx = dt * (s0[d] + 0.5 * (vn - vold))
+                elif scheme == XPIC:
+                    vn = ss[d]
+                    dx = dt * (s0[d] + 0.5 * (vn - vold))
+                elif scheme == FMPM:
+                    vn = ss[d]
+                    dx = 0.5 * dt * (vn + vold)
+                else:  # APIC
+                    vn = sv[d]
+                    dx = dt * vn
                 x[p, d] += dx
                 v[p, d] = vn
                 gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
@@ -73,9 +120,10 @@ def particle_update(state) -> None:
     gwork = np.zeros(nc)
     bad = np.full(nc, -1, dtype=np.int64)
     code = np.zeros(nc, dtype=np.int64)
-    scheme = SCHEMES[state.scene.deck.update.scheme]
-    particle_update_kernel(sd.nodes, sd.S, f.vnew, f.acc, state.dt, scheme, P.x, P.v, P.mass, state.gravity,
-                           g.domain_lo, g.domain_hi, nc, gwork, bad, code)
+    particle_update_kernel(sd.nodes, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, f.vnew, f.acc, f.vstart,
+                           f.vstar,
+                           state.dt, state.scheme, P.x, P.v, P.B, P.mass, state.gravity, g.domain_lo, g.domain_hi,
+                           nc, gwork, bad, code)
     state.work_in += float(gwork.sum())
     hits = np.nonzero(bad >= 0)[0]
     if len(hits):

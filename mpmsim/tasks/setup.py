@@ -26,9 +26,19 @@ def set_time_step(state) -> None:
 
 
 def compute_shape_functions(state) -> None:
+    """Weights of deformable particles (CPDI uses their F) and rigid ones; flags a support
+    leaving the grid (the step then stops in check stability)."""
     sf, g = state.shape, state.grid
     semi = state.scene.semi_size
-    boxes = [sf.compute(state.particles.x, semi, g, state.nchunk, state.sd)]
+    if state.xref is not state.particles.x:  # APIC keeps the positions its affine terms refer to
+        state.xref[:] = state.particles.x
+    box, (bad, code) = sf.compute(state.particles.x, state.particles.F, semi, g, state.nchunk, state.sd)
+    boxes = [box]
+    if bad >= 0:
+        state.flags.set(bad, code, 0.0)
     if state.rigid.n:
-        boxes.append(sf.compute(state.rigid.x, semi, g, 1, state.rigid_sd))
+        rbox, (rbad, rcode) = sf.compute(state.rigid.x, None, semi, g, 1, state.rigid_sd)
+        boxes.append(rbox)
+        if rbad >= 0:
+            state.flags.set_rigid(rbad, rcode)
     state.box.update(boxes, state.sd.lowest, sf.span, state.threads)

@@ -11,7 +11,10 @@ import numpy as np
 from ..deck.units import unit_system
 from ..errors import InstabilityError
 from ..globals import KINETIC, STRAIN, particle_sums
+from ..shapes import SHAPE_BAD_MESSAGES
 from .stress import BAD_MESSAGES
+
+MESSAGES = {**BAD_MESSAGES, **SHAPE_BAD_MESSAGES}
 
 REMEDY = ("try a smaller time.cfl, update.scheme: pic, or update.stress: usavg; raise "
           "stability.energy_tolerance to accept the drift")
@@ -34,7 +37,7 @@ def where(state) -> str:
 def check_stability(state) -> None:
     fl = state.flags
     if fl.bad_particle >= 0:
-        what = BAD_MESSAGES[fl.bad_code].format(value=fl.bad_value)
+        what = MESSAGES[fl.bad_code].format(value=fl.bad_value)
         raise InstabilityError(f"unstable at {where(state)}: {describe_particle(state, fl.bad_particle)}: {what}",
                                state.t, state.step)
     stab = state.scene.deck.stability
@@ -54,6 +57,8 @@ def check_stability(state) -> None:
     if state.rigid.n:
         R, g = state.rigid, state.grid
         out = np.any((R.x < g.domain_lo) | (R.x > g.domain_hi), axis=1)
+        if fl.bad_rigid >= 0:
+            out[fl.bad_rigid] = True
         if out.any():
             name = state.materials.rigid[int(R.mat[np.argmax(out)])]
             raise InstabilityError(f"stopped at {where(state)}: rigid material '{name}' left the grid domain; "

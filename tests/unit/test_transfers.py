@@ -10,7 +10,7 @@ from mpmsim.gridops import ActiveBox
 from mpmsim.shapes import ShapeData, shape_function
 from mpmsim.tasks.extrapolate import p2g_momentum
 
-from .test_shapes import grid, node_positions
+from .test_shapes import ALL, grid, node_positions
 
 
 def scatter(g, name, x, mass, vel, threads):
@@ -18,15 +18,18 @@ def scatter(g, name, x, mass, vel, threads):
     sf = shape_function(name)
     sd = ShapeData.empty(len(x), sf.nodes_per_particle(dim), dim)
     box = ActiveBox(g.shape)
-    lo, hi = sf.compute(x, 0.25 * g.h, g, 4, sd)
+    (lo, hi), bad = sf.compute(x, None, 0.25 * g.h, g, 4, sd)
+    assert bad[0] < 0
     box.update([(lo, hi)], sd.lowest, sf.span, threads)
     gm = np.zeros(g.n_nodes)
     gp = np.zeros((g.n_nodes, dim))
-    p2g_momentum(box.order, box.ptr, sd.nodes, sd.S, mass, vel, True, gm, gp)
+    C = np.zeros((1, dim, dim))
+    p2g_momentum(box.order, box.ptr, sd.nodes, sd.S, mass, vel, True, gm, gp, False, C, sd.lowest,
+                 np.zeros((1, 3), dtype=np.int64), g.origin, g.h, x)
     return g, sd, box, gm, gp
 
 
-@pytest.mark.parametrize("name,dim", [(n, d) for n in ("linear", "gimp") for d in (2, 3)])
+@pytest.mark.parametrize("name,dim", ALL)
 @pytest.mark.parametrize("threads", [1, 2])
 def test_p2g_conserves_mass_and_momentum(name, dim, threads):
     rng = np.random.default_rng(7)
@@ -47,12 +50,13 @@ def test_p2g_conserves_mass_and_momentum(name, dim, threads):
     np.testing.assert_allclose(np.einsum("pk,pkd->pd", sd.S, nodal_affine), affine, atol=1e-11)
 
 
-def test_slabs_never_share_nodes_within_a_colour():
+@pytest.mark.parametrize("name", ["gimp", "bspline3", "b2cpdi"])
+def test_slabs_never_share_nodes_within_a_colour(name):
     """Slabs two apart touch disjoint nodes, so each colour can scatter in parallel."""
     rng = np.random.default_rng(3)
     g = grid(2, cells=20)
     x = g.domain_lo + rng.random((2000, 2)) * (g.domain_hi - g.domain_lo)
-    g, sd, box, gm, gp = scatter(g, "gimp", x, np.ones(2000), np.zeros((2000, 2)), threads=2)
+    g, sd, box, gm, gp = scatter(g, name, x, np.ones(2000), np.zeros((2000, 2)), threads=2)
     nslab = len(box.ptr) - 1
     assert nslab >= 4
     touched = []

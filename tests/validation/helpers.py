@@ -15,14 +15,18 @@ def example(name: str) -> dict:
 
 
 def run_example(name: str, **overrides):
-    """Run inputs/<name>.yaml with dotted-key overrides, e.g. {"update.scheme": "pic"}."""
+    """Run inputs/<name>.yaml with dotted-key overrides, e.g. {"update.scheme": "pic",
+    "bodies.0.max": [25, 2]} (numbers index lists)."""
     deck = copy.deepcopy(example(name))
     for key, value in overrides.items():
         node = deck
         *parents, last = key.split(".")
         for p in parents:
-            node = node.setdefault(p, {})
-        node[last] = value
+            node = node[int(p)] if isinstance(node, list) else node.setdefault(p, {})
+        if isinstance(node, list):
+            node[int(last)] = value
+        else:
+            node[last] = value
     return simulate(deck), deck
 
 
