@@ -25,7 +25,7 @@ from __future__ import annotations
 from numba import njit, prange
 
 from ..gridops import box_node, box_size
-from .boundary import NO_BC, ghost_mirror, has_walls, node_bc, rigid_holds
+from .boundary import NO_BC, has_walls, mirror_ghosts, node_bc
 
 
 @njit(parallel=True, cache=True)
@@ -85,25 +85,12 @@ def xpic_series(order_, ptr, nodes, S, pmass, lo, hi, shape, mass, vnew, vstart,
                 else:
                     inc = 0.0
                 dv[node, d] = inc
-        if walls:
-            mirror_increment(lo, hi, shape, face_type, wall_index, rigid_vol, constrain, dv)
+        if walls:  # ghost components of the increment mirror their interior node
+            mirror_ghosts(lo, hi, shape, face_type, wall_index, rigid_vol, constrain, dv)
         for q in prange(nq):
             node, i, j, k = box_node(q, lo, hi, shape)
             for d in range(dim):
                 vstar[node, d] += dv[node, d]
-
-
-@njit(cache=True)
-def mirror_increment(lo, hi, shape, face_type, wall_index, rigid_vol, constrain, dv):
-    """Ghost components of an increment mirror their interior node (see boundary.py)."""
-    dim = dv.shape[1]
-    for q in range(box_size(lo, hi)):
-        node, i, j, k = box_node(q, lo, hi, shape)
-        for d in range(dim):
-            mirror, face = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
-            if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
-                continue
-            dv[node, d] = -dv[mirror, d] if mirror >= 0 else 0.0
 
 
 def xpic(state) -> None:
