@@ -249,6 +249,13 @@ class Update(Strict):
         "update, from re-extrapolated momenta), usavg (half at each).",
     )
 
+    reextrapolate: bool = Field(
+        default=True,
+        description="USL/USAVG \"+\" (true): the second stress update re-extrapolates momenta from "
+        "the updated particles. false (\"-\"): it uses the updated grid velocity directly; "
+        "cheaper, and far less FLIP ringing in long quasi-static runs (docs/stability.md).",
+    )
+
     @model_validator(mode="after")
     def _default_order(self):
         if self.order is None and self.scheme in ("xpic", "fmpm"):

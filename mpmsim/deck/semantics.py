@@ -46,6 +46,8 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
                 add(["grid", "boundaries", face], "z faces exist only in 3d analysis")
 
     upd = deck.update
+    if not upd.reextrapolate and upd.stress == "usf":
+        add(["update", "reextrapolate"], "reextrapolate applies to usl and usavg (usf has no second update)")
     if upd.order is not None and upd.scheme not in ("xpic", "fmpm"):
         add(["update", "order"], f"order applies to xpic and fmpm, not {upd.scheme}")
     if dim == 3 and deck.shape_function == "cpdi_q":

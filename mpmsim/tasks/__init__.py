@@ -55,7 +55,8 @@ def build_task_list(scene) -> list[Task]:
     if n_rigid:
         tasks.append(Task("move rigid", move_rigid, "rigid materials follow their prescribed velocity"))
     if upd.stress in ("usl", "usavg"):
+        source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
         tasks.append(Task("update stress last", update_stress_last,
-                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from re-extrapolated momenta"))
+                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from {source}"))
     tasks.append(Task("check stability", check_stability, "NaN, inverted particles, leaving the grid, energy growth"))
     return tasks

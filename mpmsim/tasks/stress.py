@@ -93,14 +93,14 @@ def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, co
         chunk_value[c] = bad_value
 
 
-def _update_stress(state, dt) -> None:
+def _update_stress(state, dt, gvel) -> None:
     P, f, m, sd = state.particles, state.fields, state.materials, state.sd
     nc = state.nchunk
     wave = np.zeros(nc)
     bad = np.full(nc, -1, dtype=np.int64)
     code = np.zeros(nc, dtype=np.int64)
     value = np.zeros(nc)
-    update_stress_kernel(sd.nodes, sd.G, f.vel, dt, P.v, P.F, P.stress, P.vol, P.vol0, P.mat, m.type_code,
+    update_stress_kernel(sd.nodes, sd.G, gvel, dt, P.v, P.F, P.stress, P.vol, P.vol0, P.mat, m.type_code,
                          m.props, m.density, nc, wave, bad, code, value)
     state.wave_max = float(wave.max())
     hits = np.nonzero(bad >= 0)[0]
@@ -116,12 +116,19 @@ def stress_fraction(state) -> float:
 def update_stress_first(state) -> None:
     """USF/USAVG: velocities from the initial extrapolation, BCs at the step's start."""
     set_grid_velocity(state, state.rigid_v_start)
-    _update_stress(state, stress_fraction(state) * state.dt)
+    _update_stress(state, stress_fraction(state) * state.dt, state.fields.vel)
 
 
 def update_stress_last(state) -> None:
-    """USL/USAVG: re-extrapolate momenta from the updated particles (mass kept), BCs at the
-    step's end, then update."""
-    reextrapolate_momentum(state)
-    set_grid_velocity(state, state.rigid_v_end)
-    _update_stress(state, stress_fraction(state) * state.dt)
+    """USL/USAVG. Default ("+"): re-extrapolate momenta from the updated particles (mass
+    kept), impose velocity conditions at the step's end, then update. With
+    `update.reextrapolate: false` ("-"): use the updated grid velocity v+ directly, so the
+    stress and the FLIP position update integrate the same grid field (much less FLIP
+    ringing in long compressions; docs/stability.md)."""
+    if state.scene.deck.update.reextrapolate:
+        reextrapolate_momentum(state)
+        set_grid_velocity(state, state.rigid_v_end)
+        gvel = state.fields.vel
+    else:
+        gvel = state.fields.vnew
+    _update_stress(state, stress_fraction(state) * state.dt, gvel)
