@@ -1,5 +1,10 @@
-"""Numba helpers shared by the grid tasks: the active box, node numbering, particle chunks,
-and the slab ordering that lets particle-to-grid scatters run on several threads.
+"""Numba helpers shared by the grid tasks: the active fields, node numbering, particle
+chunks, and the slab ordering that lets particle-to-grid scatters run on several threads.
+
+Grid quantities live on *fields*. A field is a node (index < number of nodes) or, where two
+or more materials meet, one material's slot at that node (index >= number of nodes; see
+mpmsim/contact). Every grid kernel loops over the step's list of active fields, so material
+slots need no code of their own.
 
 Scatter kernels (particle -> grid) must not let two threads add into one node at once.
 Particles are binned into slabs along one axis by their lowest node index; a slab is at
@@ -28,29 +33,29 @@ def chunk_range(c, nchunk, n):
 
 
 @njit(cache=True, inline="always")
-def box_node(q, lo, hi, shape):
-    """Flat node index of the q-th node in the box [lo, hi] (inclusive), and its (i, j, k)."""
-    nx = hi[0] - lo[0] + 1
-    ny = hi[1] - lo[1] + 1
-    i = lo[0] + q % nx
-    j = lo[1] + (q // nx) % ny
-    k = lo[2] + q // (nx * ny)
-    return i + shape[0] * (j + shape[1] * k), i, j, k
+def node_ijk(node, shape):
+    """(i, j, k) of a flat node index."""
+    return node % shape[0], (node // shape[0]) % shape[1], node // (shape[0] * shape[1])
 
 
-@njit(cache=True, inline="always")
-def box_size(lo, hi):
-    return (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1)
+@njit(cache=True)
+def box_nodes(lo, hi, shape, out):
+    """Flat indices of the nodes in the box [lo, hi] (inclusive), in memory order."""
+    q = 0
+    for k in range(lo[2], hi[2] + 1):
+        for j in range(lo[1], hi[1] + 1):
+            for i in range(lo[0], hi[0] + 1):
+                out[q] = i + shape[0] * (j + shape[1] * k)
+                q += 1
 
 
 @njit(parallel=True, cache=True)
-def zero_box(lo, hi, shape, field):
-    """Zero rows of a (n_nodes, ncomp) field inside the box."""
-    nq = box_size(lo, hi)
-    for q in prange(nq):
-        node, i, j, k = box_node(q, lo, hi, shape)
-        for c in range(field.shape[1]):
-            field[node, c] = 0.0
+def zero_fields(fields, arr):
+    """Zero the rows of a (n_fields, ncomp) array for the active fields."""
+    for q in prange(fields.size):
+        f = fields[q]
+        for c in range(arr.shape[1]):
+            arr[f, c] = 0.0
 
 
 @njit(cache=True)
@@ -75,7 +80,9 @@ def bin_slabs(lowest, axis, lo_axis, width, nslab, order, ptr):
 
 
 class ActiveBox:
-    """Node box touched by particles this step, and the slab ordering for scatters."""
+    """Node box touched by particles this step, its active fields, and the slab ordering for
+    scatters. `fields` are field indices, `fnodes` their nodes, `skip` marks fields without
+    dynamics of their own (rigid materials' slots)."""
 
     def __init__(self, shape: np.ndarray):
         self.shape = np.asarray(shape, dtype=np.int64)
@@ -83,6 +90,10 @@ class ActiveBox:
         self.hi = np.zeros(3, dtype=np.int64)
         self.order = np.zeros(0, dtype=np.int64)
         self.ptr = np.zeros(2, dtype=np.int64)
+        self.fields = np.zeros(0, dtype=np.int64)
+        self.fnodes = self.fields
+        self.skip = np.zeros(0, dtype=np.bool_)
+        self.n_box = 0  # the first n_box fields are the box's nodes
 
     def update(self, boxes, lowest: np.ndarray, span: int, threads: int) -> None:
         """Set the box to the union of (lo, hi) node boxes; bin particles with `lowest` into slabs."""
@@ -90,6 +101,12 @@ class ActiveBox:
         hi = np.max([b[1] for b in boxes], axis=0)
         self.lo[:] = np.maximum(lo, 0)
         self.hi[:] = np.minimum(hi, self.shape - 1)
+        self.n_box = int(np.prod(self.hi - self.lo + 1))
+        if self.fields.size != self.n_box:
+            self.fields = np.empty(self.n_box, dtype=np.int64)
+            self.skip = np.zeros(self.n_box, dtype=np.bool_)
+        box_nodes(self.lo, self.hi, self.shape, self.fields)
+        self.fnodes = self.fields
         n = len(lowest)
         if self.order.shape[0] != n:
             self.order = np.arange(n, dtype=np.int64)

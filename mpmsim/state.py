@@ -127,10 +127,17 @@ class State:
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)
     flags: StepFlags = field(default_factory=StepFlags)
     _noise_scratch: tuple | None = None  # shape data and grid arrays for the noise metric
+    contact: object = None  # mpmsim.contact.ContactState for scenes where materials meet
 
     @property
     def dim(self) -> int:
         return self.grid.dim
+
+    @property
+    def field_index(self) -> np.ndarray:
+        """(n, K) field each particle-node entry reads and writes: its node, or its material's
+        slot at nodes where materials meet (mpmsim/contact)."""
+        return self.sd.nodes if self.contact is None else self.contact.fidx
 
     @property
     def n_rigid_materials(self) -> int:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..gridops import box_node, box_size
+from ..gridops import node_ijk
 from ..scene.grid import FIXED, ROLLER
 
 NO_BC = -1
@@ -52,20 +52,22 @@ def node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, 
 
 
 @njit(parallel=True, cache=True)
-def grid_velocity(lo, hi, shape, mass, mom, face_type, wall_index, rigid_vol, constrain, rig_vel, vel):
-    """vel = p/m with velocity conditions imposed (used for velocity gradients)."""
+def grid_velocity(fields, fnodes, shape, mass, mom, face_type, wall_index, rigid_vol, constrain, rig_vel, vel):
+    """vel = p/m on every active field, with velocity conditions imposed (for velocity gradients)."""
     dim = mom.shape[1]
-    for q in prange(box_size(lo, hi)):
-        node, i, j, k = box_node(q, lo, hi, shape)
-        m = mass[node]
+    for q in prange(fields.size):
+        f = fields[q]
+        node = fnodes[q]
+        i, j, k = node_ijk(node, shape)
+        m = mass[f]
         for d in range(dim):
             owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
             if owner != NO_BC:
-                vel[node, d] = vbc
+                vel[f, d] = vbc
             elif m > 0.0:
-                vel[node, d] = mom[node, d] / m
+                vel[f, d] = mom[f, d] / m
             else:
-                vel[node, d] = 0.0
+                vel[f, d] = 0.0
 
 
 @njit(cache=True, inline="always")
@@ -113,11 +115,13 @@ def rigid_holds(node, d, rigid_vol, constrain):
 
 
 @njit(parallel=True, cache=True)
-def mirror_ghosts(lo, hi, shape, face_type, wall_index, rigid_vol, constrain, field):
-    """Constrained ghost components take minus their mirror node's value."""
+def mirror_ghosts(nodes, shape, face_type, wall_index, rigid_vol, constrain, field):
+    """Constrained ghost components of the given nodes take minus their mirror node's value
+    (material slots at walls keep their own values)."""
     dim = field.shape[1]
-    for q in prange(box_size(lo, hi)):
-        node, i, j, k = box_node(q, lo, hi, shape)
+    for q in prange(nodes.size):
+        node = nodes[q]
+        i, j, k = node_ijk(node, shape)
         for d in range(dim):
             mirror, face = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
             if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
@@ -131,8 +135,8 @@ def has_walls(state) -> bool:
 
 def set_grid_velocity(state, rig_vel) -> None:
     g, f, box = state.grid, state.fields, state.box
-    grid_velocity(box.lo, box.hi, box.shape, f.mass, f.mom, g.face_type, g.wall_index,
+    grid_velocity(box.fields, box.fnodes, box.shape, f.mass, f.mom, g.face_type, g.wall_index,
                   f.rigid_vol, state.materials.constrain, rig_vel, f.vel)
     if has_walls(state):
-        mirror_ghosts(box.lo, box.hi, box.shape, g.face_type, g.wall_index, f.rigid_vol, state.materials.constrain,
-                      f.vel)
+        mirror_ghosts(box.fields[: box.n_box], box.shape, g.face_type, g.wall_index, f.rigid_vol,
+                      state.materials.constrain, f.vel)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np  # noqa: F401  (numba kernels use np)
 from numba import njit, prange
 
-from ..gridops import chunk_range, zero_box
+from ..gridops import chunk_range, zero_fields
 from ..materials.kernels import inv3
 
 # a rigid particle constrains a node only where its weight is clearly non-zero
@@ -101,23 +101,23 @@ def _scatter_momentum(state, with_mass: bool) -> None:
     if affine:
         apic_affine(sd.nodes, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, state.xref, P.B, state.nchunk,
                     P.C)
-    p2g_momentum(box.order, box.ptr, sd.nodes, sd.S, P.mass, P.v, with_mass, f.mass, f.mom, affine, P.C, sd.lowest,
-                 state.entry_offsets, g.origin, g.h, state.xref)
+    p2g_momentum(box.order, box.ptr, state.field_index, sd.S, P.mass, P.v, with_mass, f.mass, f.mom, affine, P.C,
+                 sd.lowest, state.entry_offsets, g.origin, g.h, state.xref)
 
 
 def extrapolate(state) -> None:
     f, box = state.fields, state.box
-    zero_box(box.lo, box.hi, box.shape, f.mass.reshape(-1, 1))
-    zero_box(box.lo, box.hi, box.shape, f.mom)
+    zero_fields(box.fields, f.mass.reshape(-1, 1))
+    zero_fields(box.fields, f.mom)
     _scatter_momentum(state, with_mass=True)
     if state.rigid.n:
-        zero_box(box.lo, box.hi, box.shape, f.rigid_vol)
+        zero_fields(box.fields[: box.n_box], f.rigid_vol)
         R = state.rigid
         p2g_rigid_volume(state.rigid_sd.nodes, state.rigid_sd.S, R.vol, R.mat, f.rigid_vol)
 
 
 def reextrapolate_momentum(state) -> None:
     f, box = state.fields, state.box
-    zero_box(box.lo, box.hi, box.shape, f.mom)
+    zero_fields(box.fields, f.mom)
     _scatter_momentum(state, with_mass=False)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from numba import njit, prange
 
-from ..gridops import zero_box
+from ..gridops import zero_fields
 from ..materials.kernels import VOIGT
 
 
@@ -21,8 +21,6 @@ def p2g_forces(order, ptr, nodes, S, G, vol, stress, pmass, gravity, has_gravity
                 vp = vol[p]
                 for k in range(K):
                     w = S[p, k]
-                    if w == 0.0:
-                        continue
                     i = nodes[p, k]
                     for a in range(dim):
                         fa = 0.0
@@ -36,6 +34,6 @@ def p2g_forces(order, ptr, nodes, S, G, vol, stress, pmass, gravity, has_gravity
 
 def forces(state) -> None:
     f, box, P, sd = state.fields, state.box, state.particles, state.sd
-    zero_box(box.lo, box.hi, box.shape, f.force)
+    zero_fields(box.fields, f.force)
     has_g = bool(state.gravity.any())
-    p2g_forces(box.order, box.ptr, sd.nodes, sd.S, sd.G, P.vol, P.stress, P.mass, state.gravity, has_g, f.force)
+    p2g_forces(box.order, box.ptr, state.field_index, sd.S, sd.G, P.vol, P.stress, P.mass, state.gravity, has_g, f.force)

@@ -13,15 +13,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..gridops import box_node, box_size, chunk_range
+from ..gridops import chunk_range, node_ijk
 from .boundary import NO_BC, RIGID_OWNER, ghost_mirror, has_walls, node_bc, rigid_holds
 
 
 @njit(parallel=True, cache=True)
-def grid_update_kernel(lo, hi, shape, dt, mass, mom, force, face_type, wall_index, rigid_vol, constrain,
-                       rig_vel_start, rig_vel, nchunk, vnew, acc, vstart, chunk_reaction, chunk_work):
+def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_type, wall_index, rigid_vol,
+                       constrain, rig_vel_start, rig_vel, nchunk, vnew, acc, vstart, chunk_reaction, chunk_work):
     dim = mom.shape[1]
-    nq = box_size(lo, hi)
+    nq = fields.size
     n_rigid = constrain.shape[0]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, nq)
@@ -30,25 +30,27 @@ def grid_update_kernel(lo, hi, shape, dt, mass, mom, force, face_type, wall_inde
                 chunk_reaction[c, a, d] = 0.0
         work = 0.0
         for q in range(start, stop):
-            node, i, j, k = box_node(q, lo, hi, shape)
-            m = mass[node]
-            if m <= 0.0:
+            fid = fields[q]
+            node = fnodes[q]
+            i, j, k = node_ijk(node, shape)
+            m = mass[fid]
+            if m <= 0.0 or skip[q]:
                 for d in range(dim):
-                    vnew[node, d] = 0.0
-                    acc[node, d] = 0.0
-                    vstart[node, d] = 0.0
+                    vnew[fid, d] = 0.0
+                    acc[fid, d] = 0.0
+                    vstart[fid, d] = 0.0
                 continue
             for d in range(dim):
-                fd = force[node, d]
+                fd = force[fid, d]
                 owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
                 if owner != NO_BC:
                     owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
                                            rig_vel_start)
-                    vstart[node, d] = vbc0
+                    vstart[fid, d] = vbc0
                 else:
-                    vstart[node, d] = mom[node, d] / m
+                    vstart[fid, d] = mom[fid, d] / m
                 if owner != NO_BC:
-                    f_bc = (m * vbc - mom[node, d]) / dt
+                    f_bc = (m * vbc - mom[fid, d]) / dt
                     dfc = f_bc - fd
                     work += dfc * vbc * dt  # signed work done on the material
                     if owner == RIGID_OWNER:
@@ -62,25 +64,26 @@ def grid_update_kernel(lo, hi, shape, dt, mass, mom, force, face_type, wall_inde
                     else:
                         chunk_reaction[c, owner, d] += dfc
                     fd = f_bc
-                acc[node, d] = fd / m
-                vnew[node, d] = (mom[node, d] + fd * dt) / m
+                acc[fid, d] = fd / m
+                vnew[fid, d] = (mom[fid, d] + fd * dt) / m
         chunk_work[c] = work
 
 
 @njit(parallel=True, cache=True)
-def mirror_update(lo, hi, shape, dt, mass, mom, face_type, wall_index, rigid_vol, constrain, nchunk, vnew, acc,
+def mirror_update(nodes, shape, dt, mass, mom, face_type, wall_index, rigid_vol, constrain, nchunk, vnew, acc,
                   vstart, chunk_reaction):
-    """Second pass of the update: constrained ghost components take minus their mirror's new
-    velocity (boundary.py); the extra force is added to that face's reaction."""
+    """Second pass of the update: constrained ghost components of the box nodes take minus
+    their mirror's new velocity (boundary.py); the extra force is added to that face's reaction."""
     dim = mom.shape[1]
-    nq = box_size(lo, hi)
+    nq = nodes.size
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, nq)
         for a in range(chunk_reaction.shape[1]):
             for d in range(dim):
                 chunk_reaction[c, a, d] = 0.0
         for q in range(start, stop):
-            node, i, j, k = box_node(q, lo, hi, shape)
+            node = nodes[q]
+            i, j, k = node_ijk(node, shape)
             m = mass[node]
             if m <= 0.0:
                 continue
@@ -100,12 +103,14 @@ def grid_update(state) -> None:
     nc = state.nchunk
     reaction = np.zeros((nc,) + state.reaction.shape)
     work = np.zeros(nc)
-    grid_update_kernel(box.lo, box.hi, box.shape, state.dt, f.mass, f.mom, f.force, g.face_type, g.wall_index,
+    grid_update_kernel(box.fields, box.fnodes, box.skip, box.shape, state.dt, f.mass, f.mom, f.force, g.face_type,
+                       g.wall_index,
                        f.rigid_vol, state.materials.constrain, state.rigid_v_start, state.rigid_v_end, nc, f.vnew,
                        f.acc, f.vstart, reaction, work)
     state.reaction[:] = reaction.sum(axis=0)
     state.work_in += float(work.sum())
     if has_walls(state):
-        mirror_update(box.lo, box.hi, box.shape, state.dt, f.mass, f.mom, g.face_type, g.wall_index, f.rigid_vol,
+        mirror_update(box.fields[: box.n_box], box.shape, state.dt, f.mass, f.mom, g.face_type, g.wall_index,
+                      f.rigid_vol,
                       state.materials.constrain, nc, f.vnew, f.acc, f.vstart, reaction)
         state.reaction += reaction.sum(axis=0)

@@ -120,7 +120,7 @@ def particle_update(state) -> None:
     gwork = np.zeros(nc)
     bad = np.full(nc, -1, dtype=np.int64)
     code = np.zeros(nc, dtype=np.int64)
-    particle_update_kernel(sd.nodes, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, f.vnew, f.acc, f.vstart,
+    particle_update_kernel(state.field_index, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, f.vnew, f.acc, f.vstart,
                            f.vstar,
                            state.dt, state.scheme, P.x, P.v, P.B, P.mass, state.gravity, g.domain_lo, g.domain_hi,
                            nc, gwork, bad, code)

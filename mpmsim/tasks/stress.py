@@ -100,7 +100,7 @@ def _update_stress(state, dt, gvel) -> None:
     bad = np.full(nc, -1, dtype=np.int64)
     code = np.zeros(nc, dtype=np.int64)
     value = np.zeros(nc)
-    update_stress_kernel(sd.nodes, sd.G, gvel, dt, P.v, P.F, P.stress, P.vol, P.vol0, P.mat, m.type_code,
+    update_stress_kernel(state.field_index, sd.G, gvel, dt, P.v, P.F, P.stress, P.vol, P.vol0, P.mat, m.type_code,
                          m.props, m.density, nc, wave, bad, code, value)
     state.wave_max = float(wave.max())
     hits = np.nonzero(bad >= 0)[0]

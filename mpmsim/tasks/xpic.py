@@ -24,30 +24,28 @@ from __future__ import annotations
 
 from numba import njit, prange
 
-from ..gridops import box_node, box_size
+from ..gridops import node_ijk
 from .boundary import NO_BC, has_walls, mirror_ghosts, node_bc
 
 
 @njit(parallel=True, cache=True)
-def xpic_series(order_, ptr, nodes, S, pmass, lo, hi, shape, mass, vnew, vstart, filter_updated, m_order,
-                face_type, wall_index, rigid_vol, constrain, rig_vel, walls, dv, tmp, vstar):
+def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, n_box, shape, mass, vnew, vstart, filter_updated,
+                m_order, face_type, wall_index, rigid_vol, constrain, rig_vel, walls, dv, tmp, vstar):
+    """`nodes` are the particles' field indices (material slots at contact nodes)."""
     dim = vnew.shape[1]
-    nq = box_size(lo, hi)
+    nq = fields.size
     K = S.shape[1]
     n_slab = ptr.size - 1
     for q in prange(nq):
-        node, i, j, k = box_node(q, lo, hi, shape)
+        f = fields[q]
         for d in range(dim):
-            dv[node, d] = vnew[node, d] if filter_updated else vstart[node, d]
-    for q in prange(nq):
-        node, i, j, k = box_node(q, lo, hi, shape)
-        for d in range(dim):
-            vstar[node, d] = dv[node, d] if filter_updated else vnew[node, d]  # v0 + (v+ - v0)
+            dv[f, d] = vnew[f, d] if filter_updated else vstart[f, d]
+            vstar[f, d] = dv[f, d] if filter_updated else vnew[f, d]  # v0 + (v+ - v0)
     for ell in range(2, m_order + 1):
         for q in prange(nq):
-            node, i, j, k = box_node(q, lo, hi, shape)
+            f = fields[q]
             for d in range(dim):
-                tmp[node, d] = 0.0
+                tmp[f, d] = 0.0
         # tmp = sum_p m_p S_ip (S dv)_p: gather then scatter, slab by slab
         for color in range(2):
             for s in prange((n_slab - color + 1) // 2):
@@ -75,27 +73,29 @@ def xpic_series(order_, ptr, nodes, S, pmass, lo, hi, shape, mass, vnew, vstart,
                         if dim == 3:
                             tmp[node, 2] += wm * g2
         for q in prange(nq):
-            node, i, j, k = box_node(q, lo, hi, shape)
-            m = mass[node]
+            f = fields[q]
+            node = fnodes[q]
+            i, j, k = node_ijk(node, shape)
+            m = mass[f]
             for d in range(dim):
                 if m > 0.0:
                     owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
                                          rig_vel)
-                    inc = 0.0 if owner != NO_BC else dv[node, d] - tmp[node, d] / m
+                    inc = 0.0 if owner != NO_BC else dv[f, d] - tmp[f, d] / m
                 else:
                     inc = 0.0
-                dv[node, d] = inc
+                dv[f, d] = inc
         if walls:  # ghost components of the increment mirror their interior node
-            mirror_ghosts(lo, hi, shape, face_type, wall_index, rigid_vol, constrain, dv)
+            mirror_ghosts(fields[:n_box], shape, face_type, wall_index, rigid_vol, constrain, dv)
         for q in prange(nq):
-            node, i, j, k = box_node(q, lo, hi, shape)
+            f = fields[q]
             for d in range(dim):
-                vstar[node, d] += dv[node, d]
+                vstar[f, d] += dv[f, d]
 
 
 def xpic(state) -> None:
     f, g, box, sd = state.fields, state.grid, state.box, state.sd
     upd = state.scene.deck.update
-    xpic_series(box.order, box.ptr, sd.nodes, sd.S, state.particles.mass, box.lo, box.hi, box.shape, f.mass,
-                f.vnew, f.vstart, upd.scheme == "fmpm", upd.order, g.face_type, g.wall_index,
+    xpic_series(box.order, box.ptr, state.field_index, sd.S, state.particles.mass, box.fields, box.fnodes, box.n_box,
+                box.shape, f.mass, f.vnew, f.vstart, upd.scheme == "fmpm", upd.order, g.face_type, g.wall_index,
                 f.rigid_vol, state.materials.constrain, state.rigid_v_end, has_walls(state), f.dv, f.tmp, f.vstar)
