@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .contact import ContactState, build_contact_spec
 from .gridops import ActiveBox, n_threads
 from .materials import NEO_HOOKEAN, MaterialTable
 from .scene import Scene
@@ -67,6 +68,17 @@ class GridFields:
     vstar: np.ndarray  # (nn, dim) XPIC/FMPM filtered velocity; dv, tmp its scratch
     dv: np.ndarray
     tmp: np.ndarray
+
+    def ensure(self, n_fields: int) -> None:
+        """Grow the field arrays (material slots come after the nodes) to hold n_fields."""
+        if self.mass.shape[0] >= n_fields:
+            return
+        for name in ("mass", "mom", "force", "vel", "vnew", "acc", "vstart"):
+            old = getattr(self, name)
+            setattr(self, name, np.zeros((n_fields,) + old.shape[1:]))
+        if self.vstar.shape[0] > 1:  # XPIC/FMPM filter arrays exist
+            for name in ("vstar", "dv", "tmp"):
+                setattr(self, name, np.zeros((n_fields, self.vstar.shape[1])))
 
     @classmethod
     def allocate(cls, nn: int, dim: int, n_rigid: int, filtering: bool) -> "GridFields":
@@ -182,6 +194,9 @@ class State:
         state.rigid_disp = np.zeros((nr, dim))
         state.reaction = np.zeros((6 + nr, dim))
         state.energy0 = 0.5 * float(np.sum(mass[:, None] * particles.v**2))
+        spec = build_contact_spec(scene.deck, mats)
+        if spec is not None:
+            state.contact = ContactState.create(spec, state)
         modulus = np.where(mats.type_code == NEO_HOOKEAN, mats.props[:, 0] + 4 / 3 * mats.props[:, 1],
                            mats.props[:, 0] + 2 * mats.props[:, 1])
         c0 = np.sqrt(modulus / mats.density)

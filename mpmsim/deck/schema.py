@@ -49,10 +49,13 @@ class VelocityTable(Strict):
 
 
 class Rigid(Strict):
-    """Rigid material moving with a prescribed velocity. Its particles impose that velocity
-    on every grid node they touch (non-zero shape function), in the constrained directions."""
+    """Rigid material moving with a prescribed velocity. With `mode: bc` its particles impose
+    that velocity on every grid node they touch (non-zero shape function), in the constrained
+    directions. With `mode: contact` it acts only through contact (its own velocity field and
+    the contact law), like NairnMPM's rigid contact materials."""
 
     type: Literal["rigid"]
+    mode: Literal["bc", "contact"] = Field(default="bc", description="bc (velocity condition) or contact.")
     velocity: Vector | VelocityTable = Field(
         default_factory=lambda: [0.0, 0.0, 0.0],
         description="Constant velocity vector, or a table {times, values} (piecewise linear).",
@@ -64,6 +67,57 @@ class Rigid(Strict):
 
 
 Material = Annotated[Union[LinearElastic, NeoHookean, Rigid], Field(discriminator="type")]
+
+
+# --------------------------------------------------------------------------- contact
+class ContactLaw(Strict):
+    """A contact law: `stick` (bonded: always moves with the centre of mass, never separates),
+    `frictionless`, `coulomb` (kinetic `friction`, optional `static_friction`), or `none`
+    (perfect interface: the materials share one velocity field, exactly single-material MPM)."""
+
+    law: Literal["stick", "frictionless", "coulomb", "none"]
+    friction: float = Field(default=0.0, ge=0.0, description="Kinetic friction coefficient (coulomb).")
+    static_friction: float | None = Field(default=None, ge=0.0, description="Static coefficient (coulomb).")
+
+
+class ContactPair(ContactLaw):
+    between: list[str] = Field(min_length=2, max_length=2, description="Two material names.")
+
+
+class Contact(Strict):
+    """Multimaterial contact (LR paper). Used when two or more material groups meet; materials
+    joined by law `none` form one group (one velocity field)."""
+
+    passes: Literal[1, 2] = Field(
+        default=2, description="2: correct after extrapolation and after the momentum update (the "
+        "paper's method); 1: only after the update (the paper's 'LR once' comparison).")
+    normal: Literal["logistic_regression", "linear_regression", "average_gradient", "max_gradient",
+                    "max_volume", "specified"] = Field(default="logistic_regression", description="Normal method.")
+    normal_vector: Vector | None = Field(
+        default=None, description="For normal: specified; points from the lower-numbered material to the higher.")
+    rigid_bias: float = Field(
+        default=1.0, ge=1.0, description="Favour a rigid material's volume gradient as the normal "
+        "(gradient methods: bias factor; logistic regression: >= 10 uses the rigid gradient).")
+    separation: Literal["logistic_regression", "displacement", "cutoff", "fit", "velocity"] | None = Field(
+        default=None, description="Contact detection: logistic_regression (d_LR from the point cloud, "
+        "particle domains deformed by F), displacement (extrapolated displacements), cutoff (positions "
+        "minus cutoff x h, the CP method), fit (positions through the d(x) power law, DF), velocity "
+        "(approach only). Default: logistic_regression with LR normals, else displacement.")
+    cutoff: float = Field(default=0.8, gt=0.0, description="CP cutoff in cells (separation: cutoff).")
+    touch_tolerance: float = Field(
+        default=1e-3, ge=0.0, description="Surfaces closer than this (cells) count as touching. Flush, "
+        "compressed surfaces meet only to within round-off (d_LR ~ +1e-7 mm was seen), and a skipped "
+        "contact there kicks XPIC particles; 1e-3 cell shifts a contact onset by < 0.1% of typical times.")
+    fit_exponent: float = Field(
+        default=0.57, gt=0.0, description="DF exponent r in d = 2(|q|/1.25h)^r - 1 (separation: fit); "
+        "0.57 fits uGIMP with 2 particles per cell.")
+    default: ContactLaw = Field(default_factory=lambda: ContactLaw(law="frictionless"),
+                                description="Law for pairs not listed in `pairs`.")
+    pairs: list[ContactPair] = Field(default_factory=list, description="Laws for particular material pairs.")
+    xpic_contact_term: bool = Field(
+        default=True, description="Multimaterial XPIC(m) with the contact term of Eq. (37); false gives "
+        "the paper's 'uncorrected XPIC'.")
+    warm_start: bool = Field(default=False, description="Start logistic regression from the last step's fit.")
 
 
 # --------------------------------------------------------------------------- bodies
@@ -318,6 +372,7 @@ class Deck(Strict):
     bodies: list[Body] = Field(
         min_length=1, description="Bodies in order; a later body overwrites earlier ones where they overlap.")
     gravity: Vector | None = Field(default=None, description="Body acceleration vector.")
+    contact: Contact = Field(default_factory=Contact, description="Multimaterial contact settings.")
     time: Time
     update: Update = Field(default_factory=Update)
     output: Output = Field(default_factory=Output)

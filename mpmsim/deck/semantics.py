@@ -81,6 +81,9 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
 
     if not any(not isinstance(m, Rigid) for m in deck.materials.values()):
         add(["materials"], "at least one deformable (non-rigid) material is needed")
+    from ..contact.spec import check_contact  # contact imports the deck schema
+
+    problems += check_contact(deck, [n for n, m in deck.materials.items() if not isinstance(m, Rigid)])
 
     # bodies
     for i, body in enumerate(deck.bodies):

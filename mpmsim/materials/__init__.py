@@ -89,6 +89,8 @@ def build_material_table(deck: Deck) -> MaterialTable:
             v[: min(dim, len(m.velocity))] = m.velocity[:dim]
             motion = RigidMotion(np.array([0.0]), v[None, :])
         motions.append(motion)
+        if m.mode == "contact":  # acts only through contact: constrains no node
+            continue
         axes = m.constrain if m.constrain is not None else list("xyz"[:dim])
         for a in axes:
             constrain[k, "xyz".index(a)] = True

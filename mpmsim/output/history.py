@@ -32,7 +32,7 @@ class History:
         stress_cols = STRESS_NAMES[:4] if dim == 2 else STRESS_NAMES
         self._stress_idx = [STRESS_NAMES.index(s) for s in stress_cols]
         self.columns += [(s, u.stress) for s in stress_cols]
-        self.columns += [("kinetic_energy", u.energy), ("strain_energy", u.energy)]
+        self.columns += [("kinetic_energy", u.energy), ("strain_energy", u.energy), ("external_work", u.energy)]
         self.columns += [(f"p{a}", u.momentum.split(" (")[0]) for a in axes]
         self.columns += [("velocity_noise", "-")]
         self._faces = [f for f, t in zip(FACES[: 2 * dim], state.grid.face_type[: 2 * dim]) if t != 0]
@@ -51,7 +51,7 @@ class History:
         s = particle_sums(state)
         row = [state.t, state.step, state.dt]
         row += [s[i] / s[VOLUME] for i in self._stress_idx]
-        row += [s[KINETIC], s[STRAIN]]
+        row += [s[KINETIC], s[STRAIN], state.work_in]
         row += list(s[MOMENTUM][: state.dim])
         row.append(velocity_noise(state))
         face_index = {f: i for i, f in enumerate(FACES)}

@@ -9,7 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .extrapolate import extrapolate
+from ..contact import contact_pass_1, contact_pass_2, contact_pass_3, material_fields
+from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
 from .grid_update import grid_update
 from .particle_update import move_rigid, particle_update
@@ -17,6 +18,7 @@ from .setup import compute_shape_functions, set_time_step
 from .stability import check_stability
 from .stress import update_stress_first, update_stress_last
 from .xpic import xpic
+from ..contact.spec import build_contact_spec
 
 
 @dataclass(frozen=True)
@@ -24,6 +26,12 @@ class Task:
     name: str
     run: Callable
     why: str
+
+
+def describe_separation(deck) -> str:
+    c = deck.contact
+    sep = c.separation or ("logistic_regression" if c.normal == "logistic_regression" else "displacement")
+    return f"{sep} separation" + (f" (cutoff {c.cutoff:g})" if sep == "cutoff" else "")
 
 
 def build_task_list(scene) -> list[Task]:
@@ -37,15 +45,24 @@ def build_task_list(scene) -> list[Task]:
              f"fixed dt = {deck.time.dt:g}" if deck.time.dt else "CFL rule on current wave speeds, every step"),
         Task("shape functions", compute_shape_functions,
              f"{deck.shape_function} weights and the active node box"),
-        Task("extrapolate", extrapolate,
-             "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")),
     ]
+    contact = build_contact_spec(deck, scene.materials)
+    if contact is not None:
+        tasks.append(Task("material fields", material_fields,
+                          f"{contact.n_groups} material groups: own velocity fields where they meet"))
+    tasks.append(Task("extrapolate", extrapolate,
+                      "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")))
+    if contact is not None and contact.passes == 2:
+        tasks.append(Task("contact pass 1", contact_pass_1,
+                          f"{deck.contact.normal} normals, {describe_separation(deck)}: correct the extrapolation"))
     if upd.stress in ("usf", "usavg"):
         tasks.append(Task("update stress first", update_stress_first,
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"))
     tasks.append(Task("forces", forces, "internal forces" + (" and gravity" if deck.gravity and any(deck.gravity) else "")))
     bc = ", ".join(faces + [f"rigid '{r}'" for r in scene.materials.rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
+    if contact is not None:
+        tasks.append(Task("contact pass 2", contact_pass_2, "contact laws on the updated momenta: contact forces"))
     if upd.scheme in ("xpic", "fmpm"):
         what = "start-of-step" if upd.scheme == "xpic" else "updated"
         tasks.append(Task("xpic", xpic, f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
@@ -54,6 +71,10 @@ def build_task_list(scene) -> list[Task]:
     tasks.append(Task("particle update", particle_update, f"{name} velocity and position update"))
     if n_rigid:
         tasks.append(Task("move rigid", move_rigid, "rigid materials follow their prescribed velocity"))
+    if upd.stress in ("usl", "usavg") and upd.reextrapolate:
+        tasks.append(Task("re-extrapolate", reextrapolate, "momenta from the updated particles (usl+/usavg+)"))
+        if contact is not None:
+            tasks.append(Task("contact pass 3", contact_pass_3, "contact laws on the re-extrapolated momenta"))
     if upd.stress in ("usl", "usavg"):
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
         tasks.append(Task("update stress last", update_stress_last,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np  # noqa: F401  (numba kernels use np)
 from numba import njit, prange
 
+from ..contact import extrapolate_contact
 from ..gridops import chunk_range, zero_fields
 from ..materials.kernels import inv3
 
@@ -110,14 +111,19 @@ def extrapolate(state) -> None:
     zero_fields(box.fields, f.mass.reshape(-1, 1))
     zero_fields(box.fields, f.mom)
     _scatter_momentum(state, with_mass=True)
+    if state.contact is not None:
+        extrapolate_contact(state, with_mass=True)
     if state.rigid.n:
         zero_fields(box.fields[: box.n_box], f.rigid_vol)
         R = state.rigid
         p2g_rigid_volume(state.rigid_sd.nodes, state.rigid_sd.S, R.vol, R.mat, f.rigid_vol)
 
 
-def reextrapolate_momentum(state) -> None:
+def reextrapolate(state) -> None:
+    """USL+/USAVG+: momenta from the updated particle velocities (masses kept)."""
     f, box = state.fields, state.box
     zero_fields(box.fields, f.mom)
     _scatter_momentum(state, with_mass=False)
+    if state.contact is not None:
+        extrapolate_contact(state, with_mass=False)
 

@@ -14,7 +14,8 @@ import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range, node_ijk
-from .boundary import NO_BC, RIGID_OWNER, ghost_mirror, has_walls, node_bc, rigid_holds
+from ..bc import NO_BC, RIGID_OWNER, ghost_mirror, node_bc, rigid_holds
+from .boundary import has_walls
 
 
 @njit(parallel=True, cache=True)

@@ -13,7 +13,6 @@ from numba import njit, prange
 from ..gridops import chunk_range
 from ..materials.kernels import constitutive_update, det3
 from .boundary import set_grid_velocity
-from .extrapolate import reextrapolate_momentum
 
 BAD_NONE = 0
 BAD_NAN = 1
@@ -94,7 +93,7 @@ def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, co
 
 
 def _update_stress(state, dt, gvel) -> None:
-    P, f, m, sd = state.particles, state.fields, state.materials, state.sd
+    P, m, sd = state.particles, state.materials, state.sd
     nc = state.nchunk
     wave = np.zeros(nc)
     bad = np.full(nc, -1, dtype=np.int64)
@@ -120,13 +119,12 @@ def update_stress_first(state) -> None:
 
 
 def update_stress_last(state) -> None:
-    """USL/USAVG. Default ("+"): re-extrapolate momenta from the updated particles (mass
-    kept), impose velocity conditions at the step's end, then update. With
-    `update.reextrapolate: false` ("-"): use the updated grid velocity v+ directly, so the
+    """USL/USAVG. Default ("+"): from the momenta the re-extrapolate task rebuilt (and contact
+    pass 3 corrected), with velocity conditions at the step's end. With
+    `update.reextrapolate: false` ("-"): from the updated grid velocity v+ directly, so the
     stress and the FLIP position update integrate the same grid field (much less FLIP
     ringing in long compressions; docs/stability.md)."""
     if state.scene.deck.update.reextrapolate:
-        reextrapolate_momentum(state)
         set_grid_velocity(state, state.rigid_v_end)
         gvel = state.fields.vel
     else:

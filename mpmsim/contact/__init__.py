@@ -1,0 +1,159 @@
+"""Multimaterial contact: material fields where groups meet, and the three contact passes.
+
+Tasks (in step order): `material_fields` after the shape functions, `contact_pass_1` after
+extrapolation, `contact_pass_2` after the grid update, `contact_pass_3` after the
+re-extrapolation of USL+/USAVG+. Scenes with one velocity field have no ContactState and none
+of these tasks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
+                     scatter_rigid_slots, scatter_slot_extras)
+from .passes import contact_pass_1 as _pass_1
+from .passes import contact_pass_2 as _pass_2
+from .passes import contact_pass_3 as _pass_3
+from .spec import ContactSpec, build_contact_spec
+
+__all__ = ["ContactState", "build_contact_spec", "material_fields", "contact_pass_1", "contact_pass_2",
+           "contact_pass_3", "extrapolate_contact"]
+
+
+@dataclass
+class ContactState:
+    spec: ContactSpec
+    group: np.ndarray  # (n,) group of each deformable particle
+    rgroup: np.ndarray  # (n_rigid_particles,) group of each rigid particle (-1: velocity-condition rigid)
+    mask: np.ndarray  # (n_nodes,) uint64 groups touching each node
+    node_cn: np.ndarray  # (n_nodes,) contact-node index or -1
+    fidx: np.ndarray  # (n, K) field of each deformable particle-node entry
+    rfidx: np.ndarray  # (n_rigid_particles, K) slot of each rigid entry, -1 off contact nodes
+    warm_phi: np.ndarray  # (n_nodes, G, 4) last logistic fit per node and group (warm start only)
+    n_cn: int = 0
+    n_slots: int = 0
+    cap: int = 0
+    cloud_ptr: np.ndarray = None
+    cloud_idx: np.ndarray = None
+
+    def ensure(self, n_cn: int, n_slots: int, dim: int) -> None:
+        """Grow the per-contact-node and per-slot arrays (doubling) to hold this step."""
+        if n_slots <= self.cap and n_cn < self.cn_nodes.size:
+            return
+        cap = max(64, 2 * n_slots)
+        z = np.zeros
+        self.cap = cap
+        self.cn_nodes = z(cap, dtype=np.int64)
+        self.cn_ptr = z(cap + 1, dtype=np.int64)
+        self.slot_group = z(cap, dtype=np.int64)
+        self.slot_node = z(cap, dtype=np.int64)
+        self.vol, self.delta, self.area = z(cap), z(cap), z(cap)
+        self.disp, self.pos, self.grad, self.dp1, self.normal = (z((cap, dim)) for _ in range(5))
+        self.stick2, self.applied2, self.stick_total, self.applied_total = (z((cap, dim)) for _ in range(4))
+        self.delta2 = z(cap)
+        self.contact2 = z(cap, dtype=np.int64)
+        self.role = z(cap, dtype=np.int64)
+        self.partner = z(cap, dtype=np.int64)
+        self.law = z(cap, dtype=np.int64)
+        self.mu, self.mus = z(cap), z(cap)
+
+    @classmethod
+    def create(cls, spec: ContactSpec, state) -> "ContactState":
+        P, R = state.particles, state.rigid
+        nn = state.grid.n_nodes
+        K = state.sd.S.shape[1]
+        cs = cls(spec, spec.mat_group[P.mat], spec.rigid_group[R.mat] if R.n else np.zeros(0, dtype=np.int64),
+                 np.zeros(nn, dtype=np.uint64), np.full(nn, -1, dtype=np.int64), np.zeros((P.n, K), dtype=np.int64),
+                 np.full((R.n, K), -1, dtype=np.int64),
+                 np.zeros((nn, spec.n_groups, 4) if spec.warm_start else (1, 1, 4)))
+        cs.cn_nodes = np.zeros(0, dtype=np.int64)
+        cs.ensure(1, 1, state.dim)
+        return cs
+
+
+def material_fields(state) -> None:
+    """Find the contact nodes, give each group there its own slot, point particle entries at
+    their fields, extend the step's active fields, build point clouds (notes §0, §2.1)."""
+    cs, box, sd, rsd = state.contact, state.box, state.sd, state.rigid_sd
+    nn = state.grid.n_nodes
+    box_nodes = box.fields[: box.n_box].copy()
+    cs.mask[box_nodes] = 0
+    scatter_group_masks(box.order, box.ptr, sd.nodes, sd.S, cs.group, cs.mask)
+    if state.rigid.n:
+        scatter_rigid_masks(rsd.nodes, rsd.S, cs.rgroup, cs.mask)
+    n_cn, n_slots = count_slots(box_nodes, cs.mask)
+    cs.ensure(n_cn, n_slots, state.dim)
+    state.fields.ensure(nn + cs.cap)
+    build_slots(box_nodes, cs.mask, cs.node_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, cs.slot_node)
+    cs.n_cn, cs.n_slots = n_cn, n_slots
+    assign_fields(sd.nodes, sd.S, cs.group, cs.node_cn, cs.cn_ptr, cs.slot_group, nn, True, cs.fidx)
+    if state.rigid.n:
+        assign_fields(rsd.nodes, rsd.S, cs.rgroup, cs.node_cn, cs.cn_ptr, cs.slot_group, nn, False, cs.rfidx)
+    slots = np.arange(n_slots)
+    box.fields = np.concatenate([box_nodes, nn + slots])
+    box.fnodes = np.concatenate([box_nodes, cs.slot_node[:n_slots]])
+    box.skip = np.concatenate([np.zeros(box.n_box, dtype=np.bool_),
+                               cs.slot_group[:n_slots] >= cs.spec.n_def_groups])
+    if cs.spec.needs_cloud:
+        ptr = np.zeros(n_cn + 1, dtype=np.int64)
+        build_clouds(sd.nodes, sd.S, rsd.nodes, rsd.S, cs.rgroup, cs.node_cn, n_cn, state.particles.n, ptr,
+                     np.zeros(0, dtype=np.int64), False)
+        idx = np.zeros(ptr[-1], dtype=np.int64)
+        build_clouds(sd.nodes, sd.S, rsd.nodes, rsd.S, cs.rgroup, cs.node_cn, n_cn, state.particles.n, ptr, idx, True)
+        cs.cloud_ptr, cs.cloud_idx = ptr, idx
+    else:
+        cs.cloud_ptr, cs.cloud_idx = np.zeros(n_cn + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+
+
+def extrapolate_contact(state, with_mass: bool) -> None:
+    """Slot quantities the contact methods need: contact volumes, displacements or positions,
+    volume gradients; rigid contact materials' volume and momentum in their slots."""
+    cs, spec, box, sd = state.contact, state.contact.spec, state.box, state.sd
+    P, R, f = state.particles, state.rigid, state.fields
+    nn, ns = state.grid.n_nodes, cs.n_slots
+    if with_mass:
+        for arr in (cs.vol, cs.disp, cs.pos, cs.grad):
+            arr[:ns] = 0.0
+        scatter_slot_extras(box.order, box.ptr, cs.fidx, sd.S, sd.G, P.mass, P.vol, P.x, P.x0, nn,
+                            spec.needs_displacement, spec.needs_position, spec.needs_gradients, cs.vol, cs.disp,
+                            cs.pos, cs.grad)
+    if R.n:
+        scatter_rigid_slots(cs.rfidx, state.rigid_sd.S, state.rigid_sd.G, R.vol, R.v, R.x, R.x0, nn, with_mass,
+                            spec.needs_displacement, spec.needs_position, spec.needs_gradients, f.mass, f.mom, cs.vol,
+                            cs.disp, cs.pos, cs.grad)
+
+
+def contact_pass_1(state) -> None:
+    cs, spec, g, f = state.contact, state.contact.spec, state.grid, state.fields
+    spline = state.shape.grid_kind >= 2  # B-spline grid functions weight the area with the spline
+    _pass_1(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, g.n_nodes, g.shape, g.origin, g.h,
+            float(g.h.min()), f.mass, f.mom, cs.vol, cs.disp, cs.pos, cs.grad, cs.cloud_ptr, cs.cloud_idx, cs.group,
+            cs.rgroup, state.particles.n, state.particles.x, state.rigid.x, state.particles.F, state.scene.semi_size,
+            spec.law, spec.mu, spec.mu_static, spec.normal, spec.separation, spec.normal_vector, spec.rigid_bias,
+            spec.cutoff, spec.fit_exponent, spline, spec.warm_start, cs.warm_phi, touch_length(state), state.nchunk,
+            cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.law, cs.mu, cs.mus, cs.dp1)
+
+
+def touch_length(state) -> float:
+    return state.contact.spec.touch * float(state.grid.h.min())
+
+
+def contact_pass_2(state) -> None:
+    cs, spec, g, f = state.contact, state.contact.spec, state.grid, state.fields
+    reaction = np.zeros((state.nchunk, max(state.n_rigid_materials, 1), state.dim))
+    _pass_2(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, spec.rigid_of_group, g.n_nodes,
+            g.shape, state.dt, f.mass, f.vnew, f.acc, g.face_type, g.wall_index, f.rigid_vol, state.materials.constrain,
+            state.rigid_v_end, spec.separation, cs.role, cs.partner, cs.normal, cs.delta, cs.law, cs.mu, cs.mus,
+            touch_length(state), state.nchunk, reaction, cs.stick2, cs.applied2, cs.delta2, cs.contact2)
+    if state.n_rigid_materials:
+        state.reaction[6:] += reaction.sum(axis=0)[: state.n_rigid_materials]
+
+
+def contact_pass_3(state) -> None:
+    cs, spec, f = state.contact, state.contact.spec, state.fields
+    _pass_3(cs.n_cn, cs.cn_ptr, cs.slot_group, spec.n_def_groups, state.grid.n_nodes, f.mass, f.mom, cs.role,
+            cs.partner, cs.normal, cs.contact2, cs.law, cs.mu, cs.mus, state.nchunk)
+

@@ -1,0 +1,209 @@
+"""Material velocity fields where groups meet (notes §0, §2.1), rebuilt every step.
+
+1. Each node collects the set of groups whose particles touch it (non-zero weight) as a
+   64-bit mask.
+2. Nodes with two or more groups are *contact nodes*; each gets one slot per group, stored
+   after the regular nodes: slot s is field n_nodes + s. A sparse list, so scenes pay for
+   contact only where materials meet.
+3. Each particle-node entry gets its field: the node, or its group's slot at contact nodes.
+4. For point-cloud methods, each contact node lists the particles that touch it (CSR);
+   rigid contact particles are numbered after the deformable ones.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+ONE = np.uint64(1)
+
+
+@njit(parallel=True, cache=True)
+def scatter_group_masks(order, ptr, nodes, S, group, mask):
+    n_slab = ptr.size - 1
+    K = S.shape[1]
+    for color in range(2):
+        for s in prange((n_slab - color + 1) // 2):
+            slab = color + 2 * s
+            for q in range(ptr[slab], ptr[slab + 1]):
+                p = order[q]
+                bit = ONE << np.uint64(group[p])
+                for k in range(K):
+                    if S[p, k] > 0.0:
+                        mask[nodes[p, k]] |= bit
+
+
+@njit(cache=True)
+def scatter_rigid_masks(nodes, S, group, mask):
+    n, K = S.shape
+    for p in range(n):
+        g = group[p]
+        if g < 0:
+            continue
+        bit = ONE << np.uint64(g)
+        for k in range(K):
+            if S[p, k] > 0.0:
+                mask[nodes[p, k]] |= bit
+
+
+@njit(cache=True, inline="always")
+def popcount(m):
+    c = 0
+    while m != np.uint64(0):
+        m &= m - ONE
+        c += 1
+    return c
+
+
+@njit(cache=True)
+def count_slots(box_nodes, mask):
+    n_cn = 0
+    n_slots = 0
+    for q in range(box_nodes.size):
+        c = popcount(mask[box_nodes[q]])
+        if c >= 2:
+            n_cn += 1
+            n_slots += c
+    return n_cn, n_slots
+
+
+@njit(cache=True)
+def build_slots(box_nodes, mask, node_cn, cn_nodes, cn_ptr, slot_group, slot_node):
+    """Number contact nodes and their slots (groups in increasing order)."""
+    c = 0
+    s = 0
+    cn_ptr[0] = 0
+    for q in range(box_nodes.size):
+        node = box_nodes[q]
+        m = mask[node]
+        if popcount(m) < 2:
+            node_cn[node] = -1
+            continue
+        node_cn[node] = c
+        cn_nodes[c] = node
+        g = 0
+        while m != np.uint64(0):
+            if m & ONE:
+                slot_group[s] = g
+                slot_node[s] = node
+                s += 1
+            m >>= ONE
+            g += 1
+        c += 1
+        cn_ptr[c] = s
+
+
+@njit(parallel=True, cache=True)
+def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx):
+    """fidx = n_nodes + the slot of the particle's group at contact nodes; elsewhere the node
+    itself (keep_nodes, deformable particles) or -1 (rigid contact particles live only in
+    slots; rigid velocity-condition particles have group -1 and no fields)."""
+    n, K = S.shape
+    for p in prange(n):
+        g = group[p]
+        for k in range(K):
+            node = nodes[p, k]
+            f = node if keep_nodes else -1
+            c = node_cn[node]
+            if c >= 0 and g >= 0:
+                for s in range(cn_ptr[c], cn_ptr[c + 1]):
+                    if slot_group[s] == g:
+                        f = n_nodes + s
+                        break
+            fidx[p, k] = f
+
+
+@njit(cache=True)
+def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, ptr, idx, fill):
+    """CSR of the particles touching each contact node. With fill=False only counts
+    (ptr[c + 1] = count); call again with fill=True after the prefix sum."""
+    n, K = S.shape
+    if not fill:
+        for c in range(n_cn + 1):
+            ptr[c] = 0
+    else:
+        cursor = ptr[:-1].copy()
+    for p in range(n):
+        for k in range(K):
+            if S[p, k] > 0.0:
+                c = node_cn[nodes[p, k]]
+                if c >= 0:
+                    if fill:
+                        idx[cursor[c]] = p
+                        cursor[c] += 1
+                    else:
+                        ptr[c + 1] += 1
+    for r in range(rS.shape[0]):
+        if rgroup[r] < 0:
+            continue
+        for k in range(rS.shape[1]):
+            if rS[r, k] > 0.0:
+                c = node_cn[rnodes[r, k]]
+                if c >= 0:
+                    if fill:
+                        idx[cursor[c]] = n_def + r
+                        cursor[c] += 1
+                    else:
+                        ptr[c + 1] += 1
+    if not fill:
+        for c in range(n_cn):
+            ptr[c + 1] += ptr[c]
+
+
+@njit(parallel=True, cache=True)
+def scatter_slot_extras(order, ptr, fidx, S, G, pmass, pvol, x, x0, n_nodes, want_disp, want_pos, want_grad,
+                        vol, disp, pos, grad):
+    """Per-slot contact volume sum S V, and when asked mass-weighted displacement and position
+    and the volume gradient sum G V (deformable particles; slab-parallel)."""
+    n_slab = ptr.size - 1
+    K = S.shape[1]
+    dim = x.shape[1]
+    for color in range(2):
+        for s in prange((n_slab - color + 1) // 2):
+            slab = color + 2 * s
+            for q in range(ptr[slab], ptr[slab + 1]):
+                p = order[q]
+                for k in range(K):
+                    f = fidx[p, k]
+                    if f < n_nodes:
+                        continue
+                    sl = f - n_nodes
+                    w = S[p, k]
+                    vol[sl] += w * pvol[p]
+                    for d in range(dim):
+                        if want_disp:
+                            disp[sl, d] += w * pmass[p] * (x[p, d] - x0[p, d])
+                        if want_pos:
+                            pos[sl, d] += w * pmass[p] * x[p, d]
+                        if want_grad:
+                            grad[sl, d] += G[p, k, d] * pvol[p]
+
+
+@njit(cache=True)
+def scatter_rigid_slots(fidx, S, G, rvol, rv, rx, rx0, n_nodes, with_mass, want_disp, want_pos, want_grad, mass, mom,
+                        vol, disp, pos, grad):
+    """Rigid contact particles fill their slots with volume-weighted quantities: the slot's
+    'mass' is sum S V and its momentum sum S V v, so p/m is the rigid velocity (notes §0).
+    Without with_mass (re-extrapolation) only the momentum is added."""
+    n, K = S.shape
+    dim = rx.shape[1]
+    for p in range(n):
+        for k in range(K):
+            f = fidx[p, k]
+            if f < n_nodes:
+                continue
+            sl = f - n_nodes
+            w = S[p, k] * rvol[p]
+            for d in range(dim):
+                mom[f, d] += w * rv[p, d]
+            if not with_mass:
+                continue
+            mass[f] += w
+            vol[sl] += w
+            for d in range(dim):
+                if want_disp:
+                    disp[sl, d] += w * (rx[p, d] - rx0[p, d])
+                if want_pos:
+                    pos[sl, d] += w * rx[p, d]
+                if want_grad:
+                    grad[sl, d] += G[p, k, d] * rvol[p]

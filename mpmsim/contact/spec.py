@@ -1,0 +1,172 @@
+"""From the deck to what the contact kernels need: material groups, a group law table, and
+method codes.
+
+A *group* is one velocity field. Deformable materials joined by law `none` (perfect
+interface, "the same body") form one group; every rigid contact material is a group of its
+own. Contact work happens only where two or more groups meet.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..deck.schema import Deck, Rigid
+
+STICK, FRICTIONLESS, COULOMB = 0, 1, 2
+LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK}
+
+LOGISTIC, LINEAR_REGRESSION, AVERAGE_GRADIENT, MAX_GRADIENT, MAX_VOLUME, SPECIFIED = range(6)
+NORMAL_CODES = {"logistic_regression": LOGISTIC, "linear_regression": LINEAR_REGRESSION,
+                "average_gradient": AVERAGE_GRADIENT, "max_gradient": MAX_GRADIENT, "max_volume": MAX_VOLUME,
+                "specified": SPECIFIED}
+SEP_LR, SEP_DISPLACEMENT, SEP_CUTOFF, SEP_FIT, SEP_VELOCITY = range(5)
+SEPARATION_CODES = {"logistic_regression": SEP_LR, "displacement": SEP_DISPLACEMENT, "cutoff": SEP_CUTOFF,
+                    "fit": SEP_FIT, "velocity": SEP_VELOCITY}
+MAX_GROUPS = 64  # node group sets are 64-bit masks
+
+
+@dataclass
+class ContactSpec:
+    n_groups: int
+    n_def_groups: int  # deformable groups are 0..n_def_groups-1, rigid contact groups follow
+    mat_group: np.ndarray  # (n_deformable_materials,) group of each deformable material
+    rigid_group: np.ndarray  # (n_rigid_materials,) group of each rigid material, -1 for velocity-BC ones
+    rigid_of_group: np.ndarray  # (n_groups,) rigid material index of a rigid group, -1 otherwise
+    law: np.ndarray  # (G, G) law code
+    mu: np.ndarray  # (G, G) kinetic friction
+    mu_static: np.ndarray  # (G, G) static friction, -1 when not given
+    normal: int
+    separation: int
+    normal_vector: np.ndarray  # (3,)
+    rigid_bias: float
+    cutoff: float
+    touch: float  # touching tolerance, cells
+    fit_exponent: float
+    passes: int
+    xpic_term: bool
+    warm_start: bool
+    group_names: list[str]
+
+    @property
+    def needs_gradients(self) -> bool:
+        return self.normal in (AVERAGE_GRADIENT, MAX_GRADIENT, MAX_VOLUME) or (
+            self.normal == LOGISTIC and self.rigid_bias >= 10.0)
+
+    @property
+    def needs_cloud(self) -> bool:
+        return self.normal in (LOGISTIC, LINEAR_REGRESSION) or self.separation == SEP_LR
+
+    @property
+    def needs_displacement(self) -> bool:
+        return self.separation == SEP_DISPLACEMENT
+
+    @property
+    def needs_position(self) -> bool:
+        return self.separation in (SEP_CUTOFF, SEP_FIT)
+
+
+def _find(parent, a):
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+def material_groups(deck: Deck, deformable: list[str]) -> list[int]:
+    """Group index per deformable material: union of the pairs whose law is `none`."""
+    c = deck.contact
+    parent = list(range(len(deformable)))
+    if c.default.law == "none":
+        parent = [0] * len(deformable)
+    for pair in c.pairs:
+        a, b = pair.between
+        if pair.law == "none" and a in deformable and b in deformable:
+            ra, rb = _find(parent, deformable.index(a)), _find(parent, deformable.index(b))
+            parent[ra] = rb
+    roots = [_find(parent, i) for i in range(len(deformable))]
+    order = sorted(set(roots), key=roots.index)
+    return [order.index(r) for r in roots]
+
+
+def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
+    """None when the scene has a single velocity field (nothing to contact)."""
+    c = deck.contact
+    groups = material_groups(deck, materials.deformable)
+    n_def = max(groups) + 1 if groups else 0
+    rigid_group = np.full(len(materials.rigid), -1, dtype=np.int64)
+    names = ["+".join(m for m, g in zip(materials.deformable, groups) if g == k) for k in range(n_def)]
+    for r, name in enumerate(materials.rigid):
+        m = deck.materials[name]
+        if isinstance(m, Rigid) and m.mode == "contact":
+            rigid_group[r] = n_def + int((rigid_group >= 0).sum())
+            names.append(name)
+    n_groups = len(names)
+    if n_groups < 2:
+        return None
+    rigid_of_group = np.full(n_groups, -1, dtype=np.int64)
+    for r, g in enumerate(rigid_group):
+        if g >= 0:
+            rigid_of_group[g] = r
+    group_of = {m: g for m, g in zip(materials.deformable, groups)}
+    group_of.update({m: int(g) for m, g in zip(materials.rigid, rigid_group) if g >= 0})
+    law = np.full((n_groups, n_groups), LAW_CODES[c.default.law], dtype=np.int64)
+    mu = np.full((n_groups, n_groups), c.default.friction)
+    mus = np.full((n_groups, n_groups), -1.0 if c.default.static_friction is None else c.default.static_friction)
+    for pair in c.pairs:
+        a, b = (group_of[m] for m in pair.between)
+        for i, j in ((a, b), (b, a)):
+            law[i, j] = LAW_CODES[pair.law]
+            mu[i, j] = pair.friction
+            mus[i, j] = -1.0 if pair.static_friction is None else pair.static_friction
+    sep = c.separation or ("logistic_regression" if c.normal == "logistic_regression" else "displacement")
+    nv = np.zeros(3)
+    if c.normal_vector is not None:
+        nv[: len(c.normal_vector)] = c.normal_vector
+        nv /= np.linalg.norm(nv)
+    return ContactSpec(n_groups, n_def, np.array(groups, dtype=np.int64), rigid_group, rigid_of_group, law, mu, mus,
+                       NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff, c.touch_tolerance,
+                       c.fit_exponent,
+                       c.passes, c.xpic_contact_term, c.warm_start,
+                       names)
+
+
+def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
+    """Deck problems in the contact block (called by the deck semantics)."""
+    problems = []
+    c = deck.contact
+    for i, pair in enumerate(c.pairs):
+        for j, m in enumerate(pair.between):
+            if m not in deck.materials:
+                problems.append((("contact", "pairs", i, "between", j), f"no material named '{m}'"))
+        if len(set(pair.between)) == 1:
+            problems.append((("contact", "pairs", i, "between"), "a pair needs two different materials"))
+    if problems:
+        return problems
+    if c.normal == "specified":
+        if c.normal_vector is None:
+            problems.append((("contact", "normal_vector"), "normal: specified needs normal_vector"))
+        elif len(c.normal_vector) != deck.dim or not any(c.normal_vector):
+            problems.append((("contact", "normal_vector"), f"needs {deck.dim} components, not all zero"))
+    # materials merged by `none` must not disagree about a third material's law
+    groups = material_groups(deck, deformable)
+    n_rigid_contact = sum(1 for m in deck.materials.values() if isinstance(m, Rigid) and m.mode == "contact")
+    if (max(groups) + 1 if groups else 0) + n_rigid_contact > MAX_GROUPS:
+        problems.append((("materials",), f"at most {MAX_GROUPS} contact groups (materials not joined by law none)"))
+    seen: dict[tuple, tuple] = {}
+    group_of = dict(zip(deformable, groups))
+    for i, pair in enumerate(c.pairs):
+        a, b = pair.between
+        if pair.law == "none" or a not in group_of or b not in group_of:
+            continue
+        key = tuple(sorted((group_of[a], group_of[b])))
+        val = (pair.law, pair.friction, pair.static_friction)
+        if key[0] == key[1]:
+            problems.append((("contact", "pairs", i), f"'{a}' and '{b}' are one body (joined by law none); "
+                                                      "they cannot also have a contact law"))
+        elif key in seen and seen[key][1] != val:
+            problems.append((("contact", "pairs", i), f"conflicts with pairs {seen[key][0]}: materials joined by "
+                                                      "law none must share one law with each other material"))
+        seen.setdefault(key, (i, val))
+    return problems
