@@ -138,6 +138,7 @@ class State:
     work_in: float = 0.0  # signed work done on the material by walls, rigid materials, gravity
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)
     flags: StepFlags = field(default_factory=StepFlags)
+    particle_bounds: tuple = ()  # (lo, hi): where particle centres may go (GridSpec.particle_bounds)
     _noise_scratch: tuple | None = None  # shape data and grid arrays for the noise metric
     contact: object = None  # mpmsim.contact.ContactState for scenes where materials meet
 
@@ -193,6 +194,7 @@ class State:
         state.rigid_v_end = state.rigid_v_start.copy()
         state.rigid_disp = np.zeros((nr, dim))
         state.reaction = np.zeros((6 + nr, dim))
+        state.particle_bounds = scene.grid.particle_bounds
         state.energy0 = 0.5 * float(np.sum(mass[:, None] * particles.v**2))
         spec = build_contact_spec(scene.deck, mats)
         if spec is not None:

@@ -1,7 +1,7 @@
 """Multimaterial contact: material fields where groups meet, and the three contact passes.
 
-Tasks (in step order): `material_fields` after the shape functions, `contact_pass_1` after
-extrapolation, `contact_pass_2` after the grid update, `contact_pass_3` after the
+Tasks (in step order): `material_fields` after the shape functions, `contact_geometry` and
+`contact_pass_1` after extrapolation, `contact_pass_2` after the grid update, `contact_pass_3` after the
 re-extrapolation of USL+/USAVG+. Scenes with one velocity field have no ContactState and none
 of these tasks.
 """
@@ -14,12 +14,13 @@ import numpy as np
 
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras)
+from .passes import contact_geometry as _geometry
 from .passes import contact_pass_1 as _pass_1
 from .passes import contact_pass_2 as _pass_2
 from .passes import contact_pass_3 as _pass_3
 from .spec import ContactSpec, build_contact_spec
 
-__all__ = ["ContactState", "build_contact_spec", "material_fields", "contact_pass_1", "contact_pass_2",
+__all__ = ["ContactState", "build_contact_spec", "material_fields", "contact_geometry", "contact_pass_1", "contact_pass_2",
            "contact_pass_3", "extrapolate_contact"]
 
 
@@ -38,6 +39,7 @@ class ContactState:
     cap: int = 0
     cloud_ptr: np.ndarray = None
     cloud_idx: np.ndarray = None
+    cloud_w: np.ndarray = None
 
     def ensure(self, n_cn: int, n_slots: int, dim: int) -> None:
         """Grow the per-contact-node and per-slot arrays (doubling) to hold this step."""
@@ -99,13 +101,17 @@ def material_fields(state) -> None:
                                cs.slot_group[:n_slots] >= cs.spec.n_def_groups])
     if cs.spec.needs_cloud:
         ptr = np.zeros(n_cn + 1, dtype=np.int64)
-        build_clouds(sd.nodes, sd.S, rsd.nodes, rsd.S, cs.rgroup, cs.node_cn, n_cn, state.particles.n, ptr,
-                     np.zeros(0, dtype=np.int64), False)
-        idx = np.zeros(ptr[-1], dtype=np.int64)
-        build_clouds(sd.nodes, sd.S, rsd.nodes, rsd.S, cs.rgroup, cs.node_cn, n_cn, state.particles.n, ptr, idx, True)
-        cs.cloud_ptr, cs.cloud_idx = ptr, idx
+        sw = cs.spec.shape_weights
+        none_i, none_f = np.zeros(0, dtype=np.int64), np.zeros(0)
+        build_clouds(sd.nodes, sd.S, rsd.nodes, rsd.S, cs.rgroup, cs.node_cn, n_cn, state.particles.n, sw, ptr,
+                     none_i, none_f, False)
+        idx, wts = np.zeros(ptr[-1], dtype=np.int64), np.zeros(ptr[-1])
+        build_clouds(sd.nodes, sd.S, rsd.nodes, rsd.S, cs.rgroup, cs.node_cn, n_cn, state.particles.n, sw, ptr,
+                     idx, wts, True)
+        cs.cloud_ptr, cs.cloud_idx, cs.cloud_w = ptr, idx, wts
     else:
         cs.cloud_ptr, cs.cloud_idx = np.zeros(n_cn + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        cs.cloud_w = np.zeros(0)
 
 
 def extrapolate_contact(state, with_mass: bool) -> None:
@@ -126,15 +132,22 @@ def extrapolate_contact(state, with_mass: bool) -> None:
                             cs.disp, cs.pos, cs.grad)
 
 
-def contact_pass_1(state) -> None:
+def contact_geometry(state) -> None:
     cs, spec, g, f = state.contact, state.contact.spec, state.grid, state.fields
     spline = state.shape.grid_kind >= 2  # B-spline grid functions weight the area with the spline
-    _pass_1(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, g.n_nodes, g.shape, g.origin, g.h,
-            float(g.h.min()), f.mass, f.mom, cs.vol, cs.disp, cs.pos, cs.grad, cs.cloud_ptr, cs.cloud_idx, cs.group,
-            cs.rgroup, state.particles.n, state.particles.x, state.rigid.x, state.particles.F, state.scene.semi_size,
-            spec.law, spec.mu, spec.mu_static, spec.normal, spec.separation, spec.normal_vector, spec.rigid_bias,
-            spec.cutoff, spec.fit_exponent, spline, spec.warm_start, cs.warm_phi, touch_length(state), state.nchunk,
-            cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.law, cs.mu, cs.mus, cs.dp1)
+    _geometry(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, g.n_nodes, g.shape, g.origin, g.h,
+              float(g.h.min()), f.mass, cs.vol, cs.disp, cs.pos, cs.grad, cs.cloud_ptr, cs.cloud_idx, cs.cloud_w,
+              spec.shape_weights, cs.group,
+              cs.rgroup, state.particles.n, state.particles.x, state.rigid.x, state.particles.F, state.scene.semi_size,
+              spec.law, spec.mu, spec.mu_static, spec.normal, spec.separation, spec.normal_vector, spec.rigid_bias,
+              spec.cutoff, spec.fit_exponent, spline, spec.warm_start, cs.warm_phi, state.nchunk, cs.role, cs.partner,
+              cs.normal, cs.delta, cs.area, cs.law, cs.mu, cs.mus)
+
+
+def contact_pass_1(state) -> None:
+    cs, spec, f = state.contact, state.contact.spec, state.fields
+    _pass_1(cs.n_cn, cs.cn_ptr, cs.slot_group, spec.n_def_groups, state.grid.n_nodes, f.mass, f.mom, spec.separation,
+            cs.role, cs.partner, cs.normal, cs.delta, cs.law, cs.mu, cs.mus, touch_length(state), state.nchunk, cs.dp1)
 
 
 def touch_length(state) -> float:
@@ -144,12 +157,14 @@ def touch_length(state) -> float:
 def contact_pass_2(state) -> None:
     cs, spec, g, f = state.contact, state.contact.spec, state.grid, state.fields
     reaction = np.zeros((state.nchunk, max(state.n_rigid_materials, 1), state.dim))
+    work = np.zeros(state.nchunk)
     _pass_2(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, spec.rigid_of_group, g.n_nodes,
             g.shape, state.dt, f.mass, f.vnew, f.acc, g.face_type, g.wall_index, f.rigid_vol, state.materials.constrain,
             state.rigid_v_end, spec.separation, cs.role, cs.partner, cs.normal, cs.delta, cs.law, cs.mu, cs.mus,
-            touch_length(state), state.nchunk, reaction, cs.stick2, cs.applied2, cs.delta2, cs.contact2)
+            touch_length(state), state.nchunk, reaction, work, cs.stick2, cs.applied2, cs.delta2, cs.contact2)
     if state.n_rigid_materials:
         state.reaction[6:] += reaction.sum(axis=0)[: state.n_rigid_materials]
+        state.work_in += float(work.sum())
 
 
 def contact_pass_3(state) -> None:

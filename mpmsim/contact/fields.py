@@ -114,9 +114,10 @@ def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_no
 
 
 @njit(cache=True)
-def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, ptr, idx, fill):
-    """CSR of the particles touching each contact node. With fill=False only counts
-    (ptr[c + 1] = count); call again with fill=True after the prefix sum."""
+def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, shape_weights, ptr, idx, wts, fill):
+    """CSR of the particles touching each contact node, with each one's regression weight
+    (its shape function at the node, or 1). With fill=False only counts (ptr[c + 1] = count);
+    call again with fill=True after the prefix sum."""
     n, K = S.shape
     if not fill:
         for c in range(n_cn + 1):
@@ -130,6 +131,7 @@ def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, ptr, idx, f
                 if c >= 0:
                     if fill:
                         idx[cursor[c]] = p
+                        wts[cursor[c]] = S[p, k] if shape_weights else 1.0
                         cursor[c] += 1
                     else:
                         ptr[c + 1] += 1
@@ -142,6 +144,7 @@ def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, ptr, idx, f
                 if c >= 0:
                     if fill:
                         idx[cursor[c]] = n_def + r
+                        wts[cursor[c]] = rS[r, k] if shape_weights else 1.0
                         cursor[c] += 1
                     else:
                         ptr[c + 1] += 1

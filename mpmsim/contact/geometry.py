@@ -31,7 +31,6 @@ from numba import njit
 LR_TOL = 1e-5
 LR_MAX_ITER = 15
 LR_PENALTY = 1e-7  # times h_min^2
-LINEAR_OFFSET_PENALTY = 0.1
 UNRESOLVED_SPREAD = 0.05  # cloud spread (std, in cells) below which a direction carries no information
 UNRESOLVED_PENALTY = 1e3  # times N h^2: pins the normal's component along such directions to zero
 
@@ -76,75 +75,103 @@ def particle_position(idx, n_def, x, rx, d):
 
 
 @njit(cache=True)
-def regression_normal(cloud, labels, start, stop, n_def, x, rx, dim, h_min, logistic, phi0, A, b, phi, dphi, xt,
-                      cov, pen, out_n):
-    """Normal (a -> b) from the point cloud entries cloud[start:stop] with labels (-1, +1, 0 =
-    ignore). `phi0` (length dim+1, zeros if none) warm-starts the logistic iterations.
-    Returns the number of logistic iterations (0 for linear), -1 if the fit failed."""
-    nu = dim + 1
-    lam = LR_PENALTY * h_min * h_min
-    # coordinates from the centroid of the labelled points (conditioning; see module doc)
-    cx = 0.0
-    cy = 0.0
-    cz = 0.0
-    cnt = 0
+def gather_cloud(cloud, weight, balance, labels, start, stop, n_def, x, rx, dim, pts, w, lab):
+    """Copy the labelled points of cloud[start:stop] into pts/w/lab, positions relative to
+    their weighted centroid. With `balance`, each class's weights are scaled to sum to half
+    the point count, so a class of barely-touching particles still defines its side.
+    Returns (count, total weight); count 0 if either class is empty."""
+    wa = 0.0
+    wb = 0.0
+    m = 0
     for q in range(start, stop):
-        if labels[q - start] == 0:
+        c = labels[q - start]
+        if c == 0:
             continue
-        idx = cloud[q]
-        cx += particle_position(idx, n_def, x, rx, 0)
-        cy += particle_position(idx, n_def, x, rx, 1)
-        if dim == 3:
-            cz += particle_position(idx, n_def, x, rx, 2)
-        cnt += 1
-    if cnt == 0:
-        return -1
-    centre = (cx / cnt, cy / cnt, cz / cnt)
-    # covariance of the labelled points -> extra penalty on unresolved directions
-    for r in range(dim):
-        for c in range(dim):
-            cov[r, c] = 0.0
-    for q in range(start, stop):
-        if labels[q - start] == 0:
-            continue
-        idx = cloud[q]
-        for r in range(dim):
-            xt[r] = particle_position(idx, n_def, x, rx, r) - centre[r]
-        for r in range(dim):
-            for c in range(dim):
-                cov[r, c] += xt[r] * xt[c] / cnt
+        if c < 0:
+            wa += weight[q]
+        else:
+            wb += weight[q]
+        lab[m] = c
+        w[m] = weight[q]
+        for d in range(dim):
+            pts[m, d] = particle_position(cloud[q], n_def, x, rx, d)
+        m += 1
+    if not (wa > 0.0 and wb > 0.0):
+        return 0, 0.0
+    scale_a = 0.5 * m / wa if balance else 1.0
+    scale_b = 0.5 * m / wb if balance else 1.0
+    centre = np.zeros(3)
+    wsum = 0.0
+    for q in range(m):
+        w[q] *= scale_a if lab[q] < 0 else scale_b
+        wsum += w[q]
+        for d in range(dim):
+            centre[d] += w[q] * pts[q, d]
+    for q in range(m):
+        for d in range(dim):
+            pts[q, d] -= centre[d] / wsum
+    return m, wsum
+
+
+@njit(cache=True, inline="always")
+def add_unresolved_penalty(cov, dim, thresh, big, pen):
+    """pen += big e e^T for every eigenvector e of cov whose eigenvalue is below thresh.
+    Most clouds are spread in every direction; a bound on the smallest eigenvalue (det over
+    the largest possible product of the others) skips the eigen-solve for them."""
+    if dim == 2:
+        tr = cov[0, 0] + cov[1, 1]
+        det = cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0]
+        if tr > 0.0 and det >= thresh * tr:
+            return
+    else:
+        tr = cov[0, 0] + cov[1, 1] + cov[2, 2]
+        det = (cov[0, 0] * (cov[1, 1] * cov[2, 2] - cov[1, 2] * cov[2, 1])
+               - cov[0, 1] * (cov[1, 0] * cov[2, 2] - cov[1, 2] * cov[2, 0])
+               + cov[0, 2] * (cov[1, 0] * cov[2, 1] - cov[1, 1] * cov[2, 0]))
+        if tr > 0.0 and det >= thresh * 0.25 * tr * tr:
+            return
     evals, evecs = np.linalg.eigh(cov[:dim, :dim])
-    for r in range(dim):
-        for c in range(dim):
-            pen[r, c] = lam if (r == c and logistic) else 0.0
-    big = UNRESOLVED_PENALTY * cnt * h_min * h_min
     for e in range(dim):
-        if evals[e] < (UNRESOLVED_SPREAD * h_min) ** 2:
+        if evals[e] < thresh:
             for r in range(dim):
                 for c in range(dim):
                     pen[r, c] += big * evecs[r, e] * evecs[c, e]
+
+
+@njit(cache=True)
+def regression_normal(pts, w, lab, m, wsum, dim, h_min, logistic, phi0, A, b, phi, dphi, xt, cov, pen, out_n):
+    """Normal (class -1 -> class +1) of the gathered cloud pts[:m] (centroid-relative, weights
+    w, labels lab). `phi0` (length dim+1, zeros if none) warm-starts the logistic iterations.
+    Returns the number of logistic iterations (0 for linear), -1 if the fit failed."""
+    nu = dim + 1
+    lam = LR_PENALTY * h_min * h_min
+    # covariance of the points -> extra penalty on unresolved directions (module doc)
+    for r in range(dim):
+        for c in range(dim):
+            cov[r, c] = 0.0
+            pen[r, c] = lam if (r == c and logistic) else 0.0
+    for q in range(m):
+        for r in range(dim):
+            for c in range(dim):
+                cov[r, c] += w[q] * pts[q, r] * pts[q, c] / wsum
+    add_unresolved_penalty(cov, dim, (UNRESOLVED_SPREAD * h_min) ** 2, UNRESOLVED_PENALTY * wsum * h_min * h_min,
+                           pen)
     # linear regression
     for r in range(nu):
         b[r] = 0.0
         for c in range(nu):
             A[r, c] = 0.0
-    for q in range(start, stop):
-        lab = labels[q - start]
-        if lab == 0:
-            continue
-        idx = cloud[q]
+    for q in range(m):
         for d in range(dim):
-            xt[d] = particle_position(idx, n_def, x, rx, d) - centre[d]
+            xt[d] = pts[q, d]
         xt[dim] = 1.0
         for r in range(nu):
-            b[r] += lab * xt[r]
+            b[r] += w[q] * lab[q] * xt[r]
             for c in range(nu):
-                A[r, c] += xt[r] * xt[c]
+                A[r, c] += w[q] * xt[r] * xt[c]
     for r in range(dim):
         for c in range(dim):
             A[r, c] += pen[r, c]
-    if not logistic:
-        A[dim, dim] += LINEAR_OFFSET_PENALTY
     if not solve_small(A, b, nu, phi):
         return -1
     nrm = 0.0
@@ -181,25 +208,25 @@ def regression_normal(cloud, labels, start, stop, n_def, x, rx, dim, h_min, logi
             b[r] = 0.0
             for c in range(nu):
                 A[r, c] = 0.0
-        for q in range(start, stop):
-            lab = labels[q - start]
-            if lab == 0:
-                continue
-            idx = cloud[q]
-            s = 0.0
+        for q in range(m):
+            s = phi[dim]
             for d in range(dim):
-                xt[d] = particle_position(idx, n_def, x, rx, d) - centre[d]
+                xt[d] = pts[q, d]
                 s += xt[d] * phi[d]
             xt[dim] = 1.0
-            s += phi[dim]
             s = min(50.0, max(-50.0, s))
             E = 1.0 + np.exp(-s)
             f = 2.0 / E - 1.0
             psi = 2.0 * (E - 1.0) / (E * E)
+            wr = w[q] * psi * (lab[q] - f)
+            wa = w[q] * psi * psi
             for r in range(nu):
-                b[r] += psi * (lab - f) * xt[r]
-                for c in range(nu):
-                    A[r, c] += psi * psi * xt[r] * xt[c]
+                b[r] += wr * xt[r]
+                for c in range(r, nu):  # upper triangle; mirrored below
+                    A[r, c] += wa * xt[r] * xt[c]
+        for r in range(nu):
+            for c in range(r):
+                A[r, c] = A[c, r]
         for r in range(dim):
             for c in range(dim):
                 A[r, c] += pen[r, c]
@@ -224,6 +251,41 @@ def regression_normal(cloud, labels, start, stop, n_def, x, rx, dim, h_min, logi
         if done:
             break
     return it
+
+
+@njit(cache=True)
+def cloud_direction(cloud, labels, start, stop, n_def, x, rx, dim, out_n):
+    """Fallback normal when the regression fails: from material a's centroid to the other
+    side's. False if either side is empty or they coincide."""
+    ca = np.zeros(3)
+    cb = np.zeros(3)
+    na = 0
+    nb = 0
+    for q in range(start, stop):
+        lab = labels[q - start]
+        if lab == 0:
+            continue
+        for d in range(dim):
+            if lab < 0:
+                ca[d] += particle_position(cloud[q], n_def, x, rx, d)
+            else:
+                cb[d] += particle_position(cloud[q], n_def, x, rx, d)
+        if lab < 0:
+            na += 1
+        else:
+            nb += 1
+    if na == 0 or nb == 0:
+        return False
+    nrm = 0.0
+    for d in range(dim):
+        out_n[d] = cb[d] / nb - ca[d] / na
+        nrm += out_n[d] * out_n[d]
+    if not (nrm > 0.0):
+        return False
+    nrm = np.sqrt(nrm)
+    for d in range(dim):
+        out_n[d] /= nrm
+    return True
 
 
 @njit(cache=True, inline="always")

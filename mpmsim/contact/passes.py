@@ -1,10 +1,11 @@
 """The three contact passes (LR paper §3.2; notes §1, §3), each its own kernel over the
 sparse list of contact nodes.
 
-Pass 1, after extrapolation: plan each contact node, compute the normal, separation and
-  area of every target material (cached for the later passes), and change the extrapolated
-  momenta p. This change is part of the extrapolation, never a force; it is also kept
-  (`dp1`) for the multimaterial XPIC term.
+Geometry, after extrapolation: plan each contact node and compute the normal, separation
+  and area of every target material, cached for the passes (and for interfaces).
+Pass 1, after extrapolation: change the extrapolated momenta p. This change is part of the
+  extrapolation, never a force; it is also kept (`dp1`) for the multimaterial XPIC term.
+  `contact.passes: 1` skips it (the paper's "LR once").
 Pass 2, after the momentum update: the same laws on the updated momenta p+; each change is
   added to p+ and to the force (as dp/dt), so the particle update's acceleration includes the
   contact force f = dp+/dt (Eq. 33, option 1). The separation is advanced to the end of the
@@ -33,7 +34,7 @@ from numba import njit, prange
 
 from ..gridops import chunk_range, node_ijk
 from ..bc import NO_BC, node_bc
-from .geometry import cloud_separation, contact_area, h_perp, regression_normal
+from .geometry import cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal
 from .laws import apply_law
 from .spec import (AVERAGE_GRADIENT, FRICTIONLESS, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT, SEP_CUTOFF, STICK,
                    SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
@@ -144,20 +145,22 @@ def side_average(a, b, s0, s1, slot_group, n_def_groups, nn, weight, arr, dim, s
 
 
 @njit(parallel=True, cache=True)
-def contact_pass_1(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, origin, h, h_min, mass, mom, vol,
-                   disp, pos, grad, cloud_ptr, cloud_idx, pgroup, rgroup, n_def, x, rx, F, semi, law, mu, mus,
-                   normal_method, sep_method, normal_vec, rigid_bias, cutoff, fit_r, spline, warm, warm_phi, touch,
-                   nchunk, role, partner, geo_n, geo_delta, geo_area, slot_law, slot_mu, slot_mus, dp1):
-    """`touch`: separations below it (length) count as touching."""
-    dim = mom.shape[1]
+def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, origin, h, h_min, mass, vol, disp,
+                     pos, grad, cloud_ptr, cloud_idx, cloud_w, balance, pgroup, rgroup, n_def, x, rx, F, semi, law, mu, mus,
+                     normal_method, sep_method, normal_vec, rigid_bias, cutoff, fit_r, spline, warm, warm_phi, nchunk,
+                     role, partner, geo_n, geo_delta, geo_area, slot_law, slot_mu, slot_mus):
+    """Plan every contact node and give each target material its law, normal, separation
+    and contact area, from the extrapolation of the start-of-step particles."""
+    dim = geo_n.shape[1]
     max_cloud = 0
     for c in range(n_cn):
         max_cloud = max(max_cloud, cloud_ptr[c + 1] - cloud_ptr[c])
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
-        pbuf = np.zeros((MAX_SLOTS, 3))
-        dpb = np.zeros((MAX_SLOTS, 3))
         labels = np.zeros(max(max_cloud, 1), dtype=np.int64)
+        pts = np.zeros((max(max_cloud, 1), 3))
+        pw = np.zeros(max(max_cloud, 1))
+        plab = np.zeros(max(max_cloud, 1))
         A = np.zeros((4, 4))
         bvec = np.zeros(4)
         phi = np.zeros(4)
@@ -170,8 +173,6 @@ def contact_pass_1(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, 
         xnode = np.zeros(3)
         ga_vec = np.zeros(3)
         gb_vec = np.zeros(3)
-        imp = np.zeros(3)
-        out = np.zeros(3)
         for c in range(start, stop):
             s0 = cn_ptr[c]
             s1 = cn_ptr[c + 1]
@@ -182,10 +183,6 @@ def contact_pass_1(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, 
             if dim == 3:
                 xnode[2] = origin[2] + k * h[2]
             plan_node(s0, s1, slot_group, n_def_groups, vol, role, partner)
-            for s in range(s0, s1):
-                for d in range(dim):
-                    pbuf[s - s0, d] = mom[nn + s, d]
-                    dpb[s - s0, d] = 0.0
             c0 = cloud_ptr[c]
             c1 = cloud_ptr[c + 1]
             for a in range(s0, s1):
@@ -222,11 +219,18 @@ def contact_pass_1(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, 
                 if normal_method == LOGISTIC or normal_method == LINEAR_REGRESSION:
                     for r in range(4):
                         phi0[r] = warm_phi[node, ga, r] if warm else 0.0
-                    ok = regression_normal(cloud_idx, labels, c0, c1, n_def, x, rx, dim, h_min,
-                                           normal_method == LOGISTIC, phi0, A, bvec, phi, dphi, xt, cov, pen, n)
+                    m, wsum = gather_cloud(cloud_idx, cloud_w, balance, labels, c0, c1, n_def, x, rx, dim, pts, pw,
+                                           plab)
+                    ok = -1
+                    if m > 0:
+                        ok = regression_normal(pts, pw, plab, m, wsum, dim, h_min, normal_method == LOGISTIC, phi0, A,
+                                               bvec, phi, dphi, xt, cov, pen, n)
                     if warm and ok > 0:
                         for r in range(dim + 1):
                             warm_phi[node, ga, r] = phi[r]
+                    if ok < 0 and not cloud_direction(cloud_idx, labels, c0, c1, n_def, x, rx, dim, n):
+                        role[a] = 0  # no usable cloud: this material is left alone here
+                        continue
                     if rigid_b and rigid_bias >= 10.0:
                         gn = 0.0
                         for d in range(dim):
@@ -308,12 +312,40 @@ def contact_pass_1(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, 
                     geo_n[a, d] = n[d]
                 geo_delta[a] = delta
                 geo_area[a] = contact_area(omega_a, omega_b, hp, d_edge, use_edge, spline)
-                # --- impulse on the extrapolated momenta
+
+
+@njit(parallel=True, cache=True)
+def contact_pass_1(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, sep_method, role, partner, geo_n,
+                   geo_delta, slot_law, slot_mu, slot_mus, touch, nchunk, dp1):
+    """The laws on the extrapolated momenta p; the change (kept in dp1) is part of the
+    extrapolation. `touch`: separations below it (length) count as touching."""
+    dim = mom.shape[1]
+    for ch in prange(nchunk):
+        start, stop = chunk_range(ch, nchunk, n_cn)
+        pbuf = np.zeros((MAX_SLOTS, 3))
+        dpb = np.zeros((MAX_SLOTS, 3))
+        imp = np.zeros(3)
+        out = np.zeros(3)
+        n = np.zeros(3)
+        for c in range(start, stop):
+            s0 = cn_ptr[c]
+            s1 = cn_ptr[c + 1]
+            for s in range(s0, s1):
+                for d in range(dim):
+                    pbuf[s - s0, d] = mom[nn + s, d]
+                    dpb[s - s0, d] = 0.0
+            for a in range(s0, s1):
+                if role[a] == 0:
+                    continue
+                b = partner[a]
+                rigid_b = b >= 0 and slot_group[b] >= n_def_groups
+                for d in range(dim):
+                    n[d] = geo_n[a, d]
                 stick_impulse(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, pbuf, dim, imp)
                 dotn = 0.0
                 for d in range(dim):
                     dotn += imp[d] * n[d]
-                touching = sep_method == SEP_VELOCITY or delta < touch
+                touching = sep_method == SEP_VELOCITY or geo_delta[a] < touch
                 if apply_law(slot_law[a], slot_mu[a], slot_mus[a], imp, n, dotn, touching and dotn < 0.0, dim, out):
                     for d in range(dim):
                         dpb[a - s0, d] += out[d]
@@ -330,7 +362,8 @@ def contact_pass_1(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, 
 @njit(parallel=True, cache=True)
 def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_group, nn, shape, dt, mass, vnew, acc,
                    face_type, wall_index, rigid_vol, constrain, rig_vel, sep_method, role, partner, geo_n, geo_delta,
-                   slot_law, slot_mu, slot_mus, touch, nchunk, chunk_reaction, stick2, applied2, delta2, contact2):
+                   slot_law, slot_mu, slot_mus, touch, nchunk, chunk_reaction, chunk_work, stick2, applied2, delta2,
+                   contact2):
     """Contact on the updated momenta p+ = m v+; the change goes into v+ and a = f/m. Each
     target's stick impulse, applied impulse and end-of-step separation are kept for XPIC."""
     dim = vnew.shape[1]
@@ -341,6 +374,7 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
         imp = np.zeros(3)
         out = np.zeros(3)
         n = np.zeros(3)
+        chunk_work[ch] = 0.0
         for r in range(chunk_reaction.shape[1]):
             for d in range(dim):
                 chunk_reaction[ch, r, d] = 0.0
@@ -350,8 +384,11 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
             node = cn_nodes[c]
             i, j, k = node_ijk(node, shape)
             for s in range(s0, s1):
+                g = slot_group[s]
                 for d in range(dim):
-                    pbuf[s - s0, d] = mass[nn + s] * vnew[nn + s, d]
+                    # a rigid slot has no grid update: it moves at its end-of-step velocity
+                    v = rig_vel[rigid_of_group[g], d] if g >= n_def_groups else vnew[nn + s, d]
+                    pbuf[s - s0, d] = mass[nn + s] * v
                     dpb[s - s0, d] = 0.0
             for a in range(s0, s1):
                 if role[a] == 0:
@@ -398,11 +435,17 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
                 contact2[a] = 1 if applied else 0
                 if applied:
                     for d in range(dim):
+                        owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
+                                             rig_vel)
+                        if owner != NO_BC:
+                            continue  # a velocity condition holds this component
                         dpb[a - s0, d] += out[d]
                         if b >= 0 and not rigid_b:
                             dpb[b - s0, d] -= out[d]
                         if rigid_b:
-                            chunk_reaction[ch, rigid_of_group[slot_group[b]], d] += out[d] / dt
+                            r = rigid_of_group[slot_group[b]]
+                            chunk_reaction[ch, r, d] += out[d] / dt
+                            chunk_work[ch] += out[d] * rig_vel[r, d]  # the rigid body's work on the material
             for s in range(s0, s1):
                 if slot_group[s] >= n_def_groups:
                     continue

@@ -47,6 +47,7 @@ class ContactSpec:
     passes: int
     xpic_term: bool
     warm_start: bool
+    shape_weights: bool  # point-cloud regression weights: shape function at the node (else 1)
     group_names: list[str]
 
     @property
@@ -127,8 +128,7 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
         nv /= np.linalg.norm(nv)
     return ContactSpec(n_groups, n_def, np.array(groups, dtype=np.int64), rigid_group, rigid_of_group, law, mu, mus,
                        NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff, c.touch_tolerance,
-                       c.fit_exponent,
-                       c.passes, c.xpic_contact_term, c.warm_start,
+                       c.fit_exponent, c.passes, c.xpic_contact_term, c.warm_start, c.cloud_weights == "shape_function",
                        names)
 
 

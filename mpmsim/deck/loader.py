@@ -24,6 +24,7 @@ class LoadedDeck:
     deck: Deck
     path: Path
     data: dict  # the raw mapping, for tools that vary keys (sweeps)
+    text: str = ""  # the YAML as read, to locate problems found after loading
 
     @property
     def base_dir(self) -> Path:
@@ -69,12 +70,12 @@ def load_deck_text(text: str, path: Path) -> LoadedDeck:
     problems = check_deck(deck, path.parent)
     if problems:
         raise _with_lines(problems, root, source)
-    return LoadedDeck(deck=deck, path=path, data=data)
+    return LoadedDeck(deck=deck, path=path, data=data, text=text)
 
 
 def raise_at(problems: list[tuple[tuple, str]], loaded: LoadedDeck) -> typing.NoReturn:
     """Raise DeckError for problems found after loading (e.g. by the scene builder)."""
-    root = yaml.compose(loaded.path.read_text(), Loader=yaml.SafeLoader)
+    root = yaml.compose(loaded.text, Loader=yaml.SafeLoader)
     raise _with_lines(problems, root, str(loaded.path))
 
 

@@ -56,6 +56,12 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     if deck.time.cfl is not None and deck.time.dt is not None:
         add(["time", "dt"], "give either time.cfl or time.dt, not both")
 
+    for i, name in enumerate(deck.output.material_stress):
+        if name not in deck.materials:
+            add(["output", "material_stress", i], f"unknown material '{name}'")
+        elif isinstance(deck.materials[name], Rigid):
+            add(["output", "material_stress", i], f"'{name}' is rigid: it has no stress")
+
     # materials
     units = unit_system(deck.units)
     for name, mat in deck.materials.items():

@@ -41,6 +41,10 @@ class History:
         for r in state.materials.rigid:
             self.columns += [(f"F_{r}_{a}", u.force) for a in axes]
             self.columns += [(f"u_{r}_{a}", u.length) for a in axes]
+        names = state.materials.deformable
+        self._material_ids = [names.index(m) for m in state.scene.deck.output.material_stress]
+        for m in state.scene.deck.output.material_stress:
+            self.columns += [(f"{sname}@{m}", u.stress) for sname in stress_cols]
         self.rows: list[list[float]] = []
 
     @property
@@ -59,6 +63,11 @@ class History:
             row += list(state.reaction[face_index[f]])
         for r in range(state.n_rigid_materials):
             row += list(state.reaction[6 + r]) + list(state.rigid_disp[r])
+        P = state.particles
+        for m in self._material_ids:
+            sel = P.mat == m
+            w = P.vol[sel]
+            row += list((P.stress[sel][:, self._stress_idx] * w[:, None]).sum(axis=0) / max(w.sum(), 1e-300))
         self.rows.append(row)
 
     def column(self, name: str) -> np.ndarray:

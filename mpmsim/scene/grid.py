@@ -1,6 +1,7 @@
 """The background grid: sized from the scene, not a fixed box.
 
-The *domain* is where material may go; particles leaving it stop the run. The grid adds
+The *domain* is where material may go; particles leaving it (or passing a constrained face
+by more than half a cell) stop the run. The grid adds
 `ghost` node layers outside the domain so every shape function near the edge has its
 nodes. Node (i, j, k) sits at origin + (i, j, k) * h; flat index i + nx * (j + ny * k).
 """
@@ -31,6 +32,20 @@ class GridSpec:
     @property
     def n_nodes(self) -> int:
         return int(np.prod(self.shape))
+
+    @property
+    def particle_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where particle centres may go: the domain, plus half a cell beyond constrained faces.
+        Under heavy compression a particle squeezed against a wall can have its centre cross
+        the wall line by a sliver (CPDI corners see the mirrored ghost velocities); its
+        support is still on the ghost nodes, so only a deeper crossing stops the run."""
+        lo, hi = self.domain_lo.copy(), self.domain_hi.copy()
+        for a in range(self.dim):
+            if self.face_type[2 * a] != FREE:
+                lo[a] -= 0.5 * self.h[a]
+            if self.face_type[2 * a + 1] != FREE:
+                hi[a] += 0.5 * self.h[a]
+        return lo, hi
 
     @property
     def cells(self) -> np.ndarray:

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..contact import contact_pass_1, contact_pass_2, contact_pass_3, material_fields
+from ..contact import contact_geometry, contact_pass_1, contact_pass_2, contact_pass_3, material_fields
 from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
 from .grid_update import grid_update
@@ -52,14 +52,17 @@ def build_task_list(scene) -> list[Task]:
                           f"{contact.n_groups} material groups: own velocity fields where they meet"))
     tasks.append(Task("extrapolate", extrapolate,
                       "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")))
+    if contact is not None:
+        tasks.append(Task("contact geometry", contact_geometry,
+                          f"{deck.contact.normal} normals, {describe_separation(deck)}, contact areas"))
     if contact is not None and contact.passes == 2:
-        tasks.append(Task("contact pass 1", contact_pass_1,
-                          f"{deck.contact.normal} normals, {describe_separation(deck)}: correct the extrapolation"))
+        tasks.append(Task("contact pass 1", contact_pass_1, "contact laws on the extrapolated momenta"))
     if upd.stress in ("usf", "usavg"):
         tasks.append(Task("update stress first", update_stress_first,
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"))
     tasks.append(Task("forces", forces, "internal forces" + (" and gravity" if deck.gravity and any(deck.gravity) else "")))
-    bc = ", ".join(faces + [f"rigid '{r}'" for r in scene.materials.rigid]) or "none"
+    bc_rigid = [r for r in scene.materials.rigid if getattr(deck.materials[r], "mode", "bc") == "bc"]
+    bc = ", ".join(faces + [f"rigid '{r}'" for r in bc_rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
     if contact is not None:
         tasks.append(Task("contact pass 2", contact_pass_2, "contact laws on the updated momenta: contact forces"))

@@ -122,7 +122,7 @@ def particle_update(state) -> None:
     code = np.zeros(nc, dtype=np.int64)
     particle_update_kernel(state.field_index, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, f.vnew, f.acc, f.vstart,
                            f.vstar,
-                           state.dt, state.scheme, P.x, P.v, P.B, P.mass, state.gravity, g.domain_lo, g.domain_hi,
+                           state.dt, state.scheme, P.x, P.v, P.B, P.mass, state.gravity, *state.particle_bounds,
                            nc, gwork, bad, code)
     state.work_in += float(gwork.sum())
     hits = np.nonzero(bad >= 0)[0]

@@ -34,6 +34,10 @@ def where(state) -> str:
     return f"step {state.step + 1}, t = {state.t + state.dt:.6g} {tu}"
 
 
+def excess_text(excess: float, supplied: float) -> str:
+    return f"{100 * excess / supplied:.1f}%" if supplied > 0.0 else f"{excess:.4g}"
+
+
 def check_stability(state) -> None:
     fl = state.flags
     if fl.bad_particle >= 0:
@@ -52,7 +56,7 @@ def check_stability(state) -> None:
             raise InstabilityError(
                 f"unstable at {where(state)}: energy grew without a source: kinetic + strain = "
                 f"{sums[KINETIC]:.4g} + {sums[STRAIN]:.4g} exceeds the energy supplied ({supplied:.4g}) by "
-                f"{100 * excess / max(supplied, 1e-300):.1f}%; fastest is {describe_particle(state, p)}; {REMEDY}",
+                f"{excess_text(excess, supplied)}; fastest is {describe_particle(state, p)}; {REMEDY}",
                 state.t, state.step)
     if state.rigid.n:
         R, g = state.rigid, state.grid

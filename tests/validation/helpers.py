@@ -27,7 +27,7 @@ def run_example(name: str, **overrides):
             node[int(last)] = value
         else:
             node[last] = value
-    return simulate(deck), deck
+    return simulate(deck, ROOT / "inputs"), deck
 
 
 def zero_crossings(t: np.ndarray, y: np.ndarray) -> np.ndarray:
