@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench examples docs clean-cache
+.PHONY: run test bench bench-contact examples docs clean-cache
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -25,6 +25,11 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/column.py
+
+# contact methods on the LR paper's problems: Fig. 5 errors, cost, charts in docs/figures/
+# (about 10 minutes on 2 cores; `python bench/contact.py ellipses` adds full-size Fig. 6)
+bench-contact: $(STAMP)
+	$(BIN)/python bench/contact.py all
 
 # every deck in inputs/, as a batch; a summary line per deck
 examples: $(STAMP)

@@ -67,6 +67,8 @@ class Simulation:
 
     def step(self) -> None:
         st = self.state
+        if st.t >= self.scene.deck.time.end * (1.0 - 1e-9):
+            raise RuntimeError(f"the run has reached time.end = {self.scene.deck.time.end:g}; nothing left to step")
         st.flags = StepFlags()
         for task in self.tasks:
             t0 = wallclock.perf_counter()

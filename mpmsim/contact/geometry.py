@@ -138,6 +138,53 @@ def add_unresolved_penalty(cov, dim, thresh, big, pen):
                     pen[r, c] += big * evecs[r, e] * evecs[c, e]
 
 
+@njit(cache=True, inline="always")
+def logistic_system(pts, w, lab, m, phi, dim, A, b):
+    """The Gauss-Newton system of one logistic iteration: A = sum w psi^2 x~ x~^T and
+    b = sum w psi (c - f) x~, x~ = (x, y, [z,] 1). The sums are scalars (x~ padded to four
+    components, unused ones zero) so they stay in registers: the cloud loop is the LR cost."""
+    off2 = 1.0 if dim == 2 else 0.0  # x~[2] is the offset in 2D ...
+    off3 = 1.0 - off2  # ... x~[3] in 3D
+    p0, p1 = phi[0], phi[1]
+    pz = phi[2] * off3  # z coefficient (3D)
+    offset = phi[dim]
+    a00 = a01 = a02 = a03 = a11 = a12 = a13 = a22 = a23 = a33 = 0.0
+    b0 = b1 = b2 = b3 = 0.0
+    for q in range(m):
+        u0 = pts[q, 0]
+        u1 = pts[q, 1]
+        u2 = pts[q, 2] * off3 + off2
+        u3 = off3
+        s = offset + u0 * p0  # the order of the original loop: offset, x, y, z
+        s += u1 * p1
+        s += pts[q, 2] * pz
+        s = min(50.0, max(-50.0, s))
+        E = 1.0 + np.exp(-s)
+        f = 2.0 / E - 1.0
+        psi = 2.0 * (E - 1.0) / (E * E)
+        wr = w[q] * psi * (lab[q] - f)
+        wa = w[q] * psi * psi
+        b0 += wr * u0
+        b1 += wr * u1
+        b2 += wr * u2
+        b3 += wr * u3
+        a00 += wa * u0 * u0
+        a01 += wa * u0 * u1
+        a02 += wa * u0 * u2
+        a03 += wa * u0 * u3
+        a11 += wa * u1 * u1
+        a12 += wa * u1 * u2
+        a13 += wa * u1 * u3
+        a22 += wa * u2 * u2
+        a23 += wa * u2 * u3
+        a33 += wa * u3 * u3
+    A[0, 0], A[0, 1], A[0, 2], A[0, 3] = a00, a01, a02, a03
+    A[1, 0], A[1, 1], A[1, 2], A[1, 3] = a01, a11, a12, a13
+    A[2, 0], A[2, 1], A[2, 2], A[2, 3] = a02, a12, a22, a23
+    A[3, 0], A[3, 1], A[3, 2], A[3, 3] = a03, a13, a23, a33
+    b[0], b[1], b[2], b[3] = b0, b1, b2, b3
+
+
 @njit(cache=True)
 def regression_normal(pts, w, lab, m, wsum, dim, h_min, logistic, phi0, A, b, phi, dphi, xt, cov, pen, out_n):
     """Normal (class -1 -> class +1) of the gathered cloud pts[:m] (centroid-relative, weights
@@ -204,29 +251,7 @@ def regression_normal(pts, w, lab, m, wsum, dim, h_min, logistic, phi0, A, b, ph
     it = 0
     while it < LR_MAX_ITER:
         it += 1
-        for r in range(nu):
-            b[r] = 0.0
-            for c in range(nu):
-                A[r, c] = 0.0
-        for q in range(m):
-            s = phi[dim]
-            for d in range(dim):
-                xt[d] = pts[q, d]
-                s += xt[d] * phi[d]
-            xt[dim] = 1.0
-            s = min(50.0, max(-50.0, s))
-            E = 1.0 + np.exp(-s)
-            f = 2.0 / E - 1.0
-            psi = 2.0 * (E - 1.0) / (E * E)
-            wr = w[q] * psi * (lab[q] - f)
-            wa = w[q] * psi * psi
-            for r in range(nu):
-                b[r] += wr * xt[r]
-                for c in range(r, nu):  # upper triangle; mirrored below
-                    A[r, c] += wa * xt[r] * xt[c]
-        for r in range(nu):
-            for c in range(r):
-                A[r, c] = A[c, r]
+        logistic_system(pts, w, lab, m, phi, dim, A, b)
         for r in range(dim):
             for c in range(dim):
                 A[r, c] += pen[r, c]

@@ -314,43 +314,57 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                 geo_area[a] = contact_area(omega_a, omega_b, hp, d_edge, use_edge, spline)
 
 
+@njit(cache=True, inline="always")
+def exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
+                     slot_mus, touching, need_approach, dim, pbuf, dpb, imp, out, n):
+    """The laws at one contact node on the momenta `mom`; the change of each slot in dpb.
+    touching[a - s0]: target a's surfaces touch. A touching target is in contact if it
+    approaches (need_approach) or whatever its normal velocity (a decision already made)."""
+    for s in range(s0, s1):
+        for d in range(dim):
+            pbuf[s - s0, d] = mom[nn + s, d]
+            dpb[s - s0, d] = 0.0
+    for a in range(s0, s1):
+        if role[a] == 0:
+            continue
+        b = partner[a]
+        rigid_b = b >= 0 and slot_group[b] >= n_def_groups
+        for d in range(dim):
+            n[d] = geo_n[a, d]
+        stick_impulse(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, pbuf, dim, imp)
+        dotn = 0.0
+        for d in range(dim):
+            dotn += imp[d] * n[d]
+        in_contact = touching[a - s0] and (dotn < 0.0 or not need_approach)
+        if apply_law(slot_law[a], slot_mu[a], slot_mus[a], imp, n, dotn, in_contact, dim, out):
+            for d in range(dim):
+                dpb[a - s0, d] += out[d]
+                if b >= 0 and not rigid_b:
+                    dpb[b - s0, d] -= out[d]
+
+
 @njit(parallel=True, cache=True)
 def contact_pass_1(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, sep_method, role, partner, geo_n,
                    geo_delta, slot_law, slot_mu, slot_mus, touch, nchunk, dp1):
     """The laws on the extrapolated momenta p; the change (kept in dp1) is part of the
-    extrapolation. `touch`: separations below it (length) count as touching."""
+    extrapolation. Contact where the surfaces touch (separation below `touch`, a length; or
+    always for velocity-only detection) and approach."""
     dim = mom.shape[1]
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
         pbuf = np.zeros((MAX_SLOTS, 3))
         dpb = np.zeros((MAX_SLOTS, 3))
+        touching = np.zeros(MAX_SLOTS, dtype=np.bool_)
         imp = np.zeros(3)
         out = np.zeros(3)
         n = np.zeros(3)
         for c in range(start, stop):
             s0 = cn_ptr[c]
             s1 = cn_ptr[c + 1]
-            for s in range(s0, s1):
-                for d in range(dim):
-                    pbuf[s - s0, d] = mom[nn + s, d]
-                    dpb[s - s0, d] = 0.0
             for a in range(s0, s1):
-                if role[a] == 0:
-                    continue
-                b = partner[a]
-                rigid_b = b >= 0 and slot_group[b] >= n_def_groups
-                for d in range(dim):
-                    n[d] = geo_n[a, d]
-                stick_impulse(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, pbuf, dim, imp)
-                dotn = 0.0
-                for d in range(dim):
-                    dotn += imp[d] * n[d]
-                touching = sep_method == SEP_VELOCITY or geo_delta[a] < touch
-                if apply_law(slot_law[a], slot_mu[a], slot_mus[a], imp, n, dotn, touching and dotn < 0.0, dim, out):
-                    for d in range(dim):
-                        dpb[a - s0, d] += out[d]
-                        if b >= 0 and not rigid_b:
-                            dpb[b - s0, d] -= out[d]
+                touching[a - s0] = sep_method == SEP_VELOCITY or geo_delta[a] < touch
+            exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
+                             slot_mus, touching, True, dim, pbuf, dpb, imp, out, n)
             for s in range(s0, s1):
                 if slot_group[s] >= n_def_groups:
                     continue
@@ -458,62 +472,27 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
                     acc[nn + s, d] += dpb[s - s0, d] / (m * dt)
 
 
-@njit(cache=True, inline="always")
-def enforce_contact(law, mu, mu_static, dp, n, dotn, dim, out):
-    """A contact already decided: the normal part of the stick impulse always (either sign),
-    the tangential part capped by friction on |N|."""
-    if law == STICK:
-        for d in range(dim):
-            out[d] = dp[d]
-        return
-    s_stick = 0.0
-    for d in range(dim):
-        s_stick += (dp[d] - dotn * n[d]) ** 2
-    s_stick = np.sqrt(s_stick)
-    normal = abs(dotn)
-    cap = 0.0 if law == FRICTIONLESS else mu * normal
-    if law != FRICTIONLESS and mu_static >= 0.0 and s_stick <= mu_static * normal:
-        cap = s_stick
-    scale = 1.0 if s_stick <= cap else (cap / s_stick if s_stick > 0.0 else 0.0)
-    for d in range(dim):
-        out[d] = dotn * n[d] + scale * (dp[d] - dotn * n[d])
-
-
 @njit(parallel=True, cache=True)
 def contact_pass_3(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, contact2, slot_law,
                    slot_mu, slot_mus, nchunk):
-    """Pass 2's contact decisions enforced on the re-extrapolated momenta."""
+    """Pass 2's contact decisions enforced on the re-extrapolated momenta: where pass 2 made
+    contact, the relative normal velocity is removed whatever its sign; elsewhere nothing."""
     dim = mom.shape[1]
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
         pbuf = np.zeros((MAX_SLOTS, 3))
         dpb = np.zeros((MAX_SLOTS, 3))
+        touching = np.zeros(MAX_SLOTS, dtype=np.bool_)
         imp = np.zeros(3)
         out = np.zeros(3)
         n = np.zeros(3)
         for c in range(start, stop):
             s0 = cn_ptr[c]
             s1 = cn_ptr[c + 1]
-            for s in range(s0, s1):
-                for d in range(dim):
-                    pbuf[s - s0, d] = mom[nn + s, d]
-                    dpb[s - s0, d] = 0.0
             for a in range(s0, s1):
-                if role[a] == 0 or contact2[a] == 0:
-                    continue
-                b = partner[a]
-                rigid_b = b >= 0 and slot_group[b] >= n_def_groups
-                for d in range(dim):
-                    n[d] = geo_n[a, d]
-                stick_impulse(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, pbuf, dim, imp)
-                dotn = 0.0
-                for d in range(dim):
-                    dotn += imp[d] * n[d]
-                enforce_contact(slot_law[a], slot_mu[a], slot_mus[a], imp, n, dotn, dim, out)
-                for d in range(dim):
-                    dpb[a - s0, d] += out[d]
-                    if b >= 0 and not rigid_b:
-                        dpb[b - s0, d] -= out[d]
+                touching[a - s0] = contact2[a] != 0
+            exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
+                             slot_mus, touching, False, dim, pbuf, dpb, imp, out, n)
             for s in range(s0, s1):
                 if slot_group[s] < n_def_groups:
                     for d in range(dim):

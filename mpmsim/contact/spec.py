@@ -142,6 +142,10 @@ def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
                 problems.append((("contact", "pairs", i, "between", j), f"no material named '{m}'"))
         if len(set(pair.between)) == 1:
             problems.append((("contact", "pairs", i, "between"), "a pair needs two different materials"))
+    for path, law in [(("contact", "default"), c.default)] + [(("contact", "pairs", i), p) for i, p in enumerate(c.pairs)]:
+        if law.static_friction is not None and law.static_friction < law.friction:
+            problems.append(((*path, "static_friction"), f"static friction {law.static_friction} is below the "
+                                                         f"kinetic friction {law.friction}"))
     if problems:
         return problems
     if c.normal == "specified":

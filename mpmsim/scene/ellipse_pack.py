@@ -74,6 +74,8 @@ def ellipse_box(width: int = WIDTH, height: int = HEIGHT, count: int = 20, gap: 
                 continue
             cx = rng.uniform(ex + gap, width - ex - gap)
             cy = rng.uniform(ey + gap, height - ey - gap)
+            if b > 1.0 and taken[int(cy) + pad, int(cx) + pad]:
+                continue  # centre pixel taken: the full mask test below would reject it too
             rows, cols, mask = _ellipse_window(cx + pad, cy + pad, a, b, angle, ex, ey, gap)
             if not (mask & taken[rows, cols]).any():
                 img[rows, cols][mask] = grey_level(placed)

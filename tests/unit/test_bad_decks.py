@@ -48,6 +48,17 @@ CASES = [
     ("empty deck", "", None, 1, "empty"),
     ("constrained faces need whole cells", [("{ymin: fixed}", "{xmin: fixed, xmax: roller}"),
                                            ("max: [4, 4]", "max: [4.5, 4]")], "grid.cell_size", 4, "whole number"),
+    ("contact pair names no material", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {pairs: [{between: [block, stone], law: stick}]}\n")],
+     "contact.pairs.0.between.1", 11, "no material named 'stone'"),
+    ("unknown normal method", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {normal: logistic}\n")],
+     "contact.normal", 11, "'logistic_regression'"),
+    ("specified normal without vector", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {normal: specified}\n")],
+     "contact.normal_vector", 11, "needs normal_vector"),
+    ("static friction below kinetic", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {default: "
+                                        "{law: coulomb, friction: 0.3, static_friction: 0.2}}\n")],
+     "contact.default.static_friction", 11, "below the kinetic friction"),
+    ("history of unknown material", [("time: {end: 0.1}\n", "time: {end: 0.1}\noutput: {material_stress: [stone]}\n")],
+     "output.material_stress.0", 11, "unknown material 'stone'"),
 ]
 
 

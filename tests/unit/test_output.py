@@ -155,3 +155,9 @@ def test_version_and_check(tmp_path):
     assert result.exit_code == 0
     assert "soft: 48" in result.output and "hard: 32" in result.output and "16 rigid" in result.output
     assert "tasks per step" in result.output and "move rigid" in result.output
+
+
+def test_stepping_past_the_end_is_refused(finished):
+    sim, _, _ = finished
+    with pytest.raises(RuntimeError, match="reached time.end"):
+        sim.step()

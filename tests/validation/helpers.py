@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import yaml
+
+from mpmsim.deck.overrides import with_overrides
 
 from ..conftest import ROOT, simulate
 
@@ -17,16 +17,7 @@ def example(name: str) -> dict:
 def run_example(name: str, **overrides):
     """Run inputs/<name>.yaml with dotted-key overrides, e.g. {"update.scheme": "pic",
     "bodies.0.max": [25, 2]} (numbers index lists)."""
-    deck = copy.deepcopy(example(name))
-    for key, value in overrides.items():
-        node = deck
-        *parents, last = key.split(".")
-        for p in parents:
-            node = node[int(p)] if isinstance(node, list) else node.setdefault(p, {})
-        if isinstance(node, list):
-            node[int(last)] = value
-        else:
-            node[last] = value
+    deck = with_overrides(example(name), overrides)
     return simulate(deck, ROOT / "inputs"), deck
 
 

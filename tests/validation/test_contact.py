@@ -17,7 +17,7 @@ from mpmsim.tasks import Task
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation
 
-from ..conftest import ROOT, deck_from
+from ..conftest import ROOT, deck_from, simulate
 from .helpers import example, run_example
 
 PLATEN_SPEED = 0.9622  # mm/ms: 0.05% of the wave speed
@@ -52,6 +52,26 @@ def test_perfect_interface_reproduces_single_material(law, scheme):
     assert (mm.state.contact is None) == (law == "none")  # `none` merges the two materials
     a, b = mm.history.column("syy"), smm.history.column("syy")
     assert abs(b[-1]) > 10.0  # MPa: the column is loaded
+    np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10 * abs(b[-1]))
+
+
+def test_three_stuck_materials_lump_to_single_material():
+    """The upper block split in two (x < 20 and x > 20): nodes on (20, 50) see three
+    materials and lump each against the rest. All stuck, each material moves with the
+    node's centre of mass, so the column is single-material MPM to round-off."""
+    over = {"time.end": 2.079}
+    smm, _ = run_example("column", **over)
+    deck = example("two_blocks")
+    deck["materials"]["upper_right"] = dict(deck["materials"]["upper"])
+    deck["bodies"].insert(2, {"shape": "rectangle", "min": [20.0, 50.0], "max": [40.0, 100.0],
+                              "material": "upper_right"})
+    deck["contact"]["default"] = {"law": "stick"}
+    deck["time"]["end"] = 2.079
+    mm = simulate(deck, ROOT / "inputs")
+    cs = mm.state.contact
+    assert np.diff(cs.cn_ptr[: cs.n_cn + 1]).max() == 3  # some nodes have three materials
+    a, b = mm.history.column("syy"), smm.history.column("syy")
+    assert abs(b[-1]) > 10.0
     np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10 * abs(b[-1]))
 
 
@@ -200,3 +220,11 @@ def test_lr_keeps_ellipses_apart_and_cp_does_not():
     s_lr, s_cp = -lr.history.column("syy")[-1], -cp.history.column("syy")[-1]
     assert s_cp < 0.85 * s_lr
     assert lr.state.contact.n_cn > 0
+
+
+def test_uniform_cloud_weights_touch_slightly_early():
+    """The paper weights every particle of the point cloud equally. Then a particle that just
+    drifts into a node's support tilts the fitted plane (about 1 degree here) and the blocks
+    touch 1.2% early; shape-function weights (the default) give -0.18%. Documented deviation."""
+    sim, _ = run_example("contact_gap", **{"contact.cloud_weights": "uniform", "time.end": 1.01 * T_CONTACT})
+    assert 0.97 < load_onset(sim) / T_CONTACT < 0.995

@@ -1,0 +1,279 @@
+"""Contact methods: accuracy and cost on the same problems (LR paper Figs. 5 and 6).
+
+    python bench/contact.py accuracy   # Fig. 5: every method to 20% strain on the 5 mm column
+    python bench/contact.py cost       # particle-steps/s: 1 mm column, full-size ellipse box
+    python bench/contact.py all        # both, then the accuracy-against-cost chart
+    python bench/contact.py ellipses   # Fig. 6 at full size: LR, DF, CP to 75% compression
+
+Accuracy: the two-block column (inputs/two_blocks.yaml) against one block (inputs/column.yaml),
+max |MM - SMM| / SMM of the mean axial stress from 0.2% strain on; writes
+docs/figures/contact_column_error.png and prints the table in docs/contact.md.
+Cost: one thread, per contact task; 200 steps of the column at 1 mm cells (16 000
+particles), and whole runs of the ellipse box at 1/20 mm cells (DF, CP, LR cold and warm
+start). `ellipses` runs Fig. 6 at the paper's 1/70 mm cells (about half an hour per method). Runs go in parallel
+processes (one numba thread each), so use `--workers 1` for undisturbed timings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+FIGURES = ROOT / "docs" / "figures"
+RESULTS = ROOT / "results" / "bench_contact"
+
+AVG = {"contact.normal": "average_gradient"}
+XPIC5 = {"update.scheme": "xpic", "update.order": 5}
+# Fig. 5 methods: label -> (multimaterial overrides, single-material overrides of the reference)
+METHODS = {
+    "LR": ({}, {}),
+    "LR once": ({"contact.passes": 1}, {}),
+    "LR-XPIC(5)": (XPIC5, XPIC5),
+    "LR-XPIC(5) uncorrected": ({**XPIC5, "contact.xpic_contact_term": False}, XPIC5),
+    "AVG (displacement)": (AVG, {}),
+    "CP=0.8": ({**AVG, "contact.separation": "cutoff", "contact.cutoff": 0.8}, {}),
+    "Δv<0": ({**AVG, "contact.separation": "velocity"}, {}),
+    "DF": ({**AVG, "contact.separation": "fit"}, {}),
+    "DF+SN": ({"contact.normal": "specified", "contact.normal_vector": [0.0, 1.0], "contact.separation": "fit"}, {}),
+}
+ELLIPSE_METHODS = {
+    "LR": {},
+    "LR warm start": {"contact.warm_start": True},
+    "DF": {**AVG, "contact.separation": "fit"},
+    "CP=0.8": {**AVG, "contact.separation": "cutoff", "contact.cutoff": 0.8},
+}
+
+
+def deck(name: str, overrides: dict):
+    from mpmsim.deck import load_deck_text
+    from mpmsim.deck.overrides import with_overrides
+
+    path = ROOT / "inputs" / f"{name}.yaml"
+    data = with_overrides(yaml.safe_load(path.read_text()), overrides)
+    return load_deck_text(yaml.safe_dump(data, sort_keys=False), path)
+
+
+def simulation(name: str, overrides: dict):
+    import numba
+
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    numba.set_num_threads(1)
+    return Simulation(build_scene(deck(name, overrides)), out_dir=None, threads=1)
+
+
+def run_to_end(job):
+    """Worker: run a deck to its end; the history columns the error needs, and the cost."""
+    name, overrides = job
+    sim = simulation(name, overrides)
+    t0 = time.perf_counter()
+    stopped = ""
+    try:
+        sim.run()
+    except Exception as exc:  # an unstable method is a result, not a crash of the study
+        stopped = str(exc).splitlines()[0]
+    wall = time.perf_counter() - t0
+    h = sim.history
+    return {"strain": (-h.column("u_platen_y") / 100.0).tolist(), "syy": h.column("syy").tolist(),
+            "wall": wall, "steps": sim.state.step, "particles": sim.state.particles.n, "stopped": stopped}
+
+
+def accuracy(workers: int) -> dict:
+    jobs = {("column", json.dumps(smm, sort_keys=True)) for _, smm in METHODS.values()}
+    jobs = [(name, json.loads(o)) for name, o in sorted(jobs)]
+    jobs += [("two_blocks", mm) for mm, _ in METHODS.values()]
+    with ProcessPoolExecutor(workers) as pool:
+        out = list(pool.map(run_to_end, jobs))
+    done = {(name, json.dumps(o, sort_keys=True)): r for (name, o), r in zip(jobs, out)}
+    curves = {}
+    for label, (mm, smm) in METHODS.items():
+        a = done[("two_blocks", json.dumps(mm, sort_keys=True))]
+        b = done[("column", json.dumps(smm, sort_keys=True))]
+        n = min(len(a["syy"]), len(b["syy"]))
+        eps = np.array(b["strain"][:n])
+        keep = eps > 0.002  # below it the stress is ~0
+        eps = eps[keep]
+        smm = np.array(b["syy"][:n])[keep]
+        err = (np.array(a["syy"][:n])[keep] - smm) / np.abs(smm)
+        curves[label] = {"strain": eps.tolist(), "error": err.tolist(), "wall": a["wall"],
+                         "steps": a["steps"], "stopped": a["stopped"]}
+    print("\nFig. 5 (5 mm cells, CFL 0.25): max |MM - SMM| / SMM of the mean axial stress")
+    print("| method | max error | at strain | final strain | wall (1 thread) |")
+    print("|---|---|---|---|---|")
+    for label, c in curves.items():
+        e = np.abs(c["error"])
+        i = int(np.argmax(e))
+        note = f" (stopped: {c['stopped']})" if c["stopped"] else ""
+        print(f"| {label} | {100 * e[i]:.3g}% | {100 * c['strain'][i]:.1f}% | {100 * c['strain'][-1]:.1f}%{note} "
+              f"| {c['wall']:.1f} s |")
+    plot_errors(curves)
+    return curves
+
+
+def plot_errors(curves: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    for ax, limit in zip(axes, (None, 1.0)):
+        for label, c in curves.items():
+            ax.plot(100 * np.array(c["strain"]), 100 * np.array(c["error"]), label=label, lw=1.2)
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_xlabel("compression strain (%)")
+        ax.set_ylabel("(MM - SMM) / SMM (%)")
+        if limit:
+            ax.set_ylim(-limit, limit)
+            ax.set_title("B. zoomed to ±1%")
+        else:
+            ax.set_title("A. all methods")
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Two identical blocks vs one block (LR paper Fig. 5), 5 mm cells, GIMP, CFL 0.25")
+    fig.tight_layout()
+    FIGURES.mkdir(parents=True, exist_ok=True)
+    fig.savefig(FIGURES / "contact_column_error.png", dpi=110)
+    print(f"wrote {FIGURES / 'contact_column_error.png'}")
+
+
+def time_steps(job):
+    """Worker: particle-steps/s and the contact tasks' us/step, over `steps` steps after a
+    warm-up (None: the whole run, averaging over every stage of contact)."""
+    name, overrides, steps = job
+    sim = simulation(name, overrides)
+    for _ in range(3):
+        sim.step()
+    for k in sim.timers:
+        sim.timers[k] = 0.0
+    first = sim.state.step
+    t0 = time.perf_counter()
+    if steps is None:
+        sim.run()
+    else:
+        for _ in range(steps):
+            sim.step()
+    wall = time.perf_counter() - t0
+    steps = sim.state.step - first
+    n = sim.state.particles.n
+    contact = {k: v / steps * 1e6 for k, v in sim.timers.items() if "contact" in k or k == "material fields"}
+    return {"rate": n * steps / wall, "us_step": wall / steps * 1e6, "contact_us": contact, "particles": n,
+            "steps": steps}
+
+
+COLUMN_1MM = {"grid.cell_size": 1.0, "time.cfl": 0.5}  # 16 000 particles, as bench/column.yaml
+ELLIPSE_COARSE = {"grid.cell_size": 0.05, "bodies.1.max": [1.0, 2.1]}  # 3.5x coarser than the paper
+
+
+def cost(workers: int, steps: int) -> dict:
+    jobs = {
+        "column: one material": ("column", COLUMN_1MM, steps),
+        "column: LR": ("two_blocks", COLUMN_1MM, steps),
+        "column: LR warm start": ("two_blocks", {**COLUMN_1MM, "contact.warm_start": True}, steps),
+        "column: AVG": ("two_blocks", {**COLUMN_1MM, **AVG}, steps),
+    }
+    jobs.update({f"ellipses: {k}": ("ellipse_box", {**ELLIPSE_COARSE, **ELLIPSE_METHODS[k]}, None)
+                 for k in ("DF", "CP=0.8", "LR", "LR warm start")})
+    with ProcessPoolExecutor(workers) as pool:
+        out = dict(zip(jobs, pool.map(time_steps, jobs.values())))
+    print("\nCost (1 thread each): particle-steps/s and the contact tasks (us/step)")
+    print("| problem: method | particles | steps | M particle-steps/s | time vs first | contact tasks, us/step |")
+    print("|---|---|---|---|---|---|")
+    base = {}
+    for label, r in out.items():
+        problem = label.split(":")[0]
+        base.setdefault(problem, r["rate"])
+        tasks = ", ".join(f"{k} {v:.0f}" for k, v in r["contact_us"].items())
+        print(f"| {label} | {r['particles']} | {r['steps']} | {r['rate'] / 1e6:.3f} | "
+              f"{100 * (base[problem] / r['rate'] - 1):+.0f}% | {tasks} |")
+    return out
+
+
+def plot_tradeoff(curves: dict, costs: dict) -> None:
+    """Max Fig. 5 error against the cost of the same method on the 1 mm column."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rate = {"LR": costs["column: LR"]["rate"], "AVG (displacement)": costs["column: AVG"]["rate"]}
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for label, r in rate.items():
+        e = 100 * np.abs(curves[label]["error"]).max()
+        ax.scatter(r / 1e6, e)
+        ax.annotate(label, (r / 1e6, e), textcoords="offset points", xytext=(5, 5))
+    ax.axvline(costs["column: one material"]["rate"] / 1e6, color="grey", ls="--", label="one material")
+    ax.set_yscale("log")
+    ax.set_xlabel("M particle-steps/s, 1 mm column, 1 thread")
+    ax.set_ylabel("max |MM - SMM| / SMM to 20% strain (%), 5 mm column")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(FIGURES / "contact_accuracy_vs_cost.png", dpi=110)
+    print(f"wrote {FIGURES / 'contact_accuracy_vs_cost.png'}")
+
+
+def ellipse_to_end(job):
+    """Worker: the full-size ellipse box to its end; final stress, overlap and wall time."""
+    from mpmsim.overlap import overlap_fraction
+
+    label, overrides = job
+    sim = simulation("ellipse_box", overrides)
+    t0 = time.perf_counter()
+    stopped = ""
+    try:
+        sim.run()
+    except Exception as exc:
+        stopped = str(exc).splitlines()[0]
+    wall = time.perf_counter() - t0
+    P, h = sim.state.particles, sim.state.grid.h
+    frac = overlap_fraction(P.x, P.F, P.mat, sim.state.scene.semi_size, float(h.min()) / 8)
+    return {"method": label, "syy": float(sim.history.column("syy")[-1]), "overlap": frac, "wall": wall,
+            "steps": sim.state.step, "particles": P.n, "stopped": stopped,
+            "u_piston": float(sim.history.column("u_piston_y")[-1])}
+
+
+def ellipses(workers: int) -> list:
+    jobs = [(k, ELLIPSE_METHODS[k]) for k in ("LR", "DF", "CP=0.8")]
+    with ProcessPoolExecutor(workers) as pool:
+        out = list(pool.map(ellipse_to_end, jobs))
+    print("\nFig. 6 at full size (1/70 mm cells, CPDI, XPIC(5)); paper: LR 105, DF 84, CP 80 GPa")
+    print("| method | final -syy (GPa) | overlap | piston displacement (mm) | steps | wall (1 thread) |")
+    print("|---|---|---|---|---|---|")
+    for r in out:
+        note = f" (stopped: {r['stopped']})" if r["stopped"] else ""
+        print(f"| {r['method']} | {-r['syy'] / 1000:.1f}{note} | {100 * r['overlap']:.1f}% | {r['u_piston']:.4f} "
+              f"| {r['steps']} | {r['wall'] / 60:.1f} min |")
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=["accuracy", "cost", "all", "ellipses"])
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--steps", type=int, default=200, help="timed steps on the 1 mm column")
+    args = ap.parse_args()
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    curves = costs = None
+    if args.what in ("accuracy", "all"):
+        curves = accuracy(args.workers)
+        (RESULTS / "accuracy.json").write_text(json.dumps(curves))
+    if args.what in ("cost", "all"):
+        costs = cost(args.workers, args.steps)
+        (RESULTS / "cost.json").write_text(json.dumps(costs))
+    if args.what == "ellipses":
+        (RESULTS / "ellipses.json").write_text(json.dumps(ellipses(args.workers)))
+    if curves is not None and costs is not None:
+        plot_tradeoff(curves, costs)
+
+
+if __name__ == "__main__":
+    main()
