@@ -208,8 +208,9 @@ def ellipse_run(h, **over):
 
 def test_lr_keeps_ellipses_apart_and_cp_does_not():
     """Twenty ellipses compressed 75% at 1/20 mm cells (3.5x coarser than the paper): the
-    area claimed by two materials is 3.1% with LR and 24% with CP = 0.8, and interpenetration
-    softens CP's final stress (85 and 62 GPa here; paper at full size 105 and 80 GPa)."""
+    area claimed by two materials is 3.1% with LR and 24% with CP = 0.8. The final stresses
+    (85 and 62 GPa here; paper at full size 105 and 80) are reported, not asserted: they are
+    not converged in the grid (docs/contact.md)."""
     h = 0.05
     lr, lr_overlap = ellipse_run(h)
     cp, cp_overlap = ellipse_run(h, **CP08)
@@ -217,8 +218,6 @@ def test_lr_keeps_ellipses_apart_and_cp_does_not():
         assert sim.history.column("u_piston_y")[-1] == pytest.approx(-1.5, rel=1e-6)  # 75% of 2 mm
     assert lr_overlap < 0.06
     assert cp_overlap > 4 * lr_overlap
-    s_lr, s_cp = -lr.history.column("syy")[-1], -cp.history.column("syy")[-1]
-    assert s_cp < 0.85 * s_lr
     assert lr.state.contact.n_cn > 0
 
 
