@@ -342,6 +342,11 @@ class Output(Strict):
     material_stress: list[str] = Field(
         default_factory=list, description="Deformable materials whose own volume-averaged stress is "
         "added to the history (columns like syy@name).")
+    null_space_noise: bool = Field(
+        default=False, description="Add the history column null_space_noise: the part of the particle "
+        "velocities the grid cannot represent, ||V - S S+ V|| / ||V|| with S+ the mass-weighted "
+        "pseudo-inverse (a sparse solve per history row). velocity_noise, always written, uses the "
+        "transfers' lumped S+ instead and has a floor (docs/shape-functions.md).")
 
 
 class Stability(Strict):

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..deck.units import unit_system
-from ..globals import KINETIC, MOMENTUM, STRAIN, VOLUME, particle_sums, velocity_noise
+from ..globals import KINETIC, MOMENTUM, STRAIN, VOLUME, null_space_noise, particle_sums, velocity_noise
 from ..scene.grid import FACES
 from .atomic import write_text
 
@@ -35,6 +35,9 @@ class History:
         self.columns += [("kinetic_energy", u.energy), ("strain_energy", u.energy), ("external_work", u.energy)]
         self.columns += [(f"p{a}", u.momentum.split(" (")[0]) for a in axes]
         self.columns += [("velocity_noise", "-")]
+        self._null_space = state.scene.deck.output.null_space_noise
+        if self._null_space:
+            self.columns += [("null_space_noise", "-")]
         self._faces = [f for f, t in zip(FACES[: 2 * dim], state.grid.face_type[: 2 * dim]) if t != 0]
         for f in self._faces:
             self.columns += [(f"F_{f}_{a}", u.force) for a in axes]
@@ -58,6 +61,8 @@ class History:
         row += [s[KINETIC], s[STRAIN], state.work_in]
         row += list(s[MOMENTUM][: state.dim])
         row.append(velocity_noise(state))
+        if self._null_space:
+            row.append(null_space_noise(state))
         face_index = {f: i for i, f in enumerate(FACES)}
         for f in self._faces:
             row += list(state.reaction[face_index[f]])
