@@ -13,8 +13,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .contact import ContactState, build_contact_spec
+from .loads import build_loads
 from .gridops import ActiveBox, n_threads
-from .materials import NEO_HOOKEAN, MaterialTable
+from .materials import MaterialTable, longitudinal_modulus
 from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
@@ -135,12 +136,15 @@ class State:
     rigid_disp: np.ndarray = None  # (n_rigid, dim) displacement since t = 0
     reaction: np.ndarray = None  # (6 + n_rigid, dim) force walls/rigid bodies exert on material
     energy0: float = 0.0  # mechanical energy at the start of the run
+    interface_energy: float = 0.0  # imperfect interfaces, end of the last step
     work_in: float = 0.0  # signed work done on the material by walls, rigid materials, gravity
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)
     flags: StepFlags = field(default_factory=StepFlags)
     particle_bounds: tuple = ()  # (lo, hi): where particle centres may go (GridSpec.particle_bounds)
     _noise_scratch: tuple | None = None  # shape data and grid arrays for the noise metric
     contact: object = None  # mpmsim.contact.ContactState for scenes where materials meet
+    loads: object = None  # mpmsim.loads.Loads when the deck has traction loads
+    damping: float = 0.0  # grid damping alpha (1/time)
 
     @property
     def dim(self) -> int:
@@ -199,8 +203,9 @@ class State:
         spec = build_contact_spec(scene.deck, mats)
         if spec is not None:
             state.contact = ContactState.create(spec, state)
-        modulus = np.where(mats.type_code == NEO_HOOKEAN, mats.props[:, 0] + 4 / 3 * mats.props[:, 1],
-                           mats.props[:, 0] + 2 * mats.props[:, 1])
+        state.loads = build_loads(scene, particles.x, particles.vol)
+        state.damping = scene.deck.damping.grid if scene.deck.damping is not None else 0.0
+        modulus = np.array([longitudinal_modulus(c, row) for c, row in zip(mats.type_code, mats.props)])
         c0 = np.sqrt(modulus / mats.density)
         state.energy_floor = 1e-12 * float(np.sum(mass * c0[particles.mat] ** 2))
         speed = c0[particles.mat] + np.sqrt(np.sum(particles.v**2, axis=1))

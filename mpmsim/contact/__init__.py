@@ -61,6 +61,8 @@ class ContactState:
         self.partner = z(cap, dtype=np.int64)
         self.law = z(cap, dtype=np.int64)
         self.mu, self.mus = z(cap), z(cap)
+        self.open, self.stiff = z((cap, dim)), z((cap, 3))  # interfaces: tangential opening, [Dn, Dnc, Dt]
+        self.bonded = z(cap, dtype=np.int64)  # interfaces: bit 1 normal, bit 2 tangential act as perfect
 
     @classmethod
     def create(cls, spec: ContactSpec, state) -> "ContactState":
@@ -139,15 +141,30 @@ def contact_geometry(state) -> None:
               float(g.h.min()), f.mass, cs.vol, cs.disp, cs.pos, cs.grad, cs.cloud_ptr, cs.cloud_idx, cs.cloud_w,
               spec.shape_weights, cs.group,
               cs.rgroup, state.particles.n, state.particles.x, state.rigid.x, state.particles.F, state.scene.semi_size,
-              spec.law, spec.mu, spec.mu_static, spec.normal, spec.separation, spec.normal_vector, spec.rigid_bias,
-              spec.cutoff, spec.fit_exponent, spline, spec.warm_start, cs.warm_phi, state.nchunk, cs.role, cs.partner,
-              cs.normal, cs.delta, cs.area, cs.law, cs.mu, cs.mus)
+              spec.law, spec.mu, spec.mu_static, spec.normal, spec.separation, spec.normal_vector, spec.radial,
+              spec.normal_center, spec.rigid_bias, spec.cutoff, spec.fit_exponent, spline, spec.warm_start, cs.warm_phi,
+              spec.stiffness, state.dt, spec.interface_integration, spec.area_correction, spec.use_h_perp,
+              screen_volume(state),
+              state.nchunk, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.bonded, cs.law, cs.mu, cs.mus,
+              cs.stiff)
+
+
+def screen_volume(state) -> float:
+    """Edge screening threshold: the fraction of a cell's volume (2D: times the thickness, as
+    particle volumes are)."""
+    frac = state.contact.spec.edge_screening
+    if frac <= 0.0:
+        return 0.0
+    g = state.grid
+    cell = float(np.prod(g.h[: state.dim])) * (state.scene.thickness if state.dim == 2 else 1.0)
+    return frac * cell
 
 
 def contact_pass_1(state) -> None:
     cs, spec, f = state.contact, state.contact.spec, state.fields
     _pass_1(cs.n_cn, cs.cn_ptr, cs.slot_group, spec.n_def_groups, state.grid.n_nodes, f.mass, f.mom, spec.separation,
-            cs.role, cs.partner, cs.normal, cs.delta, cs.law, cs.mu, cs.mus, touch_length(state), state.nchunk, cs.dp1)
+            cs.role, cs.partner, cs.normal, cs.delta, cs.law, cs.mu, cs.mus, cs.bonded, touch_length(state), state.nchunk,
+            cs.dp1)
 
 
 def touch_length(state) -> float:
@@ -158,10 +175,13 @@ def contact_pass_2(state) -> None:
     cs, spec, g, f = state.contact, state.contact.spec, state.grid, state.fields
     reaction = np.zeros((state.nchunk, max(state.n_rigid_materials, 1), state.dim))
     work = np.zeros(state.nchunk)
+    energy = np.zeros(state.nchunk)
     _pass_2(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, spec.rigid_of_group, g.n_nodes,
             g.shape, state.dt, f.mass, f.vnew, f.acc, g.face_type, g.wall_index, f.rigid_vol, state.materials.constrain,
-            state.rigid_v_end, spec.separation, cs.role, cs.partner, cs.normal, cs.delta, cs.law, cs.mu, cs.mus,
-            touch_length(state), state.nchunk, reaction, work, cs.stick2, cs.applied2, cs.delta2, cs.contact2)
+            state.rigid_v_end, spec.separation, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.law,
+            cs.mu, cs.mus, cs.bonded, cs.stiff, spec.interface_integration, touch_length(state), state.nchunk, reaction,
+            work, energy, cs.stick2, cs.applied2, cs.delta2, cs.contact2)
+    state.interface_energy = float(energy.sum())  # instantaneous total at the end of the step
     if state.n_rigid_materials:
         state.reaction[6:] += reaction.sum(axis=0)[: state.n_rigid_materials]
         state.work_in += float(work.sum())
@@ -170,5 +190,5 @@ def contact_pass_2(state) -> None:
 def contact_pass_3(state) -> None:
     cs, spec, f = state.contact, state.contact.spec, state.fields
     _pass_3(cs.n_cn, cs.cn_ptr, cs.slot_group, spec.n_def_groups, state.grid.n_nodes, f.mass, f.mom, cs.role,
-            cs.partner, cs.normal, cs.contact2, cs.law, cs.mu, cs.mus, state.nchunk)
+            cs.partner, cs.normal, cs.contact2, cs.law, cs.mu, cs.mus, cs.bonded, state.nchunk)
 

@@ -20,6 +20,13 @@ Pass 3, after re-extrapolation (USL+/USAVG+): enforces pass 2's end-of-step deci
   second stress half-step (+15.8% off single-material XPIC(5) at 2.4% strain; 0.1% when the
   decision is kept). See docs/contact.md.
 
+Imperfect interfaces (law `interface`, 2013 paper; notes §4): no contact test. A direction
+that is perfect, or too stiff for the step, is bonded (stick impulse) in every pass; the other
+directions are left free in passes 1 and 3 and get the interface force in pass 2 only, from
+the exact oscillator of notes §4.3 (or the paper's first-order force with its limit), with
+the end-of-step interfacial energy summed for the history. Openings come from extrapolated
+displacements (the normal one is d_LR under LR separation).
+
 Node plans: with a rigid contact material present, every other material contacts the
 rigid one with the largest volume (rigid mode). With exactly two materials, the first gets
 dp and the second -dp (pair mode: momentum conserved). With three or more, each material
@@ -35,9 +42,9 @@ from numba import njit, prange
 from ..gridops import chunk_range, node_ijk
 from ..bc import NO_BC, node_bc
 from .geometry import cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal
-from .laws import apply_law
-from .spec import (AVERAGE_GRADIENT, FRICTIONLESS, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT, SEP_CUTOFF, STICK,
-                   SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
+from .laws import apply_law, interface_impulse
+from .spec import (AVERAGE_GRADIENT, FRICTIONLESS, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT, OSCILLATOR,
+                   SEP_CUTOFF, STICK, SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
 
@@ -121,6 +128,25 @@ def stick_impulse(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, pbu
 
 
 @njit(cache=True, inline="always")
+def relative_force(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, acc, dim, out):
+    """df = (m_a/M) F - f_a over a and its partner side (f = m a of the update), or -f_a
+    against a rigid material: the force that changes a's velocity relative to the rest."""
+    ma = mass[nn + a]
+    for d in range(dim):
+        out[d] = -ma * acc[nn + a, d]
+    if rigid_b:
+        return
+    M = 0.0
+    for s in range(s0, s1):
+        if slot_group[s] < n_def_groups and (b < 0 or s == a or s == b):
+            M += mass[nn + s]
+    for s in range(s0, s1):
+        if slot_group[s] < n_def_groups and (b < 0 or s == a or s == b):
+            for d in range(dim):
+                out[d] += ma / M * mass[nn + s] * acc[nn + s, d]
+
+
+@njit(cache=True, inline="always")
 def side_average(a, b, s0, s1, slot_group, n_def_groups, nn, weight, arr, dim, side, out):
     """Weighted average of a slot quantity for material a (side 0) or its partner side
     (side 1: slot b, or all other deformable slots when b < 0)."""
@@ -147,10 +173,14 @@ def side_average(a, b, s0, s1, slot_group, n_def_groups, nn, weight, arr, dim, s
 @njit(parallel=True, cache=True)
 def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, origin, h, h_min, mass, vol, disp,
                      pos, grad, cloud_ptr, cloud_idx, cloud_w, balance, pgroup, rgroup, n_def, x, rx, F, semi, law, mu, mus,
-                     normal_method, sep_method, normal_vec, rigid_bias, cutoff, fit_r, spline, warm, warm_phi, nchunk,
-                     role, partner, geo_n, geo_delta, geo_area, slot_law, slot_mu, slot_mus):
+                     normal_method, sep_method, normal_vec, radial, normal_centre, rigid_bias, cutoff, fit_r, spline,
+                     warm, warm_phi, stiffness, dt, integration, area_correction, use_h_perp, screen_volume, nchunk,
+                     role, partner, geo_n, geo_delta, geo_area, geo_open, bonded, slot_law, slot_mu, slot_mus,
+                     slot_stiff):
     """Plan every contact node and give each target material its law, normal, separation
-    and contact area, from the extrapolation of the start-of-step particles."""
+    and contact area, from the extrapolation of the start-of-step particles. Interface
+    targets also get their tangential opening (from displacements) and which directions
+    act bonded this step (perfect, or too stiff for dt)."""
     dim = geo_n.shape[1]
     max_cloud = 0
     for c in range(n_cn):
@@ -204,6 +234,9 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                     for s in range(s0, s1):
                         if s != a and slot_group[s] < n_def_groups:
                             omega_b += vol[s]
+                if omega_a + omega_b < screen_volume:
+                    role[a] = 0  # a free-edge node: its normal is not to be trusted (2013 paper)
+                    continue
                 # --- labels for the point cloud: -1 material a, +1 its partner side
                 if c1 > c0:
                     for q in range(c0, c1):
@@ -240,8 +273,16 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                                 n[d] = -grad[b, d] / np.sqrt(gn)
                 elif normal_method == SPECIFIED:
                     sign = -1.0 if (not rigid_b and ga > gb) else 1.0
-                    for d in range(dim):
-                        n[d] = sign * normal_vec[d]
+                    if radial:
+                        r2 = 0.0
+                        for d in range(dim):
+                            r2 += (xnode[d] - normal_centre[d]) ** 2
+                        r2 = np.sqrt(r2) if r2 > 0.0 else 1.0
+                        for d in range(dim):
+                            n[d] = sign * (xnode[d] - normal_centre[d]) / r2
+                    else:
+                        for d in range(dim):
+                            n[d] = sign * normal_vec[d]
                 else:
                     for d in range(dim):
                         ga_vec[d] = grad[a, d]
@@ -283,7 +324,7 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                         for d in range(dim):
                             n[d] = ga_vec[d] / na if use_a else -gb_vec[d] / nbm
                 # --- separation
-                hp = h_perp(n, h, dim)
+                hp = h_perp(n, h, dim) if use_h_perp else h[0]
                 delta = -1.0
                 d_edge = 0.0
                 use_edge = False
@@ -310,13 +351,48 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                         delta = eb - ea
                 for d in range(dim):
                     geo_n[a, d] = n[d]
+                area = contact_area(omega_a, omega_b, hp, d_edge, use_edge, spline)
+                if not area_correction:
+                    area = (omega_a + omega_b) / hp
+                geo_area[a] = area
+                bonded[a] = 0
+                if slot_law[a] == INTERFACE:
+                    # openings from displacements; the normal one is d_LR with LR separation
+                    side_average(a, b, s0, s1, slot_group, n_def_groups, nn, mass, disp, dim, 0, ga_vec)
+                    side_average(a, b, s0, s1, slot_group, n_def_groups, nn, mass, disp, dim, 1, gb_vec)
+                    dn = 0.0
+                    for d in range(dim):
+                        dn += (gb_vec[d] - ga_vec[d]) * n[d]
+                    for d in range(dim):
+                        geo_open[a, d] = gb_vec[d] - ga_vec[d] - dn * n[d]
+                    if sep_method != SEP_LR:
+                        delta = dn
+                    ma = mass[nn + a]
+                    if rigid_b:
+                        mred = ma
+                    elif b >= 0:
+                        mred = ma * mass[nn + b] / (ma + mass[nn + b])
+                    else:
+                        M = 0.0
+                        for s in range(s0, s1):
+                            if slot_group[s] < n_def_groups:
+                                M += mass[nn + s]
+                        mred = ma * (M - ma) / M
+                    for r in range(3):
+                        slot_stiff[a, r] = stiffness[ga, gb, r]
+                    Dn = stiffness[ga, gb, 0] if delta >= 0.0 else stiffness[ga, gb, 1]
+                    Dt = stiffness[ga, gb, 2]
+                    limit = 2.25 * mred / (area * dt * dt) if (area > 0.0 and integration == OSCILLATOR) else 1e300
+                    if Dn < 0.0 or Dn > limit:
+                        bonded[a] |= 1
+                    if Dt < 0.0 or Dt > limit:
+                        bonded[a] |= 2
                 geo_delta[a] = delta
-                geo_area[a] = contact_area(omega_a, omega_b, hp, d_edge, use_edge, spline)
 
 
 @njit(cache=True, inline="always")
 def exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
-                     slot_mus, touching, need_approach, dim, pbuf, dpb, imp, out, n):
+                     slot_mus, bonded, touching, need_approach, dim, pbuf, dpb, imp, out, n):
     """The laws at one contact node on the momenta `mom`; the change of each slot in dpb.
     touching[a - s0]: target a's surfaces touch. A touching target is in contact if it
     approaches (need_approach) or whatever its normal velocity (a decision already made)."""
@@ -336,7 +412,7 @@ def exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, part
         for d in range(dim):
             dotn += imp[d] * n[d]
         in_contact = touching[a - s0] and (dotn < 0.0 or not need_approach)
-        if apply_law(slot_law[a], slot_mu[a], slot_mus[a], imp, n, dotn, in_contact, dim, out):
+        if apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, in_contact, dim, out):
             for d in range(dim):
                 dpb[a - s0, d] += out[d]
                 if b >= 0 and not rigid_b:
@@ -345,7 +421,7 @@ def exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, part
 
 @njit(parallel=True, cache=True)
 def contact_pass_1(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, sep_method, role, partner, geo_n,
-                   geo_delta, slot_law, slot_mu, slot_mus, touch, nchunk, dp1):
+                   geo_delta, slot_law, slot_mu, slot_mus, bonded, touch, nchunk, dp1):
     """The laws on the extrapolated momenta p; the change (kept in dp1) is part of the
     extrapolation. Contact where the surfaces touch (separation below `touch`, a length; or
     always for velocity-only detection) and approach."""
@@ -364,7 +440,7 @@ def contact_pass_1(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, sep_me
             for a in range(s0, s1):
                 touching[a - s0] = sep_method == SEP_VELOCITY or geo_delta[a] < touch
             exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
-                             slot_mus, touching, True, dim, pbuf, dpb, imp, out, n)
+                             slot_mus, bonded, touching, True, dim, pbuf, dpb, imp, out, n)
             for s in range(s0, s1):
                 if slot_group[s] >= n_def_groups:
                     continue
@@ -376,10 +452,11 @@ def contact_pass_1(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, sep_me
 @njit(parallel=True, cache=True)
 def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_group, nn, shape, dt, mass, vnew, acc,
                    face_type, wall_index, rigid_vol, constrain, rig_vel, sep_method, role, partner, geo_n, geo_delta,
-                   slot_law, slot_mu, slot_mus, touch, nchunk, chunk_reaction, chunk_work, stick2, applied2, delta2,
-                   contact2):
+                   geo_area, geo_open, slot_law, slot_mu, slot_mus, bonded, slot_stiff, integration, touch, nchunk,
+                   chunk_reaction, chunk_work, chunk_energy, stick2, applied2, delta2, contact2):
     """Contact on the updated momenta p+ = m v+; the change goes into v+ and a = f/m. Each
-    target's stick impulse, applied impulse and end-of-step separation are kept for XPIC."""
+    target's stick impulse, applied impulse and end-of-step separation are kept for XPIC.
+    Interfaces add their force here (and only here, notes §4.2) and their energy."""
     dim = vnew.shape[1]
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
@@ -388,7 +465,9 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
         imp = np.zeros(3)
         out = np.zeros(3)
         n = np.zeros(3)
+        df = np.zeros(3)
         chunk_work[ch] = 0.0
+        chunk_energy[ch] = 0.0
         for r in range(chunk_reaction.shape[1]):
             for d in range(dim):
                 chunk_reaction[ch, r, d] = 0.0
@@ -416,36 +495,35 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
                 for d in range(dim):
                     dotn += imp[d] * n[d]
                 delta = geo_delta[a]
-                if sep_method != SEP_VELOCITY:
-                    # advance the separation to the end of the step with the relative force of the
-                    # update: df = (m_a/M) F - f_a, or -f_a against a rigid material. The
+                interface = slot_law[a] == INTERFACE
+                if sep_method != SEP_VELOCITY or interface:
+                    # the relative force of the update: df = (m_a/M) F - f_a, or -f_a against a
+                    # rigid material. It advances the separation to the end of the step (the
                     # reference code does this for grid separations only; d_LR too needs it: a
                     # 5 um gap closing by 70 um within the step must count as contact, or the
-                    # free update drives the surfaces through each other (docs/contact.md).
+                    # free update drives the surfaces through each other, docs/contact.md), and
+                    # it drives the interface oscillator.
+                    relative_force(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, acc, dim, df)
                     dfn = 0.0
-                    ma = mass[nn + a]
-                    if rigid_b:
-                        for d in range(dim):
-                            dfn -= ma * acc[nn + a, d] * n[d]
-                    else:
-                        M = 0.0
-                        for s in range(s0, s1):
-                            if slot_group[s] < n_def_groups and (b < 0 or s == a or s == b):
-                                M += mass[nn + s]
-                        for s in range(s0, s1):
-                            if slot_group[s] < n_def_groups and (b < 0 or s == a or s == b):
-                                for d in range(dim):
-                                    dfn += ma / M * mass[nn + s] * acc[nn + s, d] * n[d]
-                        for d in range(dim):
-                            dfn -= ma * acc[nn + a, d] * n[d]
+                    for d in range(dim):
+                        dfn += df[d] * n[d]
                     delta += dt * (dotn - 0.5 * dfn * dt) / mred
                 delta2[a] = delta
-                touching = sep_method == SEP_VELOCITY or delta < touch
-                applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], imp, n, dotn, touching and dotn < 0.0, dim,
-                                    out)
+                if interface:
+                    chunk_energy[ch] += interface_impulse(slot_stiff[a], bonded[a], imp, df, n, geo_delta[a], geo_open[a],
+                                                          geo_area[a], mred, dt, integration, dim, out)
+                    applied = True
+                else:
+                    touching = sep_method == SEP_VELOCITY or delta < touch
+                    applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn,
+                                        touching and dotn < 0.0, dim, out)
                 for d in range(dim):
                     stick2[a, d] = imp[d]
                     applied2[a, d] = out[d] if applied else 0.0
+                if interface:  # XPIC increments re-impose only the bonded directions
+                    apply_law(INTERFACE, 0.0, 0.0, bonded[a], imp, n, dotn, True, dim, df)
+                    for d in range(dim):
+                        applied2[a, d] = df[d]
                 contact2[a] = 1 if applied else 0
                 if applied:
                     for d in range(dim):
@@ -474,7 +552,7 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
 
 @njit(parallel=True, cache=True)
 def contact_pass_3(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, contact2, slot_law,
-                   slot_mu, slot_mus, nchunk):
+                   slot_mu, slot_mus, bonded, nchunk):
     """Pass 2's contact decisions enforced on the re-extrapolated momenta: where pass 2 made
     contact, the relative normal velocity is removed whatever its sign; elsewhere nothing."""
     dim = mom.shape[1]
@@ -492,7 +570,7 @@ def contact_pass_3(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, role, 
             for a in range(s0, s1):
                 touching[a - s0] = contact2[a] != 0
             exchange_momenta(s0, s1, slot_group, n_def_groups, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
-                             slot_mus, touching, False, dim, pbuf, dpb, imp, out, n)
+                             slot_mus, bonded, touching, False, dim, pbuf, dpb, imp, out, n)
             for s in range(s0, s1):
                 if slot_group[s] < n_def_groups:
                     for d in range(dim):
@@ -502,7 +580,7 @@ def contact_pass_3(n_cn, cn_ptr, slot_group, n_def_groups, nn, mass, mom, role, 
 @njit(cache=True)
 def increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, mass, dv, face_type, wall_index,
                       rigid_vol, constrain, rig_vel, sep_method, role, partner, geo_n, delta2, slot_law, slot_mu,
-                      slot_mus, touch, stick_total, applied_total, pbuf, dpb, imp, out, n):
+                      slot_mus, bonded, touch, stick_total, applied_total, pbuf, dpb, imp, out, n):
     """Re-impose contact on one XPIC increment dv at contact node c (notes §5.2): the
     increment's stick change is added to a running stick total (seeded by pass 2's), the law
     is applied to the total, and only the change of the applied result is put on the
@@ -532,7 +610,8 @@ def increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, 
         touching = sep_method == SEP_VELOCITY or delta2[a] < touch
         for d in range(dim):
             imp[d] = stick_total[a, d]
-        applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], imp, n, dotn, touching and dotn < 0.0, dim, out)
+        applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, touching and dotn < 0.0,
+                            dim, out)
         for d in range(dim):
             now = out[d] if applied else 0.0
             change = now - applied_total[a, d]

@@ -14,8 +14,10 @@ import numpy as np
 
 from ..deck.schema import Deck, Rigid
 
-STICK, FRICTIONLESS, COULOMB = 0, 1, 2
-LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK}
+STICK, FRICTIONLESS, COULOMB, INTERFACE = 0, 1, 2, 3
+LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK, "interface": INTERFACE}
+PERFECT = -1.0  # interface stiffness code for a perfect direction
+OSCILLATOR, FORCE_LIMIT = 0, 1
 
 LOGISTIC, LINEAR_REGRESSION, AVERAGE_GRADIENT, MAX_GRADIENT, MAX_VOLUME, SPECIFIED = range(6)
 NORMAL_CODES = {"logistic_regression": LOGISTIC, "linear_regression": LINEAR_REGRESSION,
@@ -37,6 +39,7 @@ class ContactSpec:
     law: np.ndarray  # (G, G) law code
     mu: np.ndarray  # (G, G) kinetic friction
     mu_static: np.ndarray  # (G, G) static friction, -1 when not given
+    stiffness: np.ndarray  # (G, G, 3) interface [Dn tension, Dn compression, Dt], PERFECT = -1
     normal: int
     separation: int
     normal_vector: np.ndarray  # (3,)
@@ -49,6 +52,16 @@ class ContactSpec:
     warm_start: bool
     shape_weights: bool  # point-cloud regression weights: shape function at the node (else 1)
     group_names: list[str]
+    normal_center: np.ndarray  # (3,) centre of a radial specified normal
+    radial: bool
+    interface_integration: int
+    area_correction: bool
+    use_h_perp: bool
+    edge_screening: float  # fraction of a cell's volume; 0: off
+
+    @property
+    def has_interface(self) -> bool:
+        return bool((self.law == INTERFACE).any())
 
     @property
     def needs_gradients(self) -> bool:
@@ -61,7 +74,7 @@ class ContactSpec:
 
     @property
     def needs_displacement(self) -> bool:
-        return self.separation == SEP_DISPLACEMENT
+        return self.separation == SEP_DISPLACEMENT or self.has_interface  # interface openings
 
     @property
     def needs_position(self) -> bool:
@@ -115,21 +128,36 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
     law = np.full((n_groups, n_groups), LAW_CODES[c.default.law], dtype=np.int64)
     mu = np.full((n_groups, n_groups), c.default.friction)
     mus = np.full((n_groups, n_groups), -1.0 if c.default.static_friction is None else c.default.static_friction)
+    stiff = np.zeros((n_groups, n_groups, 3))
+    stiff[:, :] = interface_stiffness(c.default)
     for pair in c.pairs:
         a, b = (group_of[m] for m in pair.between)
         for i, j in ((a, b), (b, a)):
             law[i, j] = LAW_CODES[pair.law]
             mu[i, j] = pair.friction
             mus[i, j] = -1.0 if pair.static_friction is None else pair.static_friction
+            stiff[i, j] = interface_stiffness(pair)
     sep = c.separation or ("logistic_regression" if c.normal == "logistic_regression" else "displacement")
     nv = np.zeros(3)
     if c.normal_vector is not None:
         nv[: len(c.normal_vector)] = c.normal_vector
         nv /= np.linalg.norm(nv)
+    centre = np.zeros(3)
+    if c.normal_center is not None:
+        centre[: len(c.normal_center)] = c.normal_center
     return ContactSpec(n_groups, n_def, np.array(groups, dtype=np.int64), rigid_group, rigid_of_group, law, mu, mus,
-                       NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff, c.touch_tolerance,
-                       c.fit_exponent, c.passes, c.xpic_contact_term, c.warm_start, c.cloud_weights == "shape_function",
-                       names)
+                       stiff, NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff,
+                       c.touch_tolerance, c.fit_exponent, c.passes, c.xpic_contact_term, c.warm_start,
+                       c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
+                       FORCE_LIMIT if c.interface_integration == "force_limit" else OSCILLATOR, c.area_correction, c.h_perp,
+                       c.edge_screening or 0.0)
+
+
+def interface_stiffness(law) -> tuple[float, float, float]:
+    """[Dn tension, Dn compression, Dt] with PERFECT for 'perfect'; Dnc defaults to Dn."""
+    code = lambda v: PERFECT if v == "perfect" else float(v)
+    dn = code(law.Dn)
+    return dn, dn if law.Dnc is None else code(law.Dnc), code(law.Dt)
 
 
 def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
@@ -149,8 +177,11 @@ def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
     if problems:
         return problems
     if c.normal == "specified":
-        if c.normal_vector is None:
-            problems.append((("contact", "normal_vector"), "normal: specified needs normal_vector"))
+        if c.normal_center is not None:
+            if len(c.normal_center) != deck.dim:
+                problems.append((("contact", "normal_center"), f"needs {deck.dim} components"))
+        elif c.normal_vector is None:
+            problems.append((("contact", "normal_vector"), "normal: specified needs normal_vector or normal_center"))
         elif len(c.normal_vector) != deck.dim or not any(c.normal_vector):
             problems.append((("contact", "normal_vector"), f"needs {deck.dim} components, not all zero"))
     # materials merged by `none` must not disagree about a third material's law
@@ -165,7 +196,7 @@ def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
         if pair.law == "none" or a not in group_of or b not in group_of:
             continue
         key = tuple(sorted((group_of[a], group_of[b])))
-        val = (pair.law, pair.friction, pair.static_friction)
+        val = (pair.law, pair.friction, pair.static_friction, pair.Dn, pair.Dnc, pair.Dt)
         if key[0] == key[1]:
             problems.append((("contact", "pairs", i), f"'{a}' and '{b}' are one body (joined by law none); "
                                                       "they cannot also have a contact law"))

@@ -40,6 +40,21 @@ class NeoHookean(Strict):
     density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
 
 
+class TransverselyIsotropic(Strict):
+    """Transversely isotropic linear elastic (wood, fibre composites): axial properties along
+    `axis`, isotropic in the plane normal to it; hypoelastic with the Hughes–Winget stress
+    rotation. The axis stays fixed in space (small rotations), as in the 2013 paper's specimens."""
+
+    type: Literal["transversely_isotropic"]
+    EA: float = Field(gt=0, description="Axial Young's modulus.")
+    ET: float = Field(gt=0, description="Transverse Young's modulus.")
+    GA: float = Field(gt=0, description="Axial shear modulus.")
+    nuA: float = Field(description="Axial Poisson's ratio (transverse strain / axial strain under axial load).")
+    nuT: float = Field(gt=-1.0, lt=1.0, description="Transverse Poisson's ratio (in the isotropic plane).")
+    axis: Vector = Field(description="Axial direction (normalised).")
+    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
+
+
 class VelocityTable(Strict):
     """Piecewise-linear velocity in time: held at the first value before `times[0]` and at
     the last value after `times[-1]`."""
@@ -66,18 +81,28 @@ class Rigid(Strict):
     )
 
 
-Material = Annotated[Union[LinearElastic, NeoHookean, Rigid], Field(discriminator="type")]
+Material = Annotated[Union[LinearElastic, NeoHookean, TransverselyIsotropic, Rigid], Field(discriminator="type")]
 
 
 # --------------------------------------------------------------------------- contact
+Stiffness = Annotated[float, Field(ge=0.0)] | Literal["perfect"]
+
+
 class ContactLaw(Strict):
     """A contact law: `stick` (bonded: always moves with the centre of mass, never separates),
-    `frictionless`, `coulomb` (kinetic `friction`, optional `static_friction`), or `none`
-    (perfect interface: the materials share one velocity field, exactly single-material MPM)."""
+    `frictionless`, `coulomb` (kinetic `friction`, optional `static_friction`), `none`
+    (perfect interface: the materials share one velocity field, exactly single-material MPM), or
+    `interface` (imperfect interface: tractions Dn [u_n] and Dt [u_t] in tension and
+    compression alike; docs/interfaces.md)."""
 
-    law: Literal["stick", "frictionless", "coulomb", "none"]
+    law: Literal["stick", "frictionless", "coulomb", "none", "interface"]
     friction: float = Field(default=0.0, ge=0.0, description="Kinetic friction coefficient (coulomb).")
     static_friction: float | None = Field(default=None, ge=0.0, description="Static coefficient (coulomb).")
+    Dn: Stiffness = Field(
+        default="perfect", description="Interface normal stiffness in tension (stress/length), or perfect.")
+    Dnc: Stiffness | None = Field(
+        default=None, description="Interface normal stiffness in compression (bilinear law); default Dn.")
+    Dt: Stiffness = Field(default="perfect", description="Interface tangential stiffness, or perfect.")
 
 
 class ContactPair(ContactLaw):
@@ -122,6 +147,27 @@ class Contact(Strict):
         default=True, description="Multimaterial XPIC(m) with the contact term of Eq. (37); false gives "
         "the paper's 'uncorrected XPIC'.")
     warm_start: bool = Field(default=False, description="Start logistic regression from the last step's fit.")
+    normal_center: Vector | None = Field(
+        default=None, description="For normal: specified: a radial normal from this centre point "
+        "(spheres, cylinders) instead of normal_vector; points from the lower-numbered material to "
+        "the higher.")
+    interface_integration: Literal["oscillator", "force_limit"] = Field(
+        default="oscillator", description="Imperfect interfaces: oscillator (exact harmonic oscillator per "
+        "direction over the step; a direction with (D A dt^2 / m_red) > 2.25 acts as perfect) or force_limit "
+        "(the 2013 paper: first-order force D A delta, a direction whose force exceeds the force that "
+        "would bring both materials to the centre of mass acts as perfect).")
+    area_correction: bool = Field(
+        default=True, description="Contact area from the two materials' nodal volumes (2013 paper Eq. 20; "
+        "logistic regression: from the edge distance). false: the uncorrected area Omega_i / h_perp, "
+        "for comparisons.")
+    h_perp: bool = Field(
+        default=True, description="Cell size normal to the contact plane for uneven cells (2013 paper "
+        "Eq. 22, method 1) in the contact area and the CP cutoff. false: the x cell size (the paper's "
+        "'no correction', for comparisons).")
+    edge_screening: float | None = Field(
+        default=None, gt=0.0, lt=1.0, description="Skip contact and interface work at nodes whose total "
+        "nodal volume is below this fraction of a cell's volume (free-edge nodes with unreliable normals; "
+        "0.75-0.85 in the 2013 paper).")
     cloud_weights: Literal["shape_function", "uniform"] = Field(
         default="shape_function", description="Regression weight of each particle in a node's point cloud. "
         "shape_function: its shape function at the node, each material's weights scaled to the same "
@@ -149,6 +195,14 @@ class RotationVelocity(Strict):
     translation: Vector | None = Field(default=None, description="Added uniform velocity.")
 
 
+class Domain(Strict):
+    """An axis-aligned box (grid.domain: the region material may occupy; particles leaving it
+    stop the run)."""
+
+    min: Vector = Field(description="Lower corner.")
+    max: Vector = Field(description="Upper corner.")
+
+
 class BodyBase(Strict):
     """Keys every body takes."""
 
@@ -163,6 +217,9 @@ class BodyBase(Strict):
         default=None,
         description="3D only, 2D shapes: extrude the shape between z_range[0] and z_range[1].",
     )
+    clip: Domain | None = Field(
+        default=None, description="Keep only the part of the shape inside this box (symmetry models: "
+        "an eighth of a sphere).")
 
 
 class Rectangle(BodyBase):
@@ -245,13 +302,6 @@ SHAPES_3D = {"box", "sphere", "ellipsoid"}
 
 
 # --------------------------------------------------------------------------- grid
-class Domain(Strict):
-    """Explicit domain; particles leaving it stop the run."""
-
-    min: Vector = Field(description="Lower corner of the region material may occupy.")
-    max: Vector = Field(description="Upper corner.")
-
-
 class Boundaries(Strict):
     """Condition on each face of the domain: `free`, `fixed` (all velocity components zero),
     `roller` or its synonym `slip` (normal component zero). Constrained faces act on the
@@ -278,6 +328,43 @@ class Grid(Strict):
     )
     margin: int = Field(default=2, ge=0, description="Free-face margin, in cells, of the default domain.")
     boundaries: Boundaries = Field(default_factory=Boundaries)
+
+
+# --------------------------------------------------------------------------- loads
+class TractionLoad(Strict):
+    """A load on one edge of a body: the outermost particles toward `face` (or `normal`) among
+    those inside `region`. Either a traction on an axis-aligned face (each particle carries
+    traction x its face area; 2D: x thickness), or a total `force` shared by particle volume
+    over a band `depth` deep (tilted edges)."""
+
+    region: Domain = Field(description="Box around the loaded edge (particle centres inside it).")
+    face: Literal["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"] | None = Field(
+        default=None, description="Load the outermost particle layer on this side of the selected particles.")
+    normal: Vector | None = Field(
+        default=None, description="Instead of face: load the particles within `depth` of the outermost "
+        "along this direction (edges not aligned with the grid).")
+    depth: float | None = Field(
+        default=None, gt=0.0, description="Band depth along `normal` (default: one particle spacing).")
+    traction: Vector | None = Field(default=None, description="Force per area on a `face` (e.g. [0, -0.5] MPa).")
+    force: Vector | None = Field(default=None, description="Total force, shared by particle volume (2D: on "
+                                 "the deck's thickness, like every 2D force).")
+    ramp: float = Field(default=0.0, ge=0.0, description="Ramp time: the load grows linearly from 0, then is held.")
+
+    @model_validator(mode="after")
+    def _one_of_each(self):
+        if (self.face is None) == (self.normal is None):
+            raise ValueError("give either face or normal")
+        if (self.traction is None) == (self.force is None):
+            raise ValueError("give either traction or force")
+        if self.traction is not None and self.face is None:
+            raise ValueError("traction needs a face (use force with normal for tilted edges)")
+        return self
+
+
+class Damping(Strict):
+    """Damping to reach static results: a grid damping force -alpha p on every node."""
+
+    grid: float = Field(default=0.0, ge=0.0, description="alpha (1/time): nodal force -alpha m v.")
 
 
 # --------------------------------------------------------------------------- run control
@@ -390,6 +477,8 @@ class Deck(Strict):
     bodies: list[Body] = Field(
         min_length=1, description="Bodies in order; a later body overwrites earlier ones where they overlap.")
     gravity: Vector | None = Field(default=None, description="Body acceleration vector.")
+    loads: list[TractionLoad] = Field(default_factory=list, description="Traction loads on particle edges.")
+    damping: Damping | None = Field(default=None, description="Grid damping (static problems).")
     contact: Contact = Field(default_factory=Contact, description="Multimaterial contact settings.")
     time: Time
     update: Update = Field(default_factory=Update)

@@ -7,7 +7,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .schema import SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity, SineVelocity, VelocityTable
+import numpy as np
+
+from .schema import (SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity, SineVelocity, TransverselyIsotropic,
+                     VelocityTable)
 from .units import unit_system
 
 
@@ -53,6 +56,16 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     if dim == 3 and deck.shape_function == "cpdi_q":
         add(["shape_function"], "cpdi_q (9-point qCPDI) is 2D only; use cpdi or b2cpdi in 3d")
     vec(["gravity"], deck.gravity)
+    for i, load in enumerate(deck.loads):
+        vec(["loads", i, "traction"], load.traction)
+        vec(["loads", i, "force"], load.force)
+        vec(["loads", i, "normal"], load.normal)
+        if load.normal is not None and len(load.normal) == dim and not any(load.normal):
+            add(["loads", i, "normal"], "the normal must not be the zero vector")
+        for key in ("min", "max"):
+            vec(["loads", i, "region", key], getattr(load.region, key))
+        if dim == 2 and load.face in ("zmin", "zmax"):
+            add(["loads", i, "face"], "z faces exist only in 3d analysis")
     if deck.time.cfl is not None and deck.time.dt is not None:
         add(["time", "dt"], "give either time.cfl or time.dt, not both")
 
@@ -65,6 +78,17 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     # materials
     units = unit_system(deck.units)
     for name, mat in deck.materials.items():
+        if isinstance(mat, TransverselyIsotropic):
+            vec(["materials", name, "axis"], mat.axis)
+            if len(mat.axis) == dim and not any(mat.axis):
+                add(["materials", name, "axis"], "the axis must not be the zero vector")
+            elif len(mat.axis) == dim:
+                from ..materials import transversely_isotropic_compliance  # (materials import the schema)
+
+                S = transversely_isotropic_compliance(mat.EA, mat.ET, mat.GA, mat.nuA, mat.nuT, mat.axis)
+                if np.linalg.eigvalsh(0.5 * (S + S.T)).min() <= 0.0:
+                    add(["materials", name, "nuA"], "these constants give no positive strain energy "
+                        "(need nuA^2 < EA/ET (1 - nuT)/2 and |nuT| < 1)")
         density = getattr(mat, "density", None)
         if density is not None and density > units.max_density:
             add(["materials", name, "density"],

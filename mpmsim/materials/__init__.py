@@ -11,14 +11,56 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..deck.schema import Deck, LinearElastic, NeoHookean, Rigid, VelocityTable
+from ..deck.schema import Deck, LinearElastic, NeoHookean, Rigid, TransverselyIsotropic, VelocityTable
 
 LINEAR_ELASTIC = 0
 NEO_HOOKEAN = 1
-TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean"}
+ANISOTROPIC = 2
+TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean", ANISOTROPIC: "transversely_isotropic"}
 
-# property row: linear_elastic [lambda, mu, E, nu]; neo_hookean [K, G, 0, 0]
-NPROP = 4
+# property row: linear_elastic [lambda, mu, E, nu, ...]; neo_hookean [K, G, ...];
+# anisotropic [C (6x6, row major), S = C^-1 (6x6)] in Voigt xx yy zz xy yz xz, engineering shear
+NPROP = 72
+VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
+
+
+def transversely_isotropic_compliance(EA, ET, GA, nuA, nuT, axis) -> np.ndarray:
+    """6x6 compliance (strain = S stress, engineering shear) in global axes, for axial
+    properties along `axis` and isotropy normal to it."""
+    a = np.zeros(3)
+    a[: len(axis)] = axis
+    a /= np.linalg.norm(a)
+    # material frame: 1 = axis; compliance as a 4th-order tensor there
+    GT = ET / (2.0 * (1.0 + nuT))
+    Sm = np.zeros((3, 3, 3, 3))
+    normal = np.array([[1 / EA, -nuA / EA, -nuA / EA], [-nuA / EA, 1 / ET, -nuT / ET], [-nuA / EA, -nuT / ET, 1 / ET]])
+    for i in range(3):
+        for j in range(3):
+            Sm[i, i, j, j] = normal[i, j]
+    for (i, j), G in (((0, 1), GA), ((0, 2), GA), ((1, 2), GT)):
+        for k, l in ((i, j), (j, i)):
+            for m, n in ((i, j), (j, i)):
+                Sm[k, l, m, n] = 1.0 / (4.0 * G)
+    # rotation R: rows are the material axes in global coordinates
+    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    t1 = np.cross(helper, a)
+    t1 /= np.linalg.norm(t1)
+    R = np.array([a, t1, np.cross(a, t1)])
+    Sg = np.einsum("ai,bj,ck,dl,abcd->ijkl", R, R, R, R, Sm)
+    S = np.zeros((6, 6))
+    for I, (i, j) in enumerate(VOIGT_PAIRS):
+        for J, (k, l) in enumerate(VOIGT_PAIRS):
+            S[I, J] = Sg[i, j, k, l] * (2.0 if I >= 3 else 1.0) * (2.0 if J >= 3 else 1.0)
+    return S
+
+
+def longitudinal_modulus(code: int, props: np.ndarray) -> float:
+    """Largest P-wave modulus of a material at rest (initial wave speed)."""
+    if code == NEO_HOOKEAN:
+        return props[0] + 4.0 / 3.0 * props[1]
+    if code == ANISOTROPIC:
+        return float(max(props[0], props[7], props[14]))
+    return props[0] + 2.0 * props[1]
 
 
 @dataclass
@@ -74,9 +116,14 @@ def build_material_table(deck: Deck) -> MaterialTable:
         if isinstance(m, LinearElastic):
             lam = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu))
             mu = m.E / (2 * (1 + m.nu))
-            codes[k], props[k] = LINEAR_ELASTIC, (lam, mu, m.E, m.nu)
+            codes[k], props[k, :4] = LINEAR_ELASTIC, (lam, mu, m.E, m.nu)
         elif isinstance(m, NeoHookean):
-            codes[k], props[k] = NEO_HOOKEAN, (m.K, m.G, 0.0, 0.0)
+            codes[k], props[k, :2] = NEO_HOOKEAN, (m.K, m.G)
+        elif isinstance(m, TransverselyIsotropic):
+            S = transversely_isotropic_compliance(m.EA, m.ET, m.GA, m.nuA, m.nuT, m.axis)
+            codes[k] = ANISOTROPIC
+            props[k, :36] = np.linalg.inv(S).ravel()
+            props[k, 36:] = S.ravel()
         else:  # pragma: no cover
             raise TypeError(type(m))
     motions, constrain = [], np.zeros((len(rigid), dim), dtype=np.bool_)

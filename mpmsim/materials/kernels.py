@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from . import NEO_HOOKEAN
+from . import ANISOTROPIC, NEO_HOOKEAN
 
 # Voigt slot of tensor component (a, b)
 VOIGT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2]], dtype=np.int64)
@@ -75,9 +75,9 @@ def neo_hookean_energy(K, G, F3):
 
 
 @njit(cache=True, inline="always")
-def hypoelastic_stress(lam, mu, L, dt, s, W, A, Ai, Q):
-    """Linear elastic increment with the Hughes–Winget rotation:
-    sigma <- Q sigma Q^T + lam tr(de) I + 2 mu de,  Q = (I - W/2)^-1 (I + W/2)."""
+def rotate_stress(L, dt, s, W, A, Ai, Q):
+    """sigma <- Q sigma Q^T with the Hughes–Winget increment Q = (I - W/2)^-1 (I + W/2),
+    W = skew(L) dt: the objective part of a hypoelastic update."""
     for a in range(3):
         for b in range(3):
             W[a, b] = 0.5 * (L[a, b] - L[b, a]) * dt
@@ -91,7 +91,6 @@ def hypoelastic_stress(lam, mu, L, dt, s, W, A, Ai, Q):
             for c in range(3):
                 q += Ai[a, c] * ((1.0 if c == b else 0.0) + 0.5 * W[c, b])
             Q[a, b] = q
-    # rotate: A <- sigma (3x3), then Q sigma Q^T into s
     for a in range(3):
         for b in range(3):
             A[a, b] = s[VOIGT[a, b]]
@@ -102,14 +101,55 @@ def hypoelastic_stress(lam, mu, L, dt, s, W, A, Ai, Q):
                 for d in range(3):
                     r += Q[a, c] * A[c, d] * Q[b, d]
             W[a, b] = r  # W reused as the rotated stress (upper triangle)
+    s[0] = W[0, 0]
+    s[1] = W[1, 1]
+    s[2] = W[2, 2]
+    s[3] = W[0, 1]
+    s[4] = W[1, 2]
+    s[5] = W[0, 2]
+
+
+@njit(cache=True, inline="always")
+def hypoelastic_stress(lam, mu, L, dt, s, W, A, Ai, Q):
+    """Isotropic linear elastic increment after the rotation:
+    sigma <- Q sigma Q^T + lam tr(de) I + 2 mu de."""
+    rotate_stress(L, dt, s, W, A, Ai, Q)
     tr = (L[0, 0] + L[1, 1] + L[2, 2]) * dt
-    s[0] = W[0, 0] + lam * tr + 2.0 * mu * L[0, 0] * dt
-    s[1] = W[1, 1] + lam * tr + 2.0 * mu * L[1, 1] * dt
-    s[2] = W[2, 2] + lam * tr + 2.0 * mu * L[2, 2] * dt
-    s[3] = W[0, 1] + mu * (L[0, 1] + L[1, 0]) * dt
-    s[4] = W[1, 2] + mu * (L[1, 2] + L[2, 1]) * dt
-    s[5] = W[0, 2] + mu * (L[0, 2] + L[2, 0]) * dt
+    s[0] += lam * tr + 2.0 * mu * L[0, 0] * dt
+    s[1] += lam * tr + 2.0 * mu * L[1, 1] * dt
+    s[2] += lam * tr + 2.0 * mu * L[2, 2] * dt
+    s[3] += mu * (L[0, 1] + L[1, 0]) * dt
+    s[4] += mu * (L[1, 2] + L[2, 1]) * dt
+    s[5] += mu * (L[0, 2] + L[2, 0]) * dt
     return lam + 2.0 * mu
+
+
+@njit(cache=True, inline="always")
+def anisotropic_stress(props, L, dt, s, W, A, Ai, Q):
+    """Linear elastic increment with a full stiffness C (props[0:36], Voigt xx yy zz xy yz xz,
+    engineering shear strains) after the rotation: sigma <- Q sigma Q^T + C de."""
+    rotate_stress(L, dt, s, W, A, Ai, Q)
+    de0 = L[0, 0] * dt
+    de1 = L[1, 1] * dt
+    de2 = L[2, 2] * dt
+    de3 = (L[0, 1] + L[1, 0]) * dt
+    de4 = (L[1, 2] + L[2, 1]) * dt
+    de5 = (L[0, 2] + L[2, 0]) * dt
+    for a in range(6):
+        r = 6 * a
+        s[a] += (props[r] * de0 + props[r + 1] * de1 + props[r + 2] * de2 + props[r + 3] * de3
+                 + props[r + 4] * de4 + props[r + 5] * de5)
+    return max(props[0], max(props[7], props[14]))
+
+
+@njit(cache=True, inline="always")
+def compliance_energy(props, s):
+    """1/2 sigma . S sigma with the compliance S in props[36:72]."""
+    e = 0.0
+    for a in range(6):
+        for b in range(6):
+            e += s[a] * props[36 + 6 * a + b] * s[b]
+    return 0.5 * e
 
 
 @njit(cache=True, inline="always")
@@ -126,6 +166,8 @@ def constitutive_update(code, props, F3, L, dt, s, W, A, Ai, Q):
     dt. Returns the longitudinal modulus used for the wave speed."""
     if code == NEO_HOOKEAN:
         return neo_hookean_stress(props[0], props[1], F3, s)
+    if code == ANISOTROPIC:
+        return anisotropic_stress(props, L, dt, s, W, A, Ai, Q)
     return hypoelastic_stress(props[0], props[1], L, dt, s, W, A, Ai, Q)
 
 
@@ -134,6 +176,8 @@ def energy_density(code, props, F3, s, J):
     """Strain energy per *current* volume."""
     if code == NEO_HOOKEAN:
         return neo_hookean_energy(props[0], props[1], F3) / J
+    if code == ANISOTROPIC:
+        return compliance_energy(props, s)
     return linear_elastic_energy(props[2], props[3], props[1], s)
 
 
@@ -141,4 +185,6 @@ def energy_density(code, props, F3, s, J):
 def initial_modulus(code, props):
     if code == NEO_HOOKEAN:
         return props[0] + 4.0 / 3.0 * props[1]
+    if code == ANISOTROPIC:
+        return max(props[0], max(props[7], props[14]))
     return props[0] + 2.0 * props[1]

@@ -34,6 +34,9 @@ class History:
         self.columns += [(s, u.stress) for s in stress_cols]
         self.columns += [("kinetic_energy", u.energy), ("strain_energy", u.energy), ("external_work", u.energy)]
         self.columns += [(f"p{a}", u.momentum.split(" (")[0]) for a in axes]
+        self._interface = state.contact is not None and state.contact.spec.has_interface
+        if self._interface:
+            self.columns += [("interface_energy", u.energy)]
         self.columns += [("velocity_noise", "-")]
         self._null_space = state.scene.deck.output.null_space_noise
         if self._null_space:
@@ -60,6 +63,8 @@ class History:
         row += [s[i] / s[VOLUME] for i in self._stress_idx]
         row += [s[KINETIC], s[STRAIN], state.work_in]
         row += list(s[MOMENTUM][: state.dim])
+        if self._interface:
+            row.append(state.interface_energy)
         row.append(velocity_noise(state))
         if self._null_space:
             row.append(null_space_noise(state))

@@ -52,6 +52,14 @@ def _cell_sizes(deck) -> np.ndarray:
     return np.array(cs, float) if isinstance(cs, list) else np.full(deck.dim, float(cs))
 
 
+
+def clipped(box, clip):
+    """A body's bounding box cut to its clip box."""
+    if clip is None:
+        return box
+    lo, hi = box
+    return np.maximum(lo, np.asarray(clip.min, float)), np.minimum(hi, np.asarray(clip.max, float))
+
 def build_scene(loaded: LoadedDeck) -> Scene:
     deck = loaded.deck
     base = loaded.base_dir
@@ -60,7 +68,7 @@ def build_scene(loaded: LoadedDeck) -> Scene:
     mats = build_material_table(deck)
     faces = [FACE_CODES[getattr(deck.grid.boundaries, f)] for f in FACES[: 2 * dim]]
 
-    boxes = [bbox(b, base) for b in deck.bodies]
+    boxes = [clipped(bbox(b, base), b.clip) for b in deck.bodies]
     if deck.grid.domain is not None:
         lo, hi = np.array(deck.grid.domain.min, float), np.array(deck.grid.domain.max, float)
         explicit = True
@@ -99,6 +107,8 @@ def build_scene(loaded: LoadedDeck) -> Scene:
         k = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
         pts = grid.origin + (k + 0.5) * spacing
         sel = inside(body, pts, base)
+        if body.clip is not None:
+            sel &= np.all((pts >= np.asarray(body.clip.min)) & (pts <= np.asarray(body.clip.max)), axis=1)
         if not sel.any():
             problems.append((("bodies", i), "holds no particle centre: it is smaller than the "
                                             f"particle spacing {spacing.min():g} or misplaced"))

@@ -60,7 +60,9 @@ def build_task_list(scene) -> list[Task]:
     if upd.stress in ("usf", "usavg"):
         tasks.append(Task("update stress first", update_stress_first,
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"))
-    tasks.append(Task("forces", forces, "internal forces" + (" and gravity" if deck.gravity and any(deck.gravity) else "")))
+    extra = [what for what, on in (("gravity", deck.gravity and any(deck.gravity)), (f"{len(deck.loads)} traction load(s)", deck.loads),
+                                   ("grid damping", deck.damping and deck.damping.grid > 0)) if on]
+    tasks.append(Task("forces", forces, "internal forces" + "".join(f", {e}" for e in extra)))
     bc_rigid = [r for r in scene.materials.rigid if getattr(deck.materials[r], "mode", "bc") == "bc"]
     bc = ", ".join(faces + [f"rigid '{r}'" for r in bc_rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))

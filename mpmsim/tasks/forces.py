@@ -1,10 +1,12 @@
-"""Task: grid forces. f_i = -sum_p V_p sigma_p . G_ip + sum_p S_ip m_p g."""
+"""Task: grid forces. f_i = -sum_p V_p sigma_p . G_ip + sum_p S_ip m_p g, plus traction loads
+ and grid damping -alpha p when the deck has them."""
 
 from __future__ import annotations
 
 from numba import njit, prange
 
 from ..gridops import zero_fields
+from ..loads import damp_grid, p2g_loads
 from ..materials.kernels import VOIGT
 
 
@@ -37,3 +39,8 @@ def forces(state) -> None:
     zero_fields(box.fields, f.force)
     has_g = bool(state.gravity.any())
     p2g_forces(box.order, box.ptr, state.field_index, sd.S, sd.G, P.vol, P.stress, P.mass, state.gravity, has_g, f.force)
+    loads = state.loads
+    if loads is not None:  # their work is booked by the particle update, over the step's displacement
+        p2g_loads(loads.particle, loads.start_step(P.x, state.t + 0.5 * state.dt), state.field_index, sd.S, f.force)
+    if state.damping > 0.0:
+        damp_grid(box.fields, f.mom, state.damping, f.force)

@@ -125,6 +125,8 @@ def particle_update(state) -> None:
                            state.dt, state.scheme, P.x, P.v, P.B, P.mass, state.gravity, *state.particle_bounds,
                            nc, gwork, bad, code)
     state.work_in += float(gwork.sum())
+    if state.loads is not None:
+        state.work_in += state.loads.work_of_step(P.x)
     hits = np.nonzero(bad >= 0)[0]
     if len(hits):
         state.flags.set(int(bad[hits[0]]), int(code[hits[0]]), 0.0)

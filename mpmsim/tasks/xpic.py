@@ -49,7 +49,7 @@ from .boundary import has_walls, mirror_ghosts
 def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape, mass, vnew, vstart, seed_shift,
                 use_shift, filter_updated, m_order, face_type, wall_index, rigid_vol, constrain, rig_vel, walls, n_cn, cn_nodes,
                 cn_ptr, slot_group, n_def_groups, sep_method, role, partner, geo_n, delta2, slot_law, slot_mu, slot_mus,
-                touch, stick_total, applied_total, dv, tmp, vstar):
+                bonded, touch, stick_total, applied_total, dv, tmp, vstar):
     """`nodes` are the particles' field indices (material slots at contact nodes)."""
     dim = vnew.shape[1]
     nq = fields.size
@@ -118,7 +118,8 @@ def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape
             nvec = np.zeros(3)
             increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, mass, dv, face_type,
                               wall_index, rigid_vol, constrain, rig_vel, sep_method, role, partner, geo_n, delta2,
-                              slot_law, slot_mu, slot_mus, touch, stick_total, applied_total, pbuf, dpb, imp, out, nvec)
+                              slot_law, slot_mu, slot_mus, bonded, touch, stick_total, applied_total, pbuf, dpb, imp,
+                              out, nvec)
         if walls:  # ghost components of the increment mirror their interior node
             mirror_ghosts(fields[:n_box], shape, face_type, wall_index, rigid_vol, constrain, dv)
         for q in prange(nq):
@@ -153,7 +154,7 @@ def xpic(state) -> None:
                 box.n_box, box.shape, f.mass, f.vnew, f.vstart, shift, shift is not _NO_SHIFT[dim], upd.scheme == "fmpm", upd.order, g.face_type,
                 g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid_v_end, has_walls(state), n_cn,
                 c.cn_nodes, c.cn_ptr, c.slot_group, spec_groups, sep, c.role, c.partner, c.normal, c.delta2, c.law,
-                c.mu, c.mus, touch, c.stick_total, c.applied_total, f.dv, f.tmp, f.vstar)
+                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, f.dv, f.tmp, f.vstar)
 
 
 class _NoContact:
@@ -161,7 +162,7 @@ class _NoContact:
 
     def __init__(self):
         i1, f1, f2 = np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros((1, 3))
-        self.cn_nodes = self.cn_ptr = self.slot_group = self.role = self.partner = self.law = i1
+        self.cn_nodes = self.cn_ptr = self.slot_group = self.role = self.partner = self.law = self.bonded = i1
         self.normal = self.stick_total = self.applied_total = f2
         self.delta2 = self.mu = self.mus = f1
 

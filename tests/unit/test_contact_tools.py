@@ -165,7 +165,7 @@ def law_impulse(law, dp, dotn_sign=-1, mu=0.0, mu_static=-1.0, in_contact=True):
     n = np.array([0.0, 1.0, 0.0])
     dp = np.array([dp[0], dp[1], 0.0])
     out = np.zeros(3)
-    applied = apply_law(law, mu, mu_static, dp, n, float(dp @ n), in_contact, 2, out)
+    applied = apply_law(law, mu, mu_static, 0, dp, n, float(dp @ n), in_contact, 2, out)
     return applied, out[:2]
 
 

@@ -81,3 +81,42 @@ def test_linear_elastic_energy_is_half_stress_strain():
     sigma = lam * np.trace(eps) * np.eye(3) + 2 * mu * eps
     s = np.array([sigma[0, 0], sigma[1, 1], sigma[2, 2], sigma[0, 1], sigma[1, 2], sigma[0, 2]])
     assert linear_elastic_energy(E, nu, mu, s) == pytest.approx(0.5 * np.sum(sigma * eps), rel=1e-12)
+
+
+def test_transversely_isotropic_compliance():
+    """Isotropic constants give the isotropic compliance; the axis picks the stiff direction;
+    the 2013 paper's wood is positive definite and its axial modulus is EA along the axis."""
+    from mpmsim.materials import transversely_isotropic_compliance
+
+    E, nu = 2400.0, 0.33
+    S = transversely_isotropic_compliance(E, E, E / (2 * (1 + nu)), nu, nu, [0.3, 0.4, 0.5])
+    iso = np.zeros((6, 6))
+    iso[:3, :3] = -nu / E
+    np.fill_diagonal(iso[:3, :3], 1 / E)
+    iso[3:, 3:] = np.eye(3) * 2 * (1 + nu) / E
+    np.testing.assert_allclose(S, iso, atol=1e-12 / E)
+    wood = transversely_isotropic_compliance(10000.0, 1000.0, 500.0, 0.2, 0.3, [0.0, 1.0])
+    assert wood[1, 1] == pytest.approx(1 / 10000.0)
+    assert wood[0, 0] == pytest.approx(1 / 1000.0) and wood[2, 2] == pytest.approx(1 / 1000.0)
+    assert wood[0, 1] == pytest.approx(-0.2 / 10000.0)
+    assert wood[3, 3] == pytest.approx(1 / 500.0)  # xy: axial shear
+    assert np.linalg.eigvalsh(wood).min() > 0
+    np.testing.assert_allclose(wood, wood.T, atol=1e-18)
+
+
+def test_anisotropic_increment_and_energy():
+    """One increment from rest: sigma = C de, and the energy 1/2 sigma.S.sigma = 1/2 de.C.de."""
+    from mpmsim.materials import transversely_isotropic_compliance
+    from mpmsim.materials.kernels import anisotropic_stress, compliance_energy
+
+    S = transversely_isotropic_compliance(10000.0, 1000.0, 500.0, 0.2, 0.3, [1.0, 1.0, 0.0])
+    C = np.linalg.inv(S)
+    props = np.concatenate([C.ravel(), S.ravel()])
+    L = np.array([[1e-3, 2e-4, 0.0], [0.0, -5e-4, 0.0], [0.0, 0.0, 0.0]])
+    s = np.zeros(6)
+    w = [np.zeros((3, 3)) for _ in range(4)]
+    modulus = anisotropic_stress(props, L, 1.0, s, *w)
+    de = np.array([1e-3, -5e-4, 0.0, 2e-4, 0.0, 0.0])  # engineering shear: L01 + L10
+    np.testing.assert_allclose(s, C @ de, rtol=1e-12, atol=1e-14)
+    assert compliance_energy(props, s) == pytest.approx(0.5 * de @ C @ de, rel=1e-12)
+    assert modulus == pytest.approx(max(C[0, 0], C[1, 1], C[2, 2]))
