@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .spec import COULOMB, FORCE_LIMIT, FRICTIONLESS, INTERFACE, STICK
+from .spec import COULOMB, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INTERFACE, STICK
 
 
 @njit(cache=True, inline="always")
@@ -93,12 +93,13 @@ def oscillator(k, mred, delta0, d, df, dt):
 def direction_force(D, area, mred, delta0, d, df, dt, mode):
     """(force on a, energy, bonded?) for one imperfect direction with stiffness D."""
     k = D * area
-    if mode == FORCE_LIMIT:
-        # the 2013 paper: first-order force, bonded when it exceeds the force that would bring
-        # both materials to the centre of mass within the step (Eq. 26)
+    if mode == FORCE_LIMIT or mode == FIRST_ORDER:
+        # the 2013 paper: first-order force; with its limit, bonded when the force exceeds the
+        # one that would bring both materials to the centre of mass within the step (Eq. 26).
+        # Without the limit (first_order) a stiff interface goes unstable (paper Fig. 12).
         force = k * delta0
         limit = 2.0 * mred * delta0 / (dt * dt) + 2.0 * d / dt + df
-        if abs(force) > abs(limit):
+        if mode == FORCE_LIMIT and abs(force) > abs(limit):
             return 0.0, 0.0, True
         return force, 0.5 * k * delta0 * delta0, False
     force, end = oscillator(k, mred, delta0, d, df, dt)

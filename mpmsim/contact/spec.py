@@ -17,7 +17,8 @@ from ..deck.schema import Deck, Rigid
 STICK, FRICTIONLESS, COULOMB, INTERFACE = 0, 1, 2, 3
 LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK, "interface": INTERFACE}
 PERFECT = -1.0  # interface stiffness code for a perfect direction
-OSCILLATOR, FORCE_LIMIT = 0, 1
+OSCILLATOR, FORCE_LIMIT, FIRST_ORDER = 0, 1, 2
+INTEGRATION_CODES = {"oscillator": OSCILLATOR, "force_limit": FORCE_LIMIT, "first_order": FIRST_ORDER}
 
 LOGISTIC, LINEAR_REGRESSION, AVERAGE_GRADIENT, MAX_GRADIENT, MAX_VOLUME, SPECIFIED = range(6)
 NORMAL_CODES = {"logistic_regression": LOGISTIC, "linear_regression": LINEAR_REGRESSION,
@@ -149,7 +150,7 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
                        stiff, NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff,
                        c.touch_tolerance, c.fit_exponent, c.passes, c.xpic_contact_term, c.warm_start,
                        c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
-                       FORCE_LIMIT if c.interface_integration == "force_limit" else OSCILLATOR, c.area_correction, c.h_perp,
+                       INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
                        c.edge_screening or 0.0)
 
 

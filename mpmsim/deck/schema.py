@@ -151,11 +151,12 @@ class Contact(Strict):
         default=None, description="For normal: specified: a radial normal from this centre point "
         "(spheres, cylinders) instead of normal_vector; points from the lower-numbered material to "
         "the higher.")
-    interface_integration: Literal["oscillator", "force_limit"] = Field(
+    interface_integration: Literal["oscillator", "force_limit", "first_order"] = Field(
         default="oscillator", description="Imperfect interfaces: oscillator (exact harmonic oscillator per "
-        "direction over the step; a direction with (D A dt^2 / m_red) > 2.25 acts as perfect) or force_limit "
+        "direction over the step; a direction with (D A dt^2 / m_red) > 2.25 acts as perfect), force_limit "
         "(the 2013 paper: first-order force D A delta, a direction whose force exceeds the force that "
-        "would bring both materials to the centre of mass acts as perfect).")
+        "would bring both materials to the centre of mass acts as perfect) or first_order (the force "
+        "without any limit: unstable for stiff interfaces, kept to show that failure).")
     area_correction: bool = Field(
         default=True, description="Contact area from the two materials' nodal volumes (2013 paper Eq. 20; "
         "logistic regression: from the edge distance). false: the uncorrected area Omega_i / h_perp, "

@@ -47,15 +47,16 @@ def check_stability(state) -> None:
     stab = state.scene.deck.stability
     if (state.step + 1) % stab.check_every == 0:
         sums = particle_sums(state)
-        total = sums[KINETIC] + sums[STRAIN]
+        total = sums[KINETIC] + sums[STRAIN] + state.interface_energy  # interfaces store energy too
         supplied = state.energy0 + state.work_in
         excess = total - supplied
         if excess > stab.energy_tolerance * (state.energy0 + abs(state.work_in)) + state.energy_floor:
             P = state.particles
             p = int(np.argmax(np.sum(P.v**2, axis=1)))
+            stored = f" + {state.interface_energy:.4g} (interfaces)" if state.interface_energy else ""
             raise InstabilityError(
                 f"unstable at {where(state)}: energy grew without a source: kinetic + strain = "
-                f"{sums[KINETIC]:.4g} + {sums[STRAIN]:.4g} exceeds the energy supplied ({supplied:.4g}) by "
+                f"{sums[KINETIC]:.4g} + {sums[STRAIN]:.4g}{stored} exceeds the energy supplied ({supplied:.4g}) by "
                 f"{excess_text(excess, supplied)}; fastest is {describe_particle(state, p)}; {REMEDY}",
                 state.t, state.step)
     if state.rigid.n:

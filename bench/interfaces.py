@@ -1,0 +1,199 @@
+"""Imperfect interfaces (2013 paper): the sweeps behind docs/interfaces.md and its charts.
+
+    python bench/interfaces.py two_layer   # Figs. 5/8: interfacial energy vs Dt, 3 cell sizes, 2D and 3D
+    python bench/interfaces.py dls         # Figs. 7/9: DLS stiffness vs 1/Dt; tilted on dy = 2 dx cells
+    python bench/interfaces.py sphere      # Figs. 12/13: bulk modulus vs D = Dn = Dt, by energy and pressure
+    python bench/interfaces.py chart       # redraw the charts from the saved results
+
+Every run is saved as it finishes (results/bench_interfaces/*.json), so an interrupted sweep
+resumes. Runs are single-threaded; `--workers N` runs N at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+FIGURES = ROOT / "docs" / "figures"
+RESULTS = ROOT / "results" / "bench_interfaces"
+E0, SIDE = 0.005, 1.0  # sphere: applied strain, cube side (mm)
+
+
+def two_layer_jobs():
+    jobs = []
+    for cell in (0.5, 0.25, 0.1):
+        for Dt in (0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0):
+            jobs.append(("two_layer", {"cell": cell, "Dt": Dt}))
+    for Dt in (0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0):
+        jobs.append(("two_layer_3d", {"cell": 0.5, "Dt": Dt}))
+    return jobs
+
+
+def dls_jobs():
+    jobs = [("dls", {"degrees": 0.0, "cell": 0.25, "Dt": Dt}) for Dt in ("perfect", 10.0, 5.0, 3.0, 2.0, 1.5, 1.0)]
+    for deg in (0.0, 15.0, 30.0, 45.0, 60.0, 90.0):
+        for hp in (True, False):
+            jobs.append(("dls", {"degrees": deg, "cell": [0.25, 0.5], "Dt": 5.0, "h_perp": hp}))
+    return jobs
+
+
+def sphere_jobs():
+    return [("sphere", {"cell": cell, "D": D}) for cell in (0.1, 0.05)
+            for D in (1e3, 1e4, 3e4, 1e5, 3e5, 1e6, 1e7, 1e9)]
+
+
+def deck_for(kind, p):
+    from mpmsim.deck.overrides import with_overrides
+    from tests.validation.specimens import dls_tilted, shipped, two_layer
+
+    if kind == "two_layer":
+        return two_layer(p["cell"], p["Dt"])
+    if kind == "two_layer_3d":
+        return two_layer_3d(p["cell"], p["Dt"])
+    if kind == "dls":
+        return dls_tilted(p["degrees"], p["cell"], p["Dt"], **{"contact.h_perp": p.get("h_perp", True)})
+    return with_overrides(shipped("sphere_composite"), {"grid.cell_size": p["cell"], "time.end": 0.01,
+                                                       "contact.default.Dn": p["D"], "contact.default.Dt": p["D"]})
+
+
+def two_layer_3d(cell, Dt):
+    """The two-layer specimen as the paper's 4 x 4 x 20 mm layers in 3D."""
+    from tests.validation.specimens import shipped
+
+    deck = shipped("two_layer")
+    deck.update(analysis="3d", title=f"Two-layer specimen in 3D (Dt = {Dt})")
+    deck.pop("thickness")
+    deck["grid"] = {"cell_size": cell, "domain": {"min": [-1.0, 0.0, 0.0], "max": [9.0, 21.0, 4.0]},
+                    "boundaries": {"ymin": "fixed"}}
+    deck["bodies"] = [{"shape": "box", "min": [0.0, 0.0, 0.0], "max": [4.0, 20.0, 4.0], "material": "left"},
+                      {"shape": "box", "min": [4.0, 0.0, 0.0], "max": [8.0, 20.0, 4.0], "material": "right"}]
+    deck["contact"]["normal_vector"] = [1.0, 0.0, 0.0]
+    deck["contact"]["default"]["Dt"] = Dt
+    deck["loads"] = [{"region": {"min": [4.0, 19.0, 0.0], "max": [8.0, 20.0, 4.0]}, "face": "ymax",
+                      "traction": [0.0, 0.5, 0.0], "ramp": 0.02}]
+    return deck
+
+
+def run_job(job):
+    kind, p = job
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    from mpmsim.errors import InstabilityError
+    from tests.conftest import ROOT as TROOT, simulate
+
+    deck = deck_for(kind, p)
+    t0 = time.perf_counter()
+    try:
+        sim = simulate(deck, TROOT / "inputs")
+    except InstabilityError as e:
+        return {"kind": kind, **p, "status": f"unstable: {e}"}
+    h = sim.history
+    tail = max(1, len(h.rows) // 5)
+    mean = lambda c: float(h.column(c)[-tail:].mean())  # noqa: E731
+    out = {"kind": kind, **p, "status": "ok", "wall": time.perf_counter() - t0, "particles": sim.state.particles.n,
+           "strain_energy": mean("strain_energy"), "interface_energy": mean("interface_energy")}
+    if kind == "sphere":
+        out["pressure"] = float(((h.column("sxx") + h.column("syy") + h.column("szz")) / 3)[-tail:].mean())
+    return out
+
+
+def key(job):
+    return hashlib.sha1(json.dumps(job, sort_keys=True).encode()).hexdigest()[:12]
+
+
+def run_all(jobs, workers):
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    todo = [j for j in jobs if not (RESULTS / f"{key(j)}.json").exists()]
+    print(f"{len(jobs) - len(todo)} of {len(jobs)} runs already done")
+    with ProcessPoolExecutor(workers) as pool:
+        for job, res in zip(todo, pool.map(run_job, todo)):
+            tmp = RESULTS / f"{key(job)}.tmp"
+            tmp.write_text(json.dumps(res))
+            tmp.replace(RESULTS / f"{key(job)}.json")
+            print(json.dumps(res), flush=True)
+
+
+def load(jobs):
+    out = []
+    for j in jobs:
+        f = RESULTS / f"{key(j)}.json"
+        if f.exists():
+            out.append(json.loads(f.read_text()))
+    return out
+
+
+def csa_bulk_modulus():
+    """Composite spheres assemblage, perfect interface (Hashin 1962)."""
+    Em, num, Ep, nup = 2400.0, 0.33, 70000.0, 0.25
+    Km, Gm, Kp = Em / (3 * (1 - 2 * num)), Em / (2 * (1 + num)), Ep / (3 * (1 - 2 * nup))
+    phi = 3.141592653589793 * 0.7**3 / 6
+    return Km + phi * (Kp - Km) / (1 + (1 - phi) * (Kp - Km) / (Km + 4 * Gm / 3))
+
+
+def chart():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    FIGURES.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    rows = load(two_layer_jobs())
+    ax = axes[0]
+    for kind, cell, style in [("two_layer", 0.5, "s-"), ("two_layer", 0.25, "^-"), ("two_layer", 0.1, "o-"),
+                              ("two_layer_3d", 0.5, "D--")]:
+        r = sorted((x for x in rows if x["kind"] == kind and x["cell"] == cell and x["status"] == "ok"),
+                   key=lambda x: x["Dt"])
+        if r:
+            vol = 8.0 * 20.0 * 4.0
+            ax.plot([1 / x["Dt"] for x in r], [x["interface_energy"] / vol * 1e6 for x in r], style,
+                    label=f"{'3D' if kind.endswith('3d') else '2D'} {cell} mm")
+    ax.set(xlabel="1/Dt (mm/MPa)", ylabel="interfacial energy density (J/m^3)", title="Two-layer specimen (Fig. 5)")
+    ax.legend()
+    ax = axes[1]
+    rows = load(dls_jobs())
+    r = sorted((x for x in rows if x["degrees"] == 0.0 and x["cell"] == 0.25 and x["status"] == "ok"),
+               key=lambda x: 0 if x["Dt"] == "perfect" else 1 / x["Dt"])
+    if r:
+        ax.plot([0 if x["Dt"] == "perfect" else 1 / x["Dt"] for x in r],
+                [4.0 / (2 * (x["strain_energy"] + x["interface_energy"])) for x in r], "o-", label="MPM, 0.25 mm")
+    ax.set(xlabel="1/Dt (mm/MPa)", ylabel="stiffness k = P^2/2U (N/mm)", title="DLS specimen (Fig. 7)")
+    ax.legend()
+    ax = axes[2]
+    rows = load(sphere_jobs())
+    for cell, style in ((0.1, "s"), (0.05, "o")):
+        r = sorted((x for x in rows if x["cell"] == cell and x["status"] == "ok"), key=lambda x: x["D"])
+        if r:
+            inv = [1 / x["D"] for x in r]
+            ax.semilogx(inv, [2 * (x["strain_energy"] + x["interface_energy"]) / (9 * SIDE**3 * E0**2) for x in r],
+                        style + "-", label=f"energy, {cell * 1000:g} um")
+            ax.semilogx(inv, [x["pressure"] / (3 * E0) for x in r], style + "--", mfc="none",
+                        label=f"pressure, {cell * 1000:g} um")
+    ax.axhline(csa_bulk_modulus(), color="k", lw=0.8, ls=":", label="CSA, perfect")
+    ax.set(xlabel="1/D (mm/MPa), D = Dn = Dt", ylabel="bulk modulus K (MPa)", title="Glass spheres in polymer (Figs. 12-13)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(FIGURES / "interfaces.png", dpi=110)
+    print(f"wrote {FIGURES / 'interfaces.png'}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("what", choices=["two_layer", "dls", "sphere", "all", "chart"])
+    ap.add_argument("--workers", type=int, default=1)
+    a = ap.parse_args()
+    sets = {"two_layer": two_layer_jobs, "dls": dls_jobs, "sphere": sphere_jobs}
+    for name in (sets if a.what == "all" else [a.what] if a.what != "chart" else []):
+        run_all(sets[name](), a.workers)
+    chart()
+
+
+if __name__ == "__main__":
+    main()

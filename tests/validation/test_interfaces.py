@@ -1,0 +1,150 @@
+"""Imperfect interfaces (2013 paper): the two-layer and double-lap-shear specimens and the 3D
+composite sphere, at coarse resolution. Full-resolution sweeps: bench/interfaces.py and
+docs/interfaces.md."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpmsim.deck.overrides import with_overrides
+
+from ..conftest import ROOT, simulate
+from .specimens import dls_tilted, shipped, two_layer
+
+
+def settled(deck, *columns) -> dict:
+    """Run to the end; each column's mean over the last fifth of the history (the static state
+    under grid damping; residual ringing is below 0.5% there)."""
+    sim = simulate(deck, ROOT / "inputs")
+    h = sim.history
+    tail = max(1, len(h.rows) // 5)
+    return {c: float(h.column(c)[-tail:].mean()) for c in columns}
+
+
+def interface_energy(deck) -> float:
+    return settled(deck, "interface_energy")["interface_energy"]
+
+
+def total_energy(deck) -> float:
+    cols = ("strain_energy", "interface_energy") if deck["contact"].get("default", {}).get("law") == "interface" \
+        else ("strain_energy",)
+    return sum(settled(deck, *cols).values())
+
+
+# --------------------------------------------------------------------------- two-layer specimen
+@pytest.mark.parametrize("Dt", [0.2, 1.0, 5.0])
+def test_interfacial_energy_does_not_depend_on_where_the_interface_lies(Dt):
+    """Paper Fig. 8 with Dn = Dt, 1 mm cells: interface on a grid line vs on cell mid-planes.
+    With the area correction (Eq. 20) the energies agree (measured +0.15%, +0.39%, +1.31%);
+    without it the mid-plane interface acts as if Dt were doubled: its energy equals the
+    grid-line energy at 2 Dt (measured +0.34%, +0.74%, +2.2%), 1.94x / 1.75x / 1.22x the
+    energy at Dt."""
+    o = {"contact.default.Dn": Dt}
+    grid = interface_energy(two_layer(1.0, Dt, **o))
+    mid = interface_energy(two_layer(1.0, Dt, mid=True, **o))
+    assert mid == pytest.approx(grid, rel=0.02)
+    uncorrected = interface_energy(two_layer(1.0, Dt, mid=True, **o, **{"contact.area_correction": False}))
+    doubled = interface_energy(two_layer(1.0, 2 * Dt, **o))
+    assert uncorrected == pytest.approx(doubled, rel=0.03)
+    assert abs(uncorrected / grid - 1) > 0.15  # visibly off at its own Dt
+
+
+def test_perfect_normal_mid_plane_error_shrinks_with_the_cells():
+    """With Dn perfect (the paper's two-layer case) the mid-plane energy is lower than the
+    grid-line one, by 15.2% at 1 mm cells and 9.2% at 0.5 mm (5.1% at 0.25 mm, docs): the
+    bonded normal ties each material's thin ghost field at the two mid-plane nodes to the
+    other material, which clamps the edge columns' Poisson contraction over a band. The paper
+    reports agreement; we do not reach 2% at these cells (docs/interfaces.md)."""
+    gap = []
+    for cell in (1.0, 0.5):
+        grid = interface_energy(two_layer(cell, 1.0))
+        mid = interface_energy(two_layer(cell, 1.0, mid=True))
+        gap.append(mid / grid - 1)
+    assert -0.2 < gap[0] < gap[1] < 0  # measured -0.152, -0.092
+    assert abs(gap[1]) < 0.7 * abs(gap[0])
+
+
+def test_interface_limits():
+    """Dt -> perfect gives the single body (law none) within 1% (measured: identical for
+    'perfect' and 1e6, -0.17% at Dt = 1e3); Dt = 0 lets the loaded layer slide freely: its
+    energy is that of the loaded layer alone within 2% (measured -0.31%)."""
+    single = total_energy(two_layer(1.0, 1.0, **{"contact.default.law": "none"}))
+    for Dt in ("perfect", 1.0e6, 1.0e3):
+        assert total_energy(two_layer(1.0, Dt)) == pytest.approx(single, rel=0.01)
+    alone = two_layer(1.0, 1.0)
+    del alone["bodies"][0]
+    alone["contact"] = {}
+    assert total_energy(two_layer(1.0, 0.0)) == pytest.approx(total_energy(alone), rel=0.02)
+
+
+# --------------------------------------------------------------------------- double lap shear
+def dls_stiffness(deck) -> tuple[float, float]:
+    """k = P^2 / (2 U), U = strain + interfacial energy; and the interface's share of U."""
+    e = settled(deck, "strain_energy", "interface_energy")
+    U = e["strain_energy"] + e["interface_energy"]
+    P = 2.0 * deck["thickness"]  # 2 MPa on the 1 mm central strand
+    return P**2 / (2.0 * U), e["interface_energy"] / U
+
+
+def test_dls_stiffness_falls_as_the_interface_softens():
+    """Paper Fig. 7 at 0.5 mm cells: k against 1/Dt = 0, 0.2, 0.5, 1 mm/MPa falls
+    monotonically, by more than 3x (measured 552.6, 168.1, 83.5, 45.5 N/mm: 12x), and the
+    interface holds 91% of the energy at Dt = 1 MPa/mm (paper: 91%; measured 90.8%)."""
+    k, share = zip(*(dls_stiffness(with_overrides(shipped("dls"), {"grid.cell_size": 0.5,
+                                                                    "contact.default.Dt": Dt}))
+                     for Dt in ("perfect", 5.0, 2.0, 1.0)))
+    assert all(a > b for a, b in zip(k, k[1:]))
+    assert k[0] / k[-1] > 3.0
+    assert share[-1] == pytest.approx(0.91, abs=0.02)
+
+
+def test_h_perp_corrects_a_tilted_interface_on_uneven_cells():
+    """Paper Fig. 9: the DLS specimen tilted 30 degrees on dy = 2 dx cells (0.25 x 0.5 mm)
+    against the untilted one (0.5 mm square cells: 168.1 N/mm; 167.4 at 0.25 mm). With h_perp
+    (Eq. 22): 160.2 N/mm (-4.7%); with h_perp = dx: 186.5 (+10.9%). The issue's 3% is not
+    reached at these cells (docs/interfaces.md); the correction must at least halve the error."""
+    flat, _ = dls_stiffness(with_overrides(shipped("dls"), {"grid.cell_size": 0.5}))
+    tilted, _ = dls_stiffness(dls_tilted(30.0, [0.25, 0.5], 5.0))
+    uncorrected, _ = dls_stiffness(dls_tilted(30.0, [0.25, 0.5], 5.0, **{"contact.h_perp": False}))
+    assert abs(tilted / flat - 1) < 0.06
+    assert abs(uncorrected / flat - 1) > 0.08
+    assert abs(tilted / flat - 1) < 0.5 * abs(uncorrected / flat - 1)
+
+
+# --------------------------------------------------------------------------- stiff interfaces, 3D
+def test_stiff_interfaces_stay_stable_only_with_the_oscillator():
+    """Dn = Dt = 1e8 MPa/mm on the two-layer specimen: the oscillator switches the direction
+    to bonded and gives the perfect-interface energy to round-off; the first-order force
+    without a limit blows up within a few steps (the failure the 2013 paper's limit is for);
+    the paper's force limit also lets the energy grow here (stops after ~0.2 ms)."""
+    from mpmsim.errors import InstabilityError
+
+    stiff = {"contact.default.Dn": 1e8}
+    perfect = total_energy(two_layer(1.0, "perfect", **{"contact.default.Dn": "perfect"}))
+    assert total_energy(two_layer(1.0, 1e8, **stiff)) == pytest.approx(perfect, rel=1e-9)
+    for scheme in ("first_order", "force_limit"):
+        with pytest.raises(InstabilityError):
+            simulate(two_layer(1.0, 1e8, **stiff, **{"contact.interface_integration": scheme}), ROOT / "inputs")
+
+
+def csa_bulk_modulus() -> float:
+    """Composite spheres assemblage with a perfect interface (Hashin 1962): 3062 MPa."""
+    Km, Gm, Kp = 2400.0 / (3 * (1 - 0.66)), 2400.0 / 2.66, 70000.0 / (3 * (1 - 0.5))
+    phi = np.pi * 0.7**3 / 6  # one eighth of the sphere in the unit cube: 17.96%
+    return Km + phi * (Kp - Km) / (1 + (1 - phi) * (Kp - Km) / (Km + 4 * Gm / 3))
+
+
+def test_composite_sphere_bulk_modulus_in_the_stiff_limit():
+    """3D, 100 um cells, D = Dn = Dt = 1e12 (stable, acts as perfect): K from energy (Eq. 35)
+    and from pressure (Eq. 36) agree within 2% (measured 3208 and 3157 MPa, 1.6%) and lie
+    within 5% of the CSA value 3062 MPa (+4.8%, +3.1%; at 50 um see docs/interfaces.md)."""
+    e0 = 0.005
+    deck = with_overrides(shipped("sphere_composite"), {"grid.cell_size": 0.1, "time.end": 0.01,
+                                                        "contact.default.Dn": 1e12, "contact.default.Dt": 1e12})
+    e = settled(deck, "strain_energy", "interface_energy", "sxx", "syy", "szz")
+    K_energy = 2 * (e["strain_energy"] + e["interface_energy"]) / (9 * e0**2)
+    K_pressure = (e["sxx"] + e["syy"] + e["szz"]) / 3 / (3 * e0)
+    assert K_energy == pytest.approx(K_pressure, rel=0.02)
+    for K in (K_energy, K_pressure):
+        assert K == pytest.approx(csa_bulk_modulus(), rel=0.05)
