@@ -3,6 +3,7 @@
     python bench/interfaces.py two_layer   # Figs. 5/8: interfacial energy vs Dt, 3 cell sizes, 2D and 3D
     python bench/interfaces.py dls         # Figs. 7/9: DLS stiffness vs 1/Dt; tilted on dy = 2 dx cells
     python bench/interfaces.py sphere      # Figs. 12/13: bulk modulus vs D = Dn = Dt, by energy and pressure
+    python bench/interfaces.py cost        # particle-steps/s: one body, stick, interface (3 schemes)
     python bench/interfaces.py chart       # redraw the charts from the saved results
 
 Every run is saved as it finishes (results/bench_interfaces/*.json), so an interrupted sweep
@@ -184,11 +185,40 @@ def chart():
     print(f"wrote {FIGURES / 'interfaces.png'}")
 
 
+def cost(steps: int = 300):
+    """Two-layer specimen at 0.25 mm cells (5120 particles), one thread, `steps` steps each:
+    what the interface costs over one body and over bonded contact."""
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+    from tests.conftest import ROOT as TROOT, deck_from
+    from tests.validation.specimens import two_layer
+
+    variants = {"one body (law none)": {"contact.default.law": "none"},
+                "bonded (law stick)": {"contact.default.law": "stick"},
+                "interface, oscillator": {},
+                "interface, force_limit": {"contact.interface_integration": "force_limit"},
+                "interface, Dn = Dt, LR normals": {"contact.default.Dn": 5.0, "contact.normal": "logistic_regression"}}
+    print(f"{'variant':34s} {'M particle-steps/s':>18s} {'contact tasks':>14s}")
+    for label, over in variants.items():
+        sim = Simulation(build_scene(deck_from(two_layer(0.25, 5.0, **over), TROOT / "inputs")))
+        for _ in range(20):  # compile and warm up
+            sim.step()
+        sim.timers = dict.fromkeys(sim.timers, 0.0)
+        for _ in range(steps):
+            sim.step()
+        total = sum(sim.timers.values())
+        contact = sum(v for k, v in sim.timers.items() if k.startswith(("contact", "material fields")))
+        print(f"{label:34s} {steps * sim.state.particles.n / total / 1e6:18.3f} {contact / total:14.1%}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["two_layer", "dls", "sphere", "all", "chart"])
+    ap.add_argument("what", choices=["two_layer", "dls", "sphere", "all", "chart", "cost"])
     ap.add_argument("--workers", type=int, default=1)
     a = ap.parse_args()
+    if a.what == "cost":
+        return cost()
     sets = {"two_layer": two_layer_jobs, "dls": dls_jobs, "sphere": sphere_jobs}
     for name in (sets if a.what == "all" else [a.what] if a.what != "chart" else []):
         run_all(sets[name](), a.workers)
