@@ -11,13 +11,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..deck.schema import Deck, LinearElastic, NeoHookean, Rigid, VelocityTable
+from ..deck.schema import Deck, LinearElastic, MieGruneisen, NeoHookean, Rigid, VelocityTable
 
 LINEAR_ELASTIC = 0
 NEO_HOOKEAN = 1
-TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean"}
+MIE_GRUNEISEN = 2
+TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean", MIE_GRUNEISEN: "mie_gruneisen"}
 
-# property row: linear_elastic [lambda, mu, E, nu]; neo_hookean [K, G, 0, 0]
+# property row: linear_elastic [lambda, mu, E, nu]; neo_hookean [K, G, 0, 0];
+# mie_gruneisen [K, G, gamma0, S1]
 NPROP = 4
 
 
@@ -49,6 +51,13 @@ class MaterialTable:
     density: np.ndarray  # (n_deformable,)
     motions: list[RigidMotion] = field(default_factory=list)
     constrain: np.ndarray = None  # (n_rigid, dim) bool: components each rigid material imposes
+    av: np.ndarray = None  # (n_deformable, 2) artificial viscosity [A1, A2], zeros where off
+    energy: np.ndarray = None  # (n_deformable,) bool: particles carry internal energy U and pressure
+
+    @property
+    def tracks_energy(self) -> bool:
+        """Some material needs internal energy (Mie–Grüneisen or artificial viscosity)."""
+        return bool(self.energy.any())
 
     def is_rigid(self, name: str) -> bool:
         return name in self.rigid
@@ -77,6 +86,8 @@ def build_material_table(deck: Deck) -> MaterialTable:
             codes[k], props[k] = LINEAR_ELASTIC, (lam, mu, m.E, m.nu)
         elif isinstance(m, NeoHookean):
             codes[k], props[k] = NEO_HOOKEAN, (m.K, m.G, 0.0, 0.0)
+        elif isinstance(m, MieGruneisen):
+            codes[k], props[k] = MIE_GRUNEISEN, (m.K, m.G, m.gamma0, m.S1)
         else:  # pragma: no cover
             raise TypeError(type(m))
     motions, constrain = [], np.zeros((len(rigid), dim), dtype=np.bool_)
@@ -94,4 +105,11 @@ def build_material_table(deck: Deck) -> MaterialTable:
         axes = m.constrain if m.constrain is not None else list("xyz"[:dim])
         for a in axes:
             constrain[k, "xyz".index(a)] = True
-    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain)
+    av = np.zeros((len(deformable), 2))
+    if deck.artificial_viscosity is not None:
+        spec = deck.artificial_viscosity
+        for k, n in enumerate(deformable):
+            if spec.materials is None or n in spec.materials:
+                av[k] = (spec.A1, spec.A2)
+    energy = (codes == MIE_GRUNEISEN) | (av.sum(axis=1) > 0.0)
+    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain, av, energy)

@@ -6,6 +6,7 @@ from numba import njit, prange
 
 from ..gridops import zero_fields
 from ..materials.kernels import VOIGT
+from .boundary import fold_ghost_forces, has_walls, slot_info
 
 
 @njit(parallel=True, cache=True)
@@ -37,3 +38,7 @@ def forces(state) -> None:
     zero_fields(box.fields, f.force)
     has_g = bool(state.gravity.any())
     p2g_forces(box.order, box.ptr, state.field_index, sd.S, sd.G, P.vol, P.stress, P.mass, state.gravity, has_g, f.force)
+    if has_walls(state):
+        g = state.grid
+        fold_ghost_forces(box.fields, box.fnodes, box.shape, g.face_type, g.wall_index, f.rigid_vol,
+                          state.materials.constrain, slot_info(state), f.force)
