@@ -10,6 +10,7 @@ from mpmsim.deck.overrides import with_overrides
 from mpmsim.errors import InstabilityError
 from mpmsim.materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, mie_gruneisen_stress,
                                       neo_hookean_stress)
+from mpmsim.output.vtu import particle_mesh
 from mpmsim.shock import hugoniot
 
 from ..conftest import ROOT, simulate
@@ -96,3 +97,13 @@ def test_only_scenes_with_internal_energy_pay_for_it():
     h = sim.history
     total = h.column("kinetic_energy") + h.column("strain_energy") + h.column("internal_energy")
     assert h.column("internal_energy")[-1] > 0.01 * total[-1]  # the viscosity did dissipate
+
+
+def test_vtu_and_history_carry_internal_energy_and_pressure():
+    sim = simulate(shock_deck(**{"time.end": 5e-5}), ROOT / "inputs")
+    P = sim.state.particles
+    mesh = particle_mesh(sim.state)
+    np.testing.assert_array_equal(mesh.point_data["internal_energy"][: P.n], P.U)
+    np.testing.assert_array_equal(mesh.point_data["pressure"][: P.n], P.pressure)
+    assert P.pressure.max() > 1000.0  # MPa: the shock has entered
+    assert sim.history.column("internal_energy")[-1] == pytest.approx(float((P.mass * P.U).sum()))
