@@ -367,8 +367,8 @@ class Stability(Strict):
 
     energy_tolerance: float = Field(
         default=0.05, gt=0.0,
-        description="Energy balance check: stop when kinetic + strain energy exceeds the initial "
-        "energy plus the (signed) work of walls, rigid materials and gravity by more than this "
+        description="Energy balance check: stop when kinetic + strain (+ internal) energy exceeds "
+        "the initial energy plus the (signed) work of walls, rigid materials and gravity by more than this "
         "fraction of (initial energy + |work|).",
     )
     check_every: int = Field(
