@@ -49,9 +49,10 @@ def slot_info(state):
 
 @njit(cache=True, inline="always")
 def mirror_field(fid, mirror, nn, slots):
-    """The field at node `mirror` that field `fid` mirrors: the same material group's slot
-    where the mirror node has slots, else the node. -1: keep own values (rigid contact slots);
-    -2: the group is absent at the mirror (use zero)."""
+    """The field at node `mirror` that field `fid` mirrors: the field of the same material
+    group there (its slot, or the node if that group is the node's only one). -1 where there
+    is none (rigid contact slots, a group absent at the mirror, a contact node's unused node
+    field): the field keeps its own values, as every field did before ghosts were mirrored."""
     node_cn, cn_ptr, slot_group, mask, n_def = slots
     if mirror < 0 or node_cn.size <= 1:
         return mirror
@@ -60,23 +61,20 @@ def mirror_field(fid, mirror, nn, slots):
         if g >= n_def:
             return -1
     else:
-        c = node_cn[mirror]
-        if c < 0:
-            return mirror
         m = mask[fid]
-        if m == np.uint64(0):
-            return mirror
+        if m == np.uint64(0) or (m & (m - np.uint64(1))) != np.uint64(0):
+            return -1  # no particles, or a contact node (its particles use the slots)
         g = 0
         while (m & np.uint64(1)) == np.uint64(0):
             m >>= np.uint64(1)
             g += 1
     c = node_cn[mirror]
     if c < 0:
-        return mirror
+        return mirror if mask[mirror] == (np.uint64(1) << np.uint64(g)) else -1
     for s in range(cn_ptr[c], cn_ptr[c + 1]):
         if slot_group[s] == g:
             return nn + s
-    return -2
+    return -1
 
 
 @njit(parallel=True, cache=True)
@@ -103,7 +101,7 @@ def fold_ghost_forces(fields, fnodes, shape, face_type, wall_index, rigid_vol, c
     of the material (the symmetric extension a wall implies) would exert there. Without it a
     B-spline node one cell inside a wall, whose support crosses the wall, feels an unbalanced
     -p/8 per cell from a uniform pressure and squeezes the rows beside roller walls (+16%
-    pressure at a 118 GPa shock, docs/shock.md). Linear and uGIMP ghosts carry no force."""
+    pressure at a 118 GPa shock, docs/shock.md). Used with B-spline grid functions only."""
     dim = force.shape[1]
     nn = shape[0] * shape[1] * shape[2]
     for q in range(fields.size):
