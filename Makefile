@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench bench-contact bench-interfaces examples docs clean-cache
+.PHONY: run test bench bench-contact bench-shock bench-interfaces examples docs clean-cache
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -30,6 +30,11 @@ bench: $(STAMP)
 # (about 10 minutes on 2 cores; `python bench/contact.py ellipses` adds full-size Fig. 6)
 bench-contact: $(STAMP)
 	$(BIN)/python bench/contact.py all
+
+# the LR paper's shock example: Hugoniot table, energy balance (incl. 0.125 mm cells), Fig. 7;
+# figures in docs/figures/ (about 5 minutes on one core)
+bench-shock: $(STAMP)
+	$(BIN)/python bench/shock.py all
 
 # imperfect interfaces: the 2013 paper's specimens swept (hours on 2 cores; resumes), the chart
 # in docs/figures/interfaces.png, and the cost of an interface

@@ -9,17 +9,18 @@ from .gridops import chunk_range
 from .materials.kernels import det3, energy_density
 
 # slots of the particle_sums result
-STRESS, VOLUME, KINETIC, STRAIN, MOMENTUM = slice(0, 6), 6, 7, 8, slice(9, 12)
+STRESS, VOLUME, KINETIC, STRAIN, MOMENTUM, INTERNAL = slice(0, 6), 6, 7, 8, slice(9, 12), 12
+NSUMS = 13
 
 
 @njit(parallel=True, cache=True)
-def global_sums(stress, vol, v, mass, F, mat, code, props, nchunk, out):
-    """Per chunk: [vol*stress (6), vol, kinetic, strain energy, momentum (3)]."""
+def global_sums(stress, vol, v, mass, F, mat, code, props, energy, U, nchunk, out):
+    """Per chunk: [vol*stress (6), vol, kinetic, strain energy, momentum (3), internal energy]."""
     n, dim = v.shape
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
         F3 = np.zeros((3, 3))
-        acc = np.zeros(12)
+        acc = np.zeros(NSUMS)
         for p in range(start, stop):
             vp = vol[p]
             for a in range(6):
@@ -36,15 +37,18 @@ def global_sums(stress, vol, v, mass, F, mat, code, props, nchunk, out):
             J = det3(F3)
             mt = mat[p]
             acc[8] += vp * energy_density(code[mt], props[mt], F3, stress[p], J)
-        for a in range(12):
+            if energy[mt]:
+                acc[12] += mass[p] * U[p]
+        for a in range(NSUMS):
             out[c, a] = acc[a]
 
 
 def particle_sums(state) -> np.ndarray:
-    """[vol*stress (6), volume, kinetic energy, strain energy, momentum (3)] summed over particles."""
+    """[vol*stress (6), volume, kinetic energy, strain energy, momentum (3), internal energy]
+    summed over particles."""
     P, m = state.particles, state.materials
-    out = np.zeros((state.nchunk, 12))
-    global_sums(P.stress, P.vol, P.v, P.mass, P.F, P.mat, m.type_code, m.props, state.nchunk, out)
+    out = np.zeros((state.nchunk, NSUMS))
+    global_sums(P.stress, P.vol, P.v, P.mass, P.F, P.mat, m.type_code, m.props, m.energy, P.U, state.nchunk, out)
     return out.sum(axis=0)
 
 

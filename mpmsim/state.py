@@ -15,7 +15,8 @@ import numpy as np
 from .contact import ContactState, build_contact_spec
 from .loads import build_loads
 from .gridops import ActiveBox, n_threads
-from .materials import MaterialTable, longitudinal_modulus
+from .materials import MaterialTable
+from .materials.kernels import initial_modulus
 from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
@@ -36,6 +37,10 @@ class Particles:
     x0: np.ndarray  # (n, dim) initial position
     B: np.ndarray  # (n, dim, dim) APIC affine matrix (a (1, dim, dim) placeholder otherwise)
     C: np.ndarray  # (n, dim, dim) APIC B D^-1 for the current step (placeholder otherwise)
+    # with Mie–Grüneisen or artificial viscosity (else (1,) placeholders the kernels never read):
+    U: np.ndarray  # (n,) internal energy per unit mass
+    pressure: np.ndarray  # (n,) pressure (Mie–Grüneisen: the EOS pressure, without q)
+    q: np.ndarray  # (n,) artificial-viscosity pressure in the stress since the last update
 
     @property
     def n(self) -> int:
@@ -172,9 +177,11 @@ class State:
             F[:, a, a] = 1.0
         scheme_name = scene.deck.update.scheme
         na = n if scheme_name == "apic" else 1
+        ne = n if mats.tracks_energy else 1
         particles = Particles(seed.x.copy(), seed.v.copy(), mass, seed.vol.copy(), seed.vol.copy(), F,
                               np.zeros((n, 6)), seed.mat.copy(), seed.body.copy(), seed.x.copy(),
-                              np.zeros((na, dim, dim)), np.zeros((na, dim, dim)))
+                              np.zeros((na, dim, dim)), np.zeros((na, dim, dim)), np.zeros(ne), np.zeros(ne),
+                              np.zeros(ne))
         rs = scene.rigid
         rigid = RigidParticles(rs.x.copy(), rs.v.copy(), rs.vol.copy(), rs.mat.copy(), rs.body.copy(), rs.x.copy())
         sf = shape_function(scene.deck.shape_function)
@@ -205,7 +212,7 @@ class State:
             state.contact = ContactState.create(spec, state)
         state.loads = build_loads(scene, particles.x, particles.vol)
         state.damping = scene.deck.damping.grid if scene.deck.damping is not None else 0.0
-        modulus = np.array([longitudinal_modulus(c, row) for c, row in zip(mats.type_code, mats.props)])
+        modulus = np.array([initial_modulus(c, row) for c, row in zip(mats.type_code, mats.props)])
         c0 = np.sqrt(modulus / mats.density)
         state.energy_floor = 1e-12 * float(np.sum(mass * c0[particles.mat] ** 2))
         speed = c0[particles.mat] + np.sqrt(np.sum(particles.v**2, axis=1))

@@ -55,6 +55,23 @@ class TransverselyIsotropic(Strict):
     density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
 
 
+class MieGruneisen(Strict):
+    """Mie–Grüneisen solid for shocks, LR paper Eq. (51): in compression (eta = 1 - J > 0)
+    p = K eta (1 - gamma0 eta/2) / (1 - S1 eta)^2 + rho0 gamma0 U, in tension p = K eta + rho0 gamma0 U,
+    with U the internal energy per unit mass tracked on each particle; the deviatoric stress is
+    the neo-Hookean shear term of Eq. (18). Its Hugoniot is the linear Us = C0 + S1 up,
+    C0 = sqrt(K/rho0) (docs/shock.md)."""
+
+    type: Literal["mie_gruneisen"]
+    K: float = Field(gt=0, description="Bulk modulus rho0 C0^2 (stress unit).")
+    G: float = Field(default=0.0, ge=0, description="Shear modulus of the neo-Hookean shear term (stress unit); "
+                     "0: pressure only.")
+    gamma0: float = Field(ge=0, description="Grüneisen parameter gamma0 (gamma rho = gamma0 rho0).")
+    S1: float = Field(ge=0, description="Slope S1 of the linear shock-speed / particle-speed Hugoniot. The "
+                      "pressure diverges at eta = 1/S1; a compression that reaches it stops the run.")
+    density: float = Field(gt=0, description="Reference mass density rho0 (density unit of the deck's units).")
+
+
 class VelocityTable(Strict):
     """Piecewise-linear velocity in time: held at the first value before `times[0]` and at
     the last value after `times[-1]`."""
@@ -81,7 +98,8 @@ class Rigid(Strict):
     )
 
 
-Material = Annotated[Union[LinearElastic, NeoHookean, TransverselyIsotropic, Rigid], Field(discriminator="type")]
+Material = Annotated[Union[LinearElastic, NeoHookean, MieGruneisen, TransverselyIsotropic, Rigid],
+                     Field(discriminator="type")]
 
 
 # --------------------------------------------------------------------------- contact
@@ -443,14 +461,26 @@ class Stability(Strict):
 
     energy_tolerance: float = Field(
         default=0.05, gt=0.0,
-        description="Energy balance check: stop when kinetic + strain energy exceeds the initial "
-        "energy plus the (signed) work of walls, rigid materials and gravity by more than this "
+        description="Energy balance check: stop when kinetic + strain (+ internal) energy exceeds "
+        "the initial energy plus the (signed) work of walls, rigid materials and gravity by more than this "
         "fraction of (initial energy + |work|).",
     )
     check_every: int = Field(
         default=10, ge=1,
         description="Steps between energy checks (NaN, inversion and leaving the grid are checked every step).",
     )
+
+
+class ArtificialViscosity(Strict):
+    """Shock artificial viscosity, LR paper Eq. (52): a pressure q = rho dx |D_kk| (A1 C + A2 dx |D_kk|)
+    added in compression only (D_kk = tr D < 0), with rho the current density, C the particle's
+    current bulk wave speed and dx the smallest cell edge. Its work is added to the particle's
+    internal energy, so total energy still balances (docs/shock.md)."""
+
+    A1: float = Field(ge=0, description="Linear coefficient A1 (dimensionless).")
+    A2: float = Field(ge=0, description="Quadratic coefficient A2 (dimensionless).")
+    materials: list[str] | None = Field(
+        default=None, description="Deformable materials it acts on. Default: all of them.")
 
 
 class Deck(Strict):
@@ -480,6 +510,8 @@ class Deck(Strict):
     gravity: Vector | None = Field(default=None, description="Body acceleration vector.")
     loads: list[TractionLoad] = Field(default_factory=list, description="Traction loads on particle edges.")
     damping: Damping | None = Field(default=None, description="Grid damping (static problems).")
+    artificial_viscosity: ArtificialViscosity | None = Field(
+        default=None, description="Shock artificial viscosity {A1, A2, materials} (Eq. 52). Default: none.")
     contact: Contact = Field(default_factory=Contact, description="Multimaterial contact settings.")
     time: Time
     update: Update = Field(default_factory=Update)

@@ -111,6 +111,12 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
 
     if not any(not isinstance(m, Rigid) for m in deck.materials.values()):
         add(["materials"], "at least one deformable (non-rigid) material is needed")
+    av = deck.artificial_viscosity
+    for i, name in enumerate(av.materials or [] if av is not None else []):
+        if name not in deck.materials:
+            add(["artificial_viscosity", "materials", i], f"unknown material '{name}'")
+        elif isinstance(deck.materials[name], Rigid):
+            add(["artificial_viscosity", "materials", i], f"'{name}' is rigid: it has no stress")
     from ..contact.spec import check_contact  # contact imports the deck schema
 
     problems += check_contact(deck, [n for n, m in deck.materials.items() if not isinstance(m, Rigid)])

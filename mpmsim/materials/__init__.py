@@ -11,14 +11,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..deck.schema import Deck, LinearElastic, NeoHookean, Rigid, TransverselyIsotropic, VelocityTable
+from ..deck.schema import Deck, LinearElastic, MieGruneisen, NeoHookean, Rigid, TransverselyIsotropic, VelocityTable
 
 LINEAR_ELASTIC = 0
 NEO_HOOKEAN = 1
-ANISOTROPIC = 2
-TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean", ANISOTROPIC: "transversely_isotropic"}
+MIE_GRUNEISEN = 2
+ANISOTROPIC = 3
+TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean", MIE_GRUNEISEN: "mie_gruneisen",
+              ANISOTROPIC: "transversely_isotropic"}
 
 # property row: linear_elastic [lambda, mu, E, nu, ...]; neo_hookean [K, G, ...];
+# mie_gruneisen [K, G, gamma0, S1, ...];
 # anisotropic [C (6x6, row major), S = C^-1 (6x6)] in Voigt xx yy zz xy yz xz, engineering shear
 NPROP = 72
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
@@ -54,15 +57,6 @@ def transversely_isotropic_compliance(EA, ET, GA, nuA, nuT, axis) -> np.ndarray:
     return S
 
 
-def longitudinal_modulus(code: int, props: np.ndarray) -> float:
-    """Largest P-wave modulus of a material at rest (initial wave speed)."""
-    if code == NEO_HOOKEAN:
-        return props[0] + 4.0 / 3.0 * props[1]
-    if code == ANISOTROPIC:
-        return float(max(props[0], props[7], props[14]))
-    return props[0] + 2.0 * props[1]
-
-
 @dataclass
 class RigidMotion:
     """Prescribed rigid velocity: piecewise linear in time, held constant outside the table."""
@@ -91,6 +85,13 @@ class MaterialTable:
     density: np.ndarray  # (n_deformable,)
     motions: list[RigidMotion] = field(default_factory=list)
     constrain: np.ndarray = None  # (n_rigid, dim) bool: components each rigid material imposes
+    av: np.ndarray = None  # (n_deformable, 2) artificial viscosity [A1, A2], zeros where off
+    energy: np.ndarray = None  # (n_deformable,) bool: particles carry internal energy U and pressure
+
+    @property
+    def tracks_energy(self) -> bool:
+        """Some material needs internal energy (Mie–Grüneisen or artificial viscosity)."""
+        return bool(self.energy.any())
 
     def is_rigid(self, name: str) -> bool:
         return name in self.rigid
@@ -124,6 +125,8 @@ def build_material_table(deck: Deck) -> MaterialTable:
             codes[k] = ANISOTROPIC
             props[k, :36] = np.linalg.inv(S).ravel()
             props[k, 36:] = S.ravel()
+        elif isinstance(m, MieGruneisen):
+            codes[k], props[k, :4] = MIE_GRUNEISEN, (m.K, m.G, m.gamma0, m.S1)
         else:  # pragma: no cover
             raise TypeError(type(m))
     motions, constrain = [], np.zeros((len(rigid), dim), dtype=np.bool_)
@@ -141,4 +144,11 @@ def build_material_table(deck: Deck) -> MaterialTable:
         axes = m.constrain if m.constrain is not None else list("xyz"[:dim])
         for a in axes:
             constrain[k, "xyz".index(a)] = True
-    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain)
+    av = np.zeros((len(deformable), 2))
+    if deck.artificial_viscosity is not None:
+        spec = deck.artificial_viscosity
+        for k, n in enumerate(deformable):
+            if spec.materials is None or n in spec.materials:
+                av[k] = (spec.A1, spec.A2)
+    energy = (codes == MIE_GRUNEISEN) | (av.sum(axis=1) > 0.0)
+    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain, av, energy)

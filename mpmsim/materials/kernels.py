@@ -1,6 +1,10 @@
 """Constitutive kernels. One dispatch on the material type code; 2D plane strain runs the
 same 3x3 algebra with F33 = 1 and zero out-of-plane velocity gradient.
 
+Materials with internal energy (Mie–Grüneisen, or any material under artificial viscosity)
+exchange it through a small `eos` row: [U, p, q, J0, rho0, 1 - S1 eta] (in/out, see
+`mie_gruneisen_stress`); the others never read it.
+
 Stress is Cauchy, stored in Voigt order [xx, yy, zz, xy, yz, xz] (ParaView's order for
 symmetric tensors).
 """
@@ -10,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from . import ANISOTROPIC, NEO_HOOKEAN
+from . import ANISOTROPIC, MIE_GRUNEISEN, NEO_HOOKEAN
 
 # Voigt slot of tensor component (a, b)
 VOIGT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2]], dtype=np.int64)
@@ -160,12 +164,75 @@ def linear_elastic_energy(E, nu, mu, s):
     return 0.5 * normal / E + 0.5 * shear / mu
 
 
+# slots of the eos row
+EOS_U, EOS_P, EOS_Q, EOS_J0, EOS_RHO0, EOS_DEN = 0, 1, 2, 3, 4, 5
+EOS_N = 6
+
+
 @njit(cache=True, inline="always")
-def constitutive_update(code, props, F3, L, dt, s, W, A, Ai, Q):
+def mg_cold(K, gamma0, S1, eta):
+    """Eq. (51) without the energy term, and its derivative d/d(eta). The Hugoniot branch
+    applies in compression (eta = 1 - J > 0: the paper's case labels are swapped, since only
+    there can 1 - S1 eta vanish); tension is linear. Returns (p, dp/deta, 1 - S1 eta)."""
+    if eta <= 0.0:
+        return K * eta, K, 1.0
+    d = 1.0 - S1 * eta
+    f = eta * (1.0 - 0.5 * gamma0 * eta)
+    return K * f / (d * d), K * ((1.0 - gamma0 * eta) / (d * d) + 2.0 * S1 * f / (d * d * d)), d
+
+
+@njit(cache=True, inline="always")
+def mie_gruneisen_stress(K, G, gamma0, S1, F3, s, eos):
+    """Mie–Grüneisen pressure (Eq. 51) with the neo-Hookean shear term of Eq. (18).
+
+    The energy update is the trapezoidal rule on the increment J0 -> J:
+        U = U0 - ((p0 + p) / 2 + q) (J - J0) / rho0,   p = p_c(J) + rho0 gamma0 U,
+    solved exactly for the end-of-increment U (p is linear in U). Using the end value makes
+    each increment a discrete Rankine–Hugoniot energy jump (mean pressure times volume change),
+    so the EOS lands on the linear Us-up Hugoniot; an explicit U0 lags the pressure by the
+    energy the increment deposits, which at a shock is most of it. Returns the wave modulus
+    J dp/deta|_S (with dU = p deta / rho0 along the isentrope) + 4/3 of the stretched shear."""
+    J = det3(F3)
+    eta = 1.0 - J
+    U0, p0, q, J0, rho0 = eos[EOS_U], eos[EOS_P], eos[EOS_Q], eos[EOS_J0], eos[EOS_RHO0]
+    pc, dpc, den = mg_cold(K, gamma0, S1, eta)
+    dJ = J - J0
+    U = (U0 - (0.5 * (p0 + pc) + q) * dJ / rho0) / (1.0 + 0.5 * gamma0 * dJ)
+    p = pc + rho0 * gamma0 * U
+    shear = neo_hookean_stress(0.0, G, F3, s)  # deviatoric part only (K = 0)
+    for a in range(3):
+        s[a] -= p
+    eos[EOS_U] = U
+    eos[EOS_P] = p
+    eos[EOS_DEN] = den
+    return J * (dpc + gamma0 * p) + shear
+
+
+@njit(cache=True, inline="always")
+def bulk_wave_modulus(code, props, J, p):
+    """Tangent bulk modulus J dp/deta at J (pressure p) for the artificial viscosity's C."""
+    if code == MIE_GRUNEISEN:
+        _, dpc, _ = mg_cold(props[0], props[2], props[3], 1.0 - J)
+        return J * (dpc + props[2] * p)
+    if code == NEO_HOOKEAN:
+        return 0.5 * props[0] * (J + 1.0 / J)
+    if code == ANISOTROPIC:  # 1 / (sum of the normal-normal compliances)
+        c = 0.0
+        for a in range(3):
+            for b in range(3):
+                c += props[36 + 6 * a + b]
+        return 1.0 / c
+    return props[0] + 2.0 / 3.0 * props[1]
+
+
+@njit(cache=True, inline="always")
+def constitutive_update(code, props, F3, L, dt, s, W, A, Ai, Q, eos):
     """Update stress row `s` for deformation F3 (already updated) and velocity gradient L over
     dt. Returns the longitudinal modulus used for the wave speed."""
     if code == NEO_HOOKEAN:
         return neo_hookean_stress(props[0], props[1], F3, s)
+    if code == MIE_GRUNEISEN:
+        return mie_gruneisen_stress(props[0], props[1], props[2], props[3], F3, s, eos)
     if code == ANISOTROPIC:
         return anisotropic_stress(props, L, dt, s, W, A, Ai, Q)
     return hypoelastic_stress(props[0], props[1], L, dt, s, W, A, Ai, Q)
@@ -173,9 +240,12 @@ def constitutive_update(code, props, F3, L, dt, s, W, A, Ai, Q):
 
 @njit(cache=True, inline="always")
 def energy_density(code, props, F3, s, J):
-    """Strain energy per *current* volume."""
+    """Strain energy per *current* volume (Mie–Grüneisen: its shear part; the volumetric part
+    is in the internal energy U)."""
     if code == NEO_HOOKEAN:
         return neo_hookean_energy(props[0], props[1], F3) / J
+    if code == MIE_GRUNEISEN:
+        return neo_hookean_energy(0.0, props[1], F3) / J
     if code == ANISOTROPIC:
         return compliance_energy(props, s)
     return linear_elastic_energy(props[2], props[3], props[1], s)
@@ -183,7 +253,7 @@ def energy_density(code, props, F3, s, J):
 
 @njit(cache=True, inline="always")
 def initial_modulus(code, props):
-    if code == NEO_HOOKEAN:
+    if code == NEO_HOOKEAN or code == MIE_GRUNEISEN:
         return props[0] + 4.0 / 3.0 * props[1]
     if code == ANISOTROPIC:
         return max(props[0], max(props[7], props[14]))

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..deck.units import unit_system
-from ..globals import KINETIC, MOMENTUM, STRAIN, VOLUME, null_space_noise, particle_sums, velocity_noise
+from ..globals import INTERNAL, KINETIC, MOMENTUM, STRAIN, VOLUME, null_space_noise, particle_sums, velocity_noise
 from ..scene.grid import FACES
 from .atomic import write_text
 
@@ -33,6 +33,9 @@ class History:
         self._stress_idx = [STRESS_NAMES.index(s) for s in stress_cols]
         self.columns += [(s, u.stress) for s in stress_cols]
         self.columns += [("kinetic_energy", u.energy), ("strain_energy", u.energy), ("external_work", u.energy)]
+        self._internal = state.materials.tracks_energy
+        if self._internal:  # Mie–Grüneisen or artificial viscosity: sum of m U
+            self.columns += [("internal_energy", u.energy)]
         self.columns += [(f"p{a}", u.momentum.split(" (")[0]) for a in axes]
         self._interface = state.contact is not None and state.contact.spec.has_interface
         if self._interface:
@@ -62,6 +65,8 @@ class History:
         row = [state.t, state.step, state.dt]
         row += [s[i] / s[VOLUME] for i in self._stress_idx]
         row += [s[KINETIC], s[STRAIN], state.work_in]
+        if self._internal:
+            row.append(s[INTERNAL])
         row += list(s[MOMENTUM][: state.dim])
         if self._interface:
             row.append(state.interface_energy)

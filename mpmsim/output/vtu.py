@@ -44,6 +44,10 @@ def particle_mesh(state) -> meshio.Mesh:
         "mass": np.concatenate([P.mass, np.zeros(nr)]),
         "volume": np.concatenate([P.vol, R.vol]),
     }
+    if mats.tracks_energy:  # zero on particles of materials without internal energy
+        on = mats.energy[P.mat]
+        data["internal_energy"] = np.concatenate([np.where(on, P.U, 0.0), np.zeros(nr)])
+        data["pressure"] = np.concatenate([np.where(on, P.pressure, 0.0), np.zeros(nr)])
     cells = [("vertex", np.arange(n + nr, dtype=np.int64).reshape(-1, 1))]
     return meshio.Mesh(_pad3(x), cells, point_data=data)
 

@@ -56,6 +56,12 @@ class ShapeFunction:
         return self.per_axis - 1
 
     @property
+    def reaches_ghosts(self) -> bool:
+        """B-spline grid functions: particles well inside the domain weigh ghost nodes beyond a
+        wall. (Linear and uGIMP ghosts get weight only from a CPDI corner pushed past the wall.)"""
+        return self.grid_kind in (BSPLINE2, BSPLINE3)
+
+    @property
     def uses_deformation(self) -> bool:
         return self.cpdi_scheme >= 0
 

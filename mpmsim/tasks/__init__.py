@@ -57,9 +57,12 @@ def build_task_list(scene) -> list[Task]:
                           f"{deck.contact.normal} normals, {describe_separation(deck)}, contact areas"))
     if contact is not None and contact.passes == 2:
         tasks.append(Task("contact pass 1", contact_pass_1, "contact laws on the extrapolated momenta"))
+    energy = "; internal energy" + (", artificial viscosity" if deck.artificial_viscosity else "") \
+        if scene.materials.tracks_energy else ""
     if upd.stress in ("usf", "usavg"):
         tasks.append(Task("update stress first", update_stress_first,
-                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"))
+                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"
+                          + energy))
     extra = [what for what, on in (("gravity", deck.gravity and any(deck.gravity)), (f"{len(deck.loads)} traction load(s)", deck.loads),
                                    ("grid damping", deck.damping and deck.damping.grid > 0)) if on]
     tasks.append(Task("forces", forces, "internal forces" + "".join(f", {e}" for e in extra)))
@@ -83,6 +86,6 @@ def build_task_list(scene) -> list[Task]:
     if upd.stress in ("usl", "usavg"):
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
         tasks.append(Task("update stress last", update_stress_last,
-                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from {source}"))
+                          f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from {source}" + energy))
     tasks.append(Task("check stability", check_stability, "NaN, inverted particles, leaving the grid, energy growth"))
     return tasks

@@ -15,7 +15,7 @@ from numba import njit, prange
 
 from ..gridops import chunk_range, node_ijk
 from ..bc import NO_BC, RIGID_OWNER, ghost_mirror, node_bc, rigid_holds
-from .boundary import has_walls
+from .boundary import has_walls, mirror_field, slot_info
 
 
 @njit(parallel=True, cache=True)
@@ -71,32 +71,37 @@ def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_t
 
 
 @njit(parallel=True, cache=True)
-def mirror_update(nodes, shape, dt, mass, mom, face_type, wall_index, rigid_vol, constrain, nchunk, vnew, acc,
-                  vstart, chunk_reaction):
+def mirror_update(fields, fnodes, shape, dt, mass, mom, face_type, wall_index, rigid_vol, constrain, slots, nchunk,
+                  vnew, acc, vstart, chunk_reaction):
     """Second pass of the update: constrained ghost components of the box nodes take minus
     their mirror's new velocity (boundary.py); the extra force is added to that face's reaction."""
     dim = mom.shape[1]
-    nq = nodes.size
+    nq = fields.size
+    nn = shape[0] * shape[1] * shape[2]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, nq)
         for a in range(chunk_reaction.shape[1]):
             for d in range(dim):
                 chunk_reaction[c, a, d] = 0.0
         for q in range(start, stop):
-            node = nodes[q]
+            fid = fields[q]
+            node = fnodes[q]
             i, j, k = node_ijk(node, shape)
-            m = mass[node]
+            m = mass[fid]
             if m <= 0.0:
                 continue
             for d in range(dim):
                 mirror, face = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
                 if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
                     continue
-                v = -vnew[mirror, d] if mirror >= 0 else 0.0
-                chunk_reaction[c, face, d] += m * (v - vnew[node, d]) / dt
-                vnew[node, d] = v
-                acc[node, d] = (v - mom[node, d] / m) / dt
-                vstart[node, d] = -vstart[mirror, d] if mirror >= 0 else 0.0
+                mf = mirror_field(fid, mirror, nn, slots)
+                if mf == -1:
+                    continue
+                v = -vnew[mf, d] if mf >= 0 else 0.0
+                chunk_reaction[c, face, d] += m * (v - vnew[fid, d]) / dt
+                vnew[fid, d] = v
+                acc[fid, d] = (v - mom[fid, d] / m) / dt
+                vstart[fid, d] = -vstart[mf, d] if mf >= 0 else 0.0
 
 
 def grid_update(state) -> None:
@@ -111,7 +116,6 @@ def grid_update(state) -> None:
     state.reaction[:] = reaction.sum(axis=0)
     state.work_in += float(work.sum())
     if has_walls(state):
-        mirror_update(box.fields[: box.n_box], box.shape, state.dt, f.mass, f.mom, g.face_type, g.wall_index,
-                      f.rigid_vol,
-                      state.materials.constrain, nc, f.vnew, f.acc, f.vstart, reaction)
+        mirror_update(box.fields, box.fnodes, box.shape, state.dt, f.mass, f.mom, g.face_type, g.wall_index,
+                      f.rigid_vol, state.materials.constrain, slot_info(state), nc, f.vnew, f.acc, f.vstart, reaction)
         state.reaction += reaction.sum(axis=0)

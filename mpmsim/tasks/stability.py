@@ -10,7 +10,7 @@ import numpy as np
 
 from ..deck.units import unit_system
 from ..errors import InstabilityError
-from ..globals import KINETIC, STRAIN, particle_sums
+from ..globals import INTERNAL, KINETIC, STRAIN, particle_sums
 from ..shapes import SHAPE_BAD_MESSAGES
 from .stress import BAD_MESSAGES
 
@@ -47,7 +47,7 @@ def check_stability(state) -> None:
     stab = state.scene.deck.stability
     if (state.step + 1) % stab.check_every == 0:
         sums = particle_sums(state)
-        total = sums[KINETIC] + sums[STRAIN] + state.interface_energy  # interfaces store energy too
+        total = sums[KINETIC] + sums[STRAIN] + sums[INTERNAL] + state.interface_energy  # interfaces store energy
         supplied = state.energy0 + state.work_in
         excess = total - supplied
         if excess > stab.energy_tolerance * (state.energy0 + abs(state.work_in)) + state.energy_floor:
@@ -55,8 +55,9 @@ def check_stability(state) -> None:
             p = int(np.argmax(np.sum(P.v**2, axis=1)))
             stored = f" + {state.interface_energy:.4g} (interfaces)" if state.interface_energy else ""
             raise InstabilityError(
-                f"unstable at {where(state)}: energy grew without a source: kinetic + strain = "
-                f"{sums[KINETIC]:.4g} + {sums[STRAIN]:.4g}{stored} exceeds the energy supplied ({supplied:.4g}) by "
+                f"unstable at {where(state)}: energy grew without a source: kinetic + strain + internal = "
+                f"{sums[KINETIC]:.4g} + {sums[STRAIN]:.4g} + {sums[INTERNAL]:.4g}{stored} exceeds the energy supplied "
+                f"({supplied:.4g}) by "
                 f"{excess_text(excess, supplied)}; fastest is {describe_particle(state, p)}; {REMEDY}",
                 state.t, state.step)
     if state.rigid.n:

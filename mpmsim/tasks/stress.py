@@ -3,6 +3,10 @@
 grad V_p = sum_i v_i (x) G_ip;  F <- (I + dt grad V) F;  stress from the material.
 USF runs it once before the forces (velocities from the initial extrapolation), USL once
 after the particle update (from re-extrapolated momenta), USAVG half a step at each.
+
+Particles of materials with internal energy (Mie–Grüneisen, or under artificial viscosity)
+also update U and the pressure, and carry the viscous pressure q of Eq. (52) in their stress
+(docs/shock.md); the per-material flag keeps every other particle on the plain path.
 """
 
 from __future__ import annotations
@@ -11,7 +15,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range
-from ..materials.kernels import constitutive_update, det3
+from ..materials import MIE_GRUNEISEN
+from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, bulk_wave_modulus,
+                                 constitutive_update, det3)
 from .boundary import set_grid_velocity
 
 BAD_NONE = 0
@@ -19,7 +25,11 @@ BAD_NAN = 1
 BAD_INVERTED = 2
 BAD_LEFT_GRID = 3
 BAD_ENERGY = 4
+BAD_EOS = 8
 BAD_MESSAGES = {
+    BAD_EOS: "Mie–Grüneisen compression reached eta = 1 - J = 1/S1 (1 - S1 eta = {value:.4g}), where the "
+             "pressure of Eq. (51) has no finite value: the load is beyond the EOS (check S1 and the "
+             "drive), or the run is unstable (try a smaller time.cfl or artificial viscosity)",
     BAD_NAN: "stress or velocity is not finite (NaN/Inf)",
     BAD_INVERTED: "J = {value:.4g} <= 0: the particle inverted",
     BAD_LEFT_GRID: "the particle left the grid domain",
@@ -28,6 +38,7 @@ BAD_MESSAGES = {
 
 @njit(parallel=True, cache=True)
 def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, code, props, density,
+                         energy, av, dx, U, pressure, qv,
                          nchunk, chunk_wave, chunk_bad, chunk_code, chunk_value):
     n, K = nodes.shape
     dim = F.shape[1]
@@ -39,6 +50,7 @@ def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, co
         A = np.zeros((3, 3))
         Ai = np.zeros((3, 3))
         Q = np.zeros((3, 3))
+        eos = np.zeros(EOS_N)
         wave = 0.0
         bad = -1
         bad_code = 0
@@ -71,9 +83,42 @@ def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, co
             for a in range(dim):
                 for b in range(dim):
                     F[p, a, b] = F3[a, b]
+            J0 = vol[p] / vol0[p]
             vol[p] = vol0[p] * J
             mt = mat[p]
-            modulus = constitutive_update(code[mt], props[mt], F3, L, dt, stress[p], W, A, Ai, Q)
+            tracked = energy[mt]
+            q = 0.0
+            if tracked:
+                # Eq. (52): q only in compression, C the current bulk wave speed
+                trD = 0.0
+                for a in range(dim):
+                    trD += L[a, a]
+                if trD < 0.0 and av[mt, 0] + av[mt, 1] > 0.0:
+                    C = np.sqrt(max(bulk_wave_modulus(code[mt], props[mt], J, pressure[p]), 0.0) * J / density[mt])
+                    dxd = -dx * trD
+                    q = density[mt] / J * dxd * (av[mt, 0] * C + av[mt, 1] * dxd)
+                for a in range(3):  # take out the last q: a hypoelastic stress is incremental
+                    stress[p, a] += qv[p]
+                eos[EOS_U] = U[p]
+                eos[EOS_P] = pressure[p]
+                eos[EOS_Q] = q
+                eos[EOS_J0] = J0
+                eos[EOS_RHO0] = density[mt]
+                eos[EOS_DEN] = 1.0
+            modulus = constitutive_update(code[mt], props[mt], F3, L, dt, stress[p], W, A, Ai, Q, eos)
+            if tracked:
+                q = eos[EOS_Q]
+                if code[mt] == MIE_GRUNEISEN:
+                    U[p] = eos[EOS_U]
+                    pressure[p] = eos[EOS_P]
+                    if not (eos[EOS_DEN] > 0.0) and bad < 0:
+                        bad, bad_code, bad_value = p, BAD_EOS, eos[EOS_DEN]
+                else:  # elastic energy is strain energy; U holds only the viscous dissipation
+                    U[p] += q * (J0 - J) / density[mt]
+                    pressure[p] = -(stress[p, 0] + stress[p, 1] + stress[p, 2]) / 3.0
+                for a in range(3):
+                    stress[p, a] -= q
+                qv[p] = q
             speed2 = 0.0
             for a in range(dim):
                 speed2 += pvel[p, a] * pvel[p, a]
@@ -100,7 +145,8 @@ def _update_stress(state, dt, gvel) -> None:
     code = np.zeros(nc, dtype=np.int64)
     value = np.zeros(nc)
     update_stress_kernel(state.field_index, sd.G, gvel, dt, P.v, P.F, P.stress, P.vol, P.vol0, P.mat, m.type_code,
-                         m.props, m.density, nc, wave, bad, code, value)
+                         m.props, m.density, m.energy, m.av, float(state.grid.h.min()), P.U, P.pressure, P.q,
+                         nc, wave, bad, code, value)
     state.wave_max = float(wave.max())
     hits = np.nonzero(bad >= 0)[0]
     if len(hits):

@@ -42,14 +42,14 @@ from numba import njit, prange
 from ..gridops import node_ijk
 from ..bc import NO_BC, node_bc
 from ..contact.passes import MAX_SLOTS, increment_contact
-from .boundary import has_walls, mirror_ghosts
+from .boundary import has_walls, mirror_ghosts, slot_info
 
 
 @njit(parallel=True, cache=True)
 def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape, mass, vnew, vstart, seed_shift,
                 use_shift, filter_updated, m_order, face_type, wall_index, rigid_vol, constrain, rig_vel, walls, n_cn, cn_nodes,
                 cn_ptr, slot_group, n_def_groups, sep_method, role, partner, geo_n, delta2, slot_law, slot_mu, slot_mus,
-                bonded, touch, stick_total, applied_total, dv, tmp, vstar):
+                bonded, touch, stick_total, applied_total, slots, dv, tmp, vstar):
     """`nodes` are the particles' field indices (material slots at contact nodes)."""
     dim = vnew.shape[1]
     nq = fields.size
@@ -121,7 +121,7 @@ def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape
                               slot_law, slot_mu, slot_mus, bonded, touch, stick_total, applied_total, pbuf, dpb, imp,
                               out, nvec)
         if walls:  # ghost components of the increment mirror their interior node
-            mirror_ghosts(fields[:n_box], shape, face_type, wall_index, rigid_vol, constrain, dv)
+            mirror_ghosts(fields, fnodes, shape, face_type, wall_index, rigid_vol, constrain, slots, dv)
         for q in prange(nq):
             f = fields[q]
             for d in range(dim):
@@ -154,7 +154,7 @@ def xpic(state) -> None:
                 box.n_box, box.shape, f.mass, f.vnew, f.vstart, shift, shift is not _NO_SHIFT[dim], upd.scheme == "fmpm", upd.order, g.face_type,
                 g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid_v_end, has_walls(state), n_cn,
                 c.cn_nodes, c.cn_ptr, c.slot_group, spec_groups, sep, c.role, c.partner, c.normal, c.delta2, c.law,
-                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, f.dv, f.tmp, f.vstar)
+                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, slot_info(state), f.dv, f.tmp, f.vstar)
 
 
 class _NoContact:
