@@ -132,7 +132,7 @@ def _timing_table(result, sim) -> None:
 def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
     from .state import State
-    from .tasks import build_task_list
+    from .tasks import plan_tasks
 
     scene = _load_scene(deck)
     d, g, u = scene.deck, scene.grid, _units(scene)
@@ -168,9 +168,23 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
     ps = steps * P.n
     out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
               f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
+    out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
+    tasks, skipped = plan_tasks(scene)
     out.print("[bold]tasks per step[/] (only what this scene needs):")
-    for i, t in enumerate(build_task_list(scene), 1):
+    for i, t in enumerate(tasks, 1):
         out.print(f"  {i:2d}. {t.name:22s} {t.why}", highlight=False)
+    if skipped:
+        out.print("[bold]left out[/] (not needed by this scene):")
+        for name, why in skipped:
+            out.print(f"      {name:22s} {why}", highlight=False)
+
+
+def kernel_dimension(state) -> str:
+    """What the dimension-parameterised kernels run on: in 2D, two-component arrays, dim^2 nodes
+    per particle and one node layer in z (no 3D work)."""
+    dim, K = state.dim, state.sd.S.shape[1]
+    return (f"{dim}D: {state.particles.x.shape[1]}-component vectors, {dim}x{dim} F, {K} nodes per particle "
+            f"({state.shape.name}), {state.grid.shape[2]} node layer(s) in z")
 
 
 @app.command()
@@ -197,9 +211,10 @@ def sweep(
         raise typer.Exit(EXIT_BAD_DECK) from None
     out.print(f"ran {len(result.executed)}, already done {len(result.skipped)}", highlight=False)
     if not result.complete:
-        out.print("sweep not complete (--limit); run the same command again to continue", highlight=False)
-        return
-    out.print(f"[bold]table[/]: {result.csv}\n[bold]chart[/]: {result.png}", highlight=False)
+        out.print("sweep not complete (--limit): runs not done yet are 'pending' in the table; "
+                  "the same command again continues", highlight=False)
+    if result.csv is not None:
+        out.print(f"[bold]table[/]: {result.csv}\n[bold]chart[/]: {result.png}", highlight=False)
 
 
 @app.command()

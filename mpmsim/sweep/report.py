@@ -1,5 +1,6 @@
 """The sweep table: one CSV row per run (references included), metrics computed from the saved
-histories, so changing a metric needs no re-run; then the chart."""
+histories, so changing a metric needs no re-run; then the chart. A partial sweep (killed, or
+--limit) gets a table and chart too, its missing runs marked `pending`."""
 
 from __future__ import annotations
 
@@ -18,7 +19,9 @@ COST_COLUMNS = ["steps", "particles", "particle_steps", "wall_s", "run_s", "part
 
 def table(loaded, runs: list[Run], refs: list[Run], runs_dir: Path) -> list[dict]:
     sw = loaded.sweep
-    records = {r.id: load_record(runs_dir, r.id) for r in refs + runs}
+    pending = {"status": "pending", "history": {}}  # not run yet: the table of a partial sweep shows it
+    records = {r.id: load_record(runs_dir, r.id) if (runs_dir / f"{r.id}.json").exists() else pending
+               for r in refs + runs}
     rows = []
     for run in refs + runs:
         rec = records[run.id]
@@ -30,8 +33,7 @@ def table(loaded, runs: list[Run], refs: list[Run], runs_dir: Path) -> list[dict
         own = history_arrays(rec)
         ref = None
         if run.reference is not None and not is_ref:
-            ref_rec = records.get(run.reference) or load_record(runs_dir, run.reference)
-            ref = history_arrays(ref_rec) if ref_rec["status"] != "error" else None
+            ref = history_arrays(records[run.reference]) or None
         for m in sw.metrics:
             value = float("nan")
             needs_ref = run.reference is not None and m.type != "energy_change"

@@ -162,7 +162,7 @@ def run_sweep(loaded: LoadedSweep, jobs: int = 1, limit: int | None = None, out_
                 raise
     done = {p.stem for p in runs_dir.glob("*.json")}
     result.complete = all(r.id in done for r in todo_all)
-    if result.complete:
+    if done & {r.id for r in todo_all}:
         result.csv, result.png = assemble(loaded, runs, refs, runs_dir, out)
     return result
 
