@@ -9,20 +9,22 @@ from .output.history import history_title, read_history
 from .sweep.metrics import column
 
 
-def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path) -> None:
+def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path) -> list[str]:
+    """Write the PNG; returns the curve labels."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 5))
-    units = {}
+    units, labels = {}, []
     for path in paths:
         cols = read_history(path)
         units.update(_units(path))
         label = history_title(path) or Path(path).stem
         for y in ys:
-            ax.plot(column(cols, x), column(cols, y), lw=1.2, label=label if len(ys) == 1 else f"{label}: {y}")
+            labels.append(label if len(ys) == 1 else f"{label}: {y}")
+            ax.plot(column(cols, x), column(cols, y), lw=1.2, label=labels[-1])
     ax.set_xlabel(f"{x} [{units[x]}]" if x in units else x)
     ax.set_ylabel(", ".join(f"{y} [{units[y]}]" if y in units else y for y in ys))
     ax.grid(True, alpha=0.3)
@@ -33,6 +35,7 @@ def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path) -> No
     with atomic_path(output) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
+    return labels
 
 
 def _units(path) -> dict[str, str]:

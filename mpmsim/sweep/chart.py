@@ -31,13 +31,11 @@ def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]
     return front
 
 
-def chart(rows: list[dict], sweep, path: Path, title: str = "") -> None:
+def chart(rows: list[dict], sweep, path: Path, metric: str, title: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    metric = sweep.chart
     runs = [r for r in rows if r["role"] == "run" and math.isfinite(_num(r.get(COST)))]
     ok = [r for r in runs if r["status"] == "ok" and math.isfinite(_num(r[metric])) and _num(r[metric]) > 0]
     bad = [r for r in runs if r["status"] == "unstable"]

@@ -69,11 +69,14 @@ def read_csv(path: Path) -> list[dict]:
 
 
 def assemble(loaded, runs, refs, runs_dir: Path, out: Path) -> tuple[Path, Path]:
+    """<name>.csv, <name>.png (the chart metric) and <name>_<metric>.png for each other metric."""
     from .chart import chart
 
     rows = table(loaded, runs, refs, runs_dir)
-    name = loaded.path.stem
+    sw, name = loaded.sweep, loaded.path.stem
     csv_path, png_path = out / f"{name}.csv", out / f"{name}.png"
     write_csv(rows, csv_path)
-    chart(rows, loaded.sweep, png_path, title=loaded.sweep.title or name)
+    for m in sw.metrics:
+        chart(rows, sw, png_path if m.name == sw.chart else out / f"{name}_{m.name}.png", m.name,
+              title=sw.title or name)
     return csv_path, png_path
