@@ -35,9 +35,9 @@ def table(loaded, runs: list[Run], refs: list[Run], runs_dir: Path) -> list[dict
         if run.reference is not None and not is_ref:
             ref = history_arrays(records[run.reference]) or None
         for m in sw.metrics:
-            value = float("nan")
-            needs_ref = run.reference is not None and m.type != "energy_change"
-            if own and not (is_ref and needs_ref) and not (needs_ref and ref is None):
+            value = float("nan")  # a reference row, or a run whose reference is not there yet
+            needs_ref = needs_reference(m, sw.reference.analytic)
+            if own and not (needs_ref and (is_ref or ref is None)):
                 try:
                     value = evaluate(m, own, ref, sw.reference.analytic)
                 except (KeyError, ValueError, ZeroDivisionError) as exc:
@@ -46,6 +46,12 @@ def table(loaded, runs: list[Run], refs: list[Run], runs_dir: Path) -> list[dict
         row["message"] = rec.get("message", "")
         rows.append(row)
     return rows
+
+
+def needs_reference(metric, analytic) -> bool:
+    """Whether the metric compares with the reference run's history."""
+    return ((metric.type == "max_rel_error" and analytic is None)
+            or (metric.type == "period_error" and metric.expected is None))
 
 
 def write_csv(rows: list[dict], path: Path) -> None:

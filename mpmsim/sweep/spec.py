@@ -122,9 +122,12 @@ class Sweep(Strict):
 
     @model_validator(mode="after")
     def _consistent(self):
+        reserved = {"id", "role", "method", "status", "stopped_at", "message", *(m.name for m in self.metrics)}
         for name, values in self.axes.items():
             if len(values) == 0:
                 raise at(f"axes.{name}", "needs at least one value")
+            if name in reserved:
+                raise at(f"axes.{name}", "the name of a table column; give the axis another name")
         names = list(self.axes)
         for i, key in enumerate(self.method or []):
             if key not in names:

@@ -129,6 +129,7 @@ def test_metric_helpers():
     ({"metrics": [{"name": "e", "type": "max_rel_eror", "column": "syy"}]}, "metrics.0.type"),
     ({"metrics": [{"name": "e", "type": "period_error", "colum": "px", "expected": 1.0}]}, "unknown key 'colum'"),
     ({"reference": {"finest": "cells"}}, "'cells' is not an axis"),
+    ({"axes": {"status": [1, 2]}}, "axes.status: the name of a table column"),
     ({"base": "nowhere.yaml"}, "base: no deck at"),
 ])
 def test_bad_sweep_files_name_the_key(tmp_path, change, where):
@@ -145,3 +146,21 @@ def test_bad_axis_value_is_reported_before_anything_runs(tmp_path):
     with pytest.raises(DeckError, match="shape_function"):
         run_sweep(load_sweep(write(tmp_path, data)), jobs=0, out_dir=tmp_path / "out")
     assert not list((tmp_path / "out" / "runs").glob("*.json"))
+
+
+def test_column_submatrix_lr_below_1_percent_cp08_above_4(tmp_path):
+    """Must-show 1 on a sub-matrix of inputs/sweeps/column.yaml: 10 mm cells, to 5% strain,
+    LR (two passes) and CP = 0.8 against one material (measured 0.094% and 11.0%)."""
+    column = yaml.safe_load((ROOT / "inputs" / "sweeps" / "column.yaml").read_text())
+    data = {"base": str(ROOT / "inputs" / "two_blocks.yaml"),
+            "axes": {"contact": {"LR": column["axes"]["normal"]["LR"],
+                                "CP=0.8": {**column["axes"]["normal"]["AVG"], **column["axes"]["detection"]["CP=0.8"]}},
+                     "grid.cell_size": [10.0], "time.end": [5.2]},
+            "method": ["contact"], "reference": column["reference"] | {"single_material": {
+                "overrides": {"contact.default": {"law": "none"}}, "axes": ["grid.cell_size", "time.end"]}},
+            "metrics": [column["metrics"][1]]}
+    res = run_sweep(load_sweep(write(tmp_path, data)), jobs=0, out_dir=tmp_path / "out")
+    rows = {r["method"]: r for r in read_csv(res.csv)}
+    assert rows["single material"]["role"] == "reference"
+    assert float(rows["LR"]["err_5pct"]) < 0.01
+    assert float(rows["CP=0.8"]["err_5pct"]) > 0.04
