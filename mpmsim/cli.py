@@ -204,8 +204,7 @@ def sweep(
         runs, refs = expand(loaded)
         out.print(f"[bold]{sweep_file}[/]: {len(runs)} runs + {len(refs)} reference runs, {jobs} worker(s)",
                   highlight=False)
-        result = run_sweep(loaded, jobs=jobs, limit=limit, out_dir=out_dir,
-                           progress=lambda rid, k, n: out.print(f"  done {k}/{n}: {rid}", highlight=False))
+        result = run_sweep(loaded, jobs=jobs, limit=limit, out_dir=out_dir, progress=_sweep_progress)
     except DeckError as exc:
         err.print(f"[bold red]mpmsim: bad sweep[/]\n{exc.format()}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
@@ -215,6 +214,12 @@ def sweep(
                   "the same command again continues", highlight=False)
     if result.csv is not None:
         out.print(f"[bold]table[/]: {result.csv}\n[bold]chart[/]: {result.png}", highlight=False)
+
+
+def _sweep_progress(run, record, k: int, n: int) -> None:
+    what = ", ".join(f"{a}={v}" for a, v in run.values.items())
+    cost = f"{record['run_s']:.1f} s" if "run_s" in record else ""
+    out.print(f"  {k}/{n} {run.id} {record['status']:8s} {cost:>9s}  {what}", highlight=False)
 
 
 @app.command()

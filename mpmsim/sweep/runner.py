@@ -121,9 +121,10 @@ def validate(runs: list[Run], source: str) -> None:
 
 
 def run_sweep(loaded: LoadedSweep, jobs: int = 1, limit: int | None = None, out_dir: Path | None = None,
-              progress: Callable[[str, int, int], None] | None = None) -> SweepResult:
-    """Run what is missing (at most `limit` runs), then assemble the CSV and chart if all are done.
-    jobs = 0 runs in this process (tests, debugging; peak memory is then this process's)."""
+              progress: Callable[[Run, dict, int, int], None] | None = None) -> SweepResult:
+    """Run what is missing (at most `limit` runs), then assemble the CSV and charts (runs not
+    done yet are 'pending'). jobs = 0 runs in this process (tests, debugging; peak memory is
+    then this process's). `progress(run, record, k, n)` is called as each run finishes."""
     from .report import assemble
 
     runs, refs = expand(loaded)
@@ -139,11 +140,16 @@ def run_sweep(loaded: LoadedSweep, jobs: int = 1, limit: int | None = None, out_
     if limit is not None:
         todo = todo[:limit]
     total = len(todo)
+    by_id = {r.id: r for r in todo}
+
+    def finished(run_id: str) -> None:
+        result.executed.append(run_id)
+        if progress:
+            progress(by_id[run_id], load_record(runs_dir, run_id), len(result.executed), total)
+
     if jobs <= 0:
         for r in todo:
-            result.executed.append(_worker(r, str(runs_dir)))
-            if progress:
-                progress(r.id, len(result.executed), total)
+            finished(_worker(r, str(runs_dir)))
     elif todo:
         os.environ["NUMBA_NUM_THREADS"] = "1"  # inherited by the spawned workers
         ctx = multiprocessing.get_context("spawn")  # max_tasks_per_child needs spawn
@@ -151,11 +157,9 @@ def run_sweep(loaded: LoadedSweep, jobs: int = 1, limit: int | None = None, out_
             pending = {pool.submit(_worker, r, str(runs_dir)) for r in todo}
             try:
                 while pending:
-                    finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                    for f in finished:
-                        result.executed.append(f.result())
-                        if progress:
-                            progress(result.executed[-1], len(result.executed), total)
+                    ready, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for f in ready:
+                        finished(f.result())
             except BaseException:
                 for f in pending:
                     f.cancel()

@@ -164,3 +164,15 @@ def test_column_submatrix_lr_below_1_percent_cp08_above_4(tmp_path):
     assert rows["single material"]["role"] == "reference"
     assert float(rows["LR"]["err_5pct"]) < 0.01
     assert float(rows["CP=0.8"]["err_5pct"]) > 0.04
+
+
+def test_cli_bad_sweep_exits_2_with_the_key_path(tmp_path):
+    from typer.testing import CliRunner
+
+    from mpmsim.cli import app
+
+    data = tiny(tmp_path)
+    data["metrics"][0]["colum"] = "px"
+    res = CliRunner().invoke(app, ["sweep", str(write(tmp_path, data))])
+    assert res.exit_code == 2
+    assert "bad sweep" in res.output and "metrics.0: unknown key 'colum'" in res.output
