@@ -175,4 +175,4 @@ def test_cli_bad_sweep_exits_2_with_the_key_path(tmp_path):
     data["metrics"][0]["colum"] = "px"
     res = CliRunner().invoke(app, ["sweep", str(write(tmp_path, data))])
     assert res.exit_code == 2
-    assert "bad sweep" in res.output and "metrics.0: unknown key 'colum'" in res.output
+    assert "bad sweep" in res.output and "line 28: metrics.0.colum: unknown key 'colum'" in res.output
