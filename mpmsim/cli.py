@@ -218,7 +218,7 @@ def sweep(
 
 def _sweep_progress(run, record, k: int, n: int) -> None:
     what = ", ".join(f"{a}={v}" for a, v in run.values.items())
-    cost = f"{record['run_s']:.1f} s" if "run_s" in record else ""
+    cost = f"{record['cpu_s']:.1f} s" if "cpu_s" in record else ""
     out.print(f"  {k}/{n} {run.id} {record['status']:8s} {cost:>9s}  {what}", highlight=False)
 
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 from ..output.atomic import atomic_path
 
-COST = "run_s"
-COST_LABEL = "run time (s, one thread, after the first step)"
+COST = "cpu_s"
+COST_LABEL = "CPU time per run (s, one thread, after the first step)"
 
 
 def _num(v) -> float:

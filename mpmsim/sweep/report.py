@@ -14,7 +14,8 @@ from .matrix import Run
 from .metrics import evaluate
 from .runner import history_arrays, load_record
 
-COST_COLUMNS = ["steps", "particles", "particle_steps", "wall_s", "run_s", "particle_steps_per_s", "peak_mem_mb"]
+COST_COLUMNS = ["steps", "particles", "particle_steps", "cpu_s", "run_s", "wall_s", "particle_steps_per_s",
+                "peak_mem_mb"]
 
 
 def table(loaded, runs: list[Run], refs: list[Run], runs_dir: Path) -> list[dict]:
