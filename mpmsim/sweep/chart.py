@@ -31,7 +31,7 @@ def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]
     return front
 
 
-def chart(rows: list[dict], sweep, path: Path, metric: str, title: str = "") -> None:
+def chart(rows: list[dict], sweep, path: Path, metric: str, title: str = "", label: str | None = None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -62,7 +62,7 @@ def chart(rows: list[dict], sweep, path: Path, metric: str, title: str = "") -> 
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(COST_LABEL)
-    ax.set_ylabel(metric)
+    ax.set_ylabel(label or metric)
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))

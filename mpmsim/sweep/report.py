@@ -85,5 +85,5 @@ def assemble(loaded, runs, refs, runs_dir: Path, out: Path) -> tuple[Path, Path]
     write_csv(rows, csv_path)
     for m in sw.metrics:
         chart(rows, sw, png_path if m.name == sw.chart else out / f"{name}_{m.name}.png", m.name,
-              title=sw.title or name)
+              title=sw.title or name, label=m.label)
     return csv_path, png_path

@@ -82,24 +82,26 @@ class Reference(Strict):
         return next(k for k in ("analytic", "single_material", "finest") if getattr(self, k) is not None)
 
 
-class MaxRelError(Strict):
-    name: str
+class MetricBase(Strict):
+    name: str = Field(description="Column name in the table.")
+    label: str | None = Field(default=None, description="Axis label on the chart (default: the name).")
+
+
+class MaxRelError(MetricBase):
     type: Literal["max_rel_error"]
     column: str = Field(description="History column (or numpy expression of columns) compared with the reference.")
     x: str = Field(default="time", description="Abscissa: a column or expression, e.g. `-u_platen_y / 100`.")
     range: tuple[float, float] | None = Field(default=None, description="Only x in [a, b].")
 
 
-class PeriodError(Strict):
-    name: str
+class PeriodError(MetricBase):
     type: Literal["period_error"]
     column: str = Field(description="An oscillating column; its zero crossings are half a period apart.")
     expected: str | float | None = Field(default=None, description="The exact period, or the name of an analytic "
                                         "value; default: the reference run's period.")
 
 
-class EnergyChange(Strict):
-    name: str
+class EnergyChange(MetricBase):
     type: Literal["energy_change"]
     columns: list[str] = Field(default_factory=lambda: ["kinetic_energy", "strain_energy"])
     at: Literal["end", "max"] = Field(default="end", description="|E(end) - E(0)| / E(0), or the max over time.")
