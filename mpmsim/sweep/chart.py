@@ -61,6 +61,9 @@ def chart(rows: list[dict], sweep, path: Path, metric: str, title: str = "", lab
         ax.step(fx, fy, where="post", color="k", lw=1.5, ls="--", alpha=0.7, label="Pareto front", zorder=4)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    from matplotlib.ticker import NullFormatter
+
+    ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels collide on short decades
     ax.set_xlabel(COST_LABEL)
     ax.set_ylabel(label or metric)
     ax.set_title(title, fontsize=10)

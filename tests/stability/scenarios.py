@@ -97,20 +97,26 @@ def uniaxial_sxx(lam):
     return 0.5 * K * (lam - 1 / lam) + (2 * G / 3) * lam ** (-5 / 3) * (lam**2 - 1)
 
 
-def interior_deviation(sim) -> tuple[float, float]:
-    """(mean stretch, max |sxx - exact| / exact) of particles two cells from the wall and grip."""
+def grip_stretch(sim) -> float:
+    """The stretch the grip imposes on the 12 mm bar."""
+    return 1.0 + float(sim.state.rigid_disp[0, 0]) / 12.0
+
+
+def interior_deviation(sim) -> float:
+    """max |sxx - exact| / exact over particles two cells from the wall and the grip, exact at
+    their mean stretch; if that stretch is more than 0.03 off the grip's the bar tore, and the
+    strain it lost, |lam - lam_grip| / (lam_grip - 1), counts too (a torn bar scores ~100%)."""
     P = sim.state.particles
     inside = (P.x0[:, 0] > 2.0) & (P.x0[:, 0] < 10.0)
-    lam = P.F[inside, 0, 0].mean()
+    lam, grip = float(P.F[inside, 0, 0].mean()), grip_stretch(sim)
     exact = uniaxial_sxx(lam)
-    return float(lam), float(np.abs(P.stress[inside, 0] - exact).max() / exact)
+    dev = float(np.abs(P.stress[inside, 0] - exact).max() / exact)
+    return dev if abs(lam - grip) < 0.03 else max(dev, abs(lam - grip) / (grip - 1.0))
 
 
 def stretch_deviation(shape: str) -> Measured:
     sim, stopped = run("stretch", shape_function=shape)
-    lam, dev = interior_deviation(sim)
-    # a bar that tore (uGIMP) ends far from stretch 2: that is the same failure as a spike
-    return Measured(dev if abs(lam - 2.0) < 0.03 else max(dev, abs(lam - 2.0)), stopped)
+    return Measured(interior_deviation(sim), stopped)
 
 
 # --------------------------------------------------------------- time step on a stiffening material
@@ -131,15 +137,15 @@ def fixed_step_cfl() -> Measured:
     when the fixed-step run was stopped (the exact wave speed: the failing state's is garbage)."""
     sim, stopped = run("stretch", **STRETCH_3, time={"end": STRETCH_3["time.end"], "dt": 0.8 * 1.0 / C0})
     st = sim.state
-    lam = 1.0 + float(st.rigid_disp[0, 0]) / 12.0  # the bar is 12 mm long
-    return Measured(st.dt * wave_speed(lam) / float(st.grid.h.min()), stopped)
+    return Measured(st.dt * wave_speed(grip_stretch(sim)) / float(st.grid.h.min()), stopped)
 
 
 def adaptive_step_stress() -> Measured:
     sim, stopped = run("stretch", **STRETCH_3, **{"time.cfl": 0.8})
-    lam, dev = interior_deviation(sim)
-    return Measured(dev if lam > 2.9 else np.inf, stopped)  # it must also reach stretch ~3
+    return Measured(interior_deviation(sim), stopped)
 
+
+STRETCH_METRIC = "max |sxx - exact(mean stretch)| / exact, interior particles (torn: strain lost)"
 
 SCENARIOS = [
     Scenario("contact cutoff at large strain", "two-block column to 5% strain", "AVG normals, CP = 0.8 cutoff",
@@ -152,17 +158,17 @@ SCENARIOS = [
     Scenario("one contact pass", "two-block column to 5% strain", "LR, 2 passes",
              "max |MM - SMM| / SMM of mean syy, 0.2-5% strain", 0.001, "below", lambda: column_error()),
     Scenario("cell crossing at large stretch", "neo-Hookean bar stretched to 100%", "uGIMP (XPIC(5))",
-             "max |sxx - exact| / exact, interior particles", 0.5, "above", lambda: stretch_deviation("gimp")),
+             STRETCH_METRIC, 0.5, "above", lambda: stretch_deviation("gimp")),
     Scenario("cell crossing at large stretch", "neo-Hookean bar stretched to 100%", "CPDI (XPIC(5))",
-             "max |sxx - exact| / exact, interior particles", 0.02, "below", lambda: stretch_deviation("cpdi")),
+             STRETCH_METRIC, 0.02, "below", lambda: stretch_deviation("cpdi")),
     Scenario("cell crossing at large stretch", "neo-Hookean bar stretched to 100%", "B2CPDI (XPIC(5))",
-             "max |sxx - exact| / exact, interior particles", 0.02, "below", lambda: stretch_deviation("b2cpdi")),
+             STRETCH_METRIC, 0.02, "below", lambda: stretch_deviation("b2cpdi")),
     Scenario("time step too large on a stiffening material", "neo-Hookean bar stretched to 200%",
              "fixed dt = 0.8 h / c0 (c rises 1.9x)", "effective CFL dt c(stretch) / h when stopped", 1.0, "above",
              fixed_step_cfl, unit="", must_stop=True),
     Scenario("time step too large on a stiffening material", "neo-Hookean bar stretched to 200%",
              "adaptive step, CFL 0.8 on the current wave speed",
-             "max |sxx - exact| / exact, interior particles at stretch 3", 0.02, "below", adaptive_step_stress,
+             STRETCH_METRIC + " (to stretch 3)", 0.02, "below", adaptive_step_stress,
              must_stop=False),
     # pending issue 5 (shock bar, Mie-Grueneisen): uncorrected vs corrected multimaterial XPIC
 ]
