@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench bench-contact bench-shock bench-interfaces examples docs clean-cache
+.PHONY: run test bench bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -48,6 +48,37 @@ examples: $(STAMP)
 		printf '%-40s ' "$$deck"; \
 		if $(BIN)/mpmsim run "$$deck" --quiet; then echo ok; else echo "FAILED (exit $$?)"; status=1; fi; \
 	done; exit $$status
+
+# error against cost: every sweep in inputs/sweeps/ (resumes; results/sweeps/<name>/), its CSV
+# and charts copied to docs/figures/sweep_<name>*
+JOBS   ?= 2
+SWEEPS := column bar
+sweeps: $(STAMP)
+	@for s in $(SWEEPS); do \
+		NUMBA_NUM_THREADS=1 $(BIN)/mpmsim sweep inputs/sweeps/$$s.yaml --jobs $(JOBS) || exit 1; \
+		for f in results/sweeps/$$s/$$s*.png results/sweeps/$$s/$$s.csv; do \
+			cp "$$f" "docs/figures/sweep_$$(basename $$f)"; done; \
+	done
+
+# the stability suite's table (docs/stability-suite.md), measured
+stability-table: $(STAMP)
+	NUMBA_NUM_THREADS=1 $(BIN)/python -m tests.stability.report docs/stability-suite.md
+
+# every PNG in docs/ from the decks and sweeps; one target per figure group, so a new
+# figure (e.g. issue 5's shock bar) is one more entry in FIGURES and one more rule
+FIGURES := figure-contact figure-sweeps figure-column-history
+figures: $(FIGURES)
+.PHONY: $(FIGURES)
+
+figure-contact: bench-contact
+
+figure-sweeps: sweeps
+
+figure-column-history: $(STAMP)
+	$(BIN)/mpmsim run inputs/column.yaml --quiet --out results/column
+	$(BIN)/mpmsim run inputs/two_blocks.yaml --quiet --out results/two_blocks
+	$(BIN)/mpmsim plot results/column/column_history.csv results/two_blocks/two_blocks_history.csv \
+		--x "-u_platen_y / 100" --y syy --out docs/figures/column_syy.png
 
 docs: $(STAMP)
 	$(BIN)/python -m mpmsim.deck.reference > docs/deck-reference.md

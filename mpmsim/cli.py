@@ -1,4 +1,5 @@
-"""Command line: `mpmsim run DECK`, `mpmsim check DECK`, `mpmsim --version`.
+"""Command line: `mpmsim run DECK`, `mpmsim check DECK`, `mpmsim sweep SWEEP`, `mpmsim plot CSV...`,
+`mpmsim --version`.
 
 Exit codes: 0 ok, 2 bad deck (or bad command line), 3 run stopped as unstable.
 """
@@ -131,7 +132,7 @@ def _timing_table(result, sim) -> None:
 def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
     from .state import State
-    from .tasks import build_task_list
+    from .tasks import plan_tasks
 
     scene = _load_scene(deck)
     d, g, u = scene.deck, scene.grid, _units(scene)
@@ -167,9 +168,76 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
     ps = steps * P.n
     out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
               f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
+    out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
+    tasks, skipped = plan_tasks(scene)
     out.print("[bold]tasks per step[/] (only what this scene needs):")
-    for i, t in enumerate(build_task_list(scene), 1):
+    for i, t in enumerate(tasks, 1):
         out.print(f"  {i:2d}. {t.name:22s} {t.why}", highlight=False)
+    if skipped:
+        out.print("[bold]left out[/] (not needed by this scene):")
+        for name, why in skipped:
+            out.print(f"      {name:22s} {why}", highlight=False)
+
+
+def kernel_dimension(state) -> str:
+    """What the dimension-parameterised kernels run on: in 2D, two-component arrays, dim^2 nodes
+    per particle and one node layer in z (no 3D work)."""
+    dim, K = state.dim, state.sd.S.shape[1]
+    return (f"{dim}D: {state.particles.x.shape[1]}-component vectors, {dim}x{dim} F, {K} nodes per particle "
+            f"({state.shape.name}), {state.grid.shape[2]} node layer(s) in z")
+
+
+@app.command()
+def sweep(
+    sweep_file: Path = typer.Argument(..., help="Sweep file (YAML): base deck, axes, reference, metrics."),
+    jobs: int = typer.Option(1, "--jobs", "-j", help="Worker processes (one numba thread each)."),
+    out_dir: Optional[Path] = typer.Option(None, "--out", help="Results directory (overrides the sweep file)."),
+    limit: Optional[int] = typer.Option(None, "--limit", help="Run at most this many of the missing runs."),
+) -> None:
+    """Run a matrix of deck variants; CSV of error and cost per run, chart of error against cost.
+    Finished runs are kept in OUT/runs/, so a re-run resumes where a killed sweep stopped."""
+    from .sweep import load_sweep, run_sweep
+    from .sweep.matrix import expand
+
+    try:
+        loaded = load_sweep(sweep_file)
+        runs, refs = expand(loaded)
+        out.print(f"[bold]{sweep_file}[/]: {len(runs)} runs + {len(refs)} reference runs, {jobs} worker(s)",
+                  highlight=False)
+        result = run_sweep(loaded, jobs=jobs, limit=limit, out_dir=out_dir, progress=_sweep_progress)
+    except DeckError as exc:
+        err.print(f"[bold red]mpmsim: bad sweep[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
+    out.print(f"ran {len(result.executed)}, already done {len(result.skipped)}", highlight=False)
+    if not result.complete:
+        out.print("sweep not complete (--limit): runs not done yet are 'pending' in the table; "
+                  "the same command again continues", highlight=False)
+    if result.csv is not None:
+        out.print(f"[bold]table[/]: {result.csv}\n[bold]chart[/]: {result.png}", highlight=False)
+
+
+def _sweep_progress(run, record, k: int, n: int) -> None:
+    what = ", ".join(f"{a}={v}" for a, v in run.values.items())
+    cost = f"{record['cpu_s']:.1f} s" if "cpu_s" in record else ""
+    out.print(f"  {k}/{n} {run.id} {record['status']:8s} {cost:>9s}  {what}", highlight=False)
+
+
+@app.command()
+def plot(
+    histories: list[Path] = typer.Argument(..., help="History CSV files (mpmsim run output)."),
+    x: str = typer.Option("time", "--x", help="Column (or expression of columns) on the x axis."),
+    y: list[str] = typer.Option(..., "--y", help="Column(s) on the y axis (repeat --y for more)."),
+    output: Path = typer.Option(Path("plot.png"), "--out", "-o", help="PNG file to write."),
+) -> None:
+    """Overlay history columns of one or more runs in a PNG, labelled by the decks' titles."""
+    from .plotting import plot_histories
+
+    try:
+        plot_histories(histories, x, y, output)
+    except (OSError, KeyError, ValueError) as exc:
+        err.print(f"[bold red]mpmsim plot[/]: {exc}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
+    out.print(f"wrote {output}", highlight=False)
 
 
 def main() -> None:

@@ -1,4 +1,5 @@
-"""CSV history of global quantities: one row per history time, header 'name [unit]'.
+"""CSV history of global quantities: one row per history time, header 'name [unit]', after
+a first line `# title: <deck title>` (for plot labels; readers skip '#' lines).
 
 Stress is the volume-weighted Cauchy average over deformable particles (notes §8).
 Reaction forces are what each constrained face or rigid material exerts on the material,
@@ -25,6 +26,7 @@ class History:
 
     def __init__(self, state, path: Path | None = None):
         self.path = Path(path) if path is not None else None
+        self.title = " ".join(str(state.scene.deck.title).split())  # one line
         u = unit_system(state.scene.deck.units)
         dim = state.dim
         axes = "xyz"[:dim]
@@ -93,12 +95,29 @@ class History:
             return
         header = ",".join(f"{n} [{u}]" for n, u in self.columns)
         body = "\n".join(",".join(f"{v:.10g}" for v in row) for row in self.rows)
-        write_text(self.path, header + "\n" + body + ("\n" if body else ""))
+        write_text(self.path, f"# title: {self.title}\n" + header + "\n" + body + ("\n" if body else ""))
 
 
 def read_history(path: str | Path) -> dict[str, np.ndarray]:
     """Columns of a history CSV by name (unit suffix dropped)."""
-    with open(path) as fh:
-        header = fh.readline().strip().split(",")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    comments, header = read_header(path)
+    header = header.split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=len(comments) + 1, ndmin=2)
     return {h.split(" [")[0]: data[:, i] for i, h in enumerate(header)}
+
+
+def history_title(path: str | Path) -> str:
+    """The deck title from the `# title:` line ('' for a file without one)."""
+    comments = read_header(path)[0]
+    return next((c.split(":", 1)[1].strip() for c in comments if c.startswith("# title:")), "")
+
+
+def read_header(path) -> tuple[list[str], str]:
+    """(leading '#' lines, the header line)."""
+    comments = []
+    with open(path) as fh:
+        for line in fh:
+            if not line.startswith("#"):
+                return comments, line.strip()
+            comments.append(line.strip())
+    raise ValueError(f"{path}: no header line")

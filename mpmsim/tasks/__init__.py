@@ -1,7 +1,8 @@
 """The time step as a list of named tasks, built once from the deck.
 
 Only what the scene needs is in the list: no stress-first task for USL, no rigid motion
-without rigid materials. Each entry says why it is there (`mpmsim check` prints it).
+without rigid materials, no contact tasks for one material. Each entry says why it is there,
+and `plan_tasks` also says why each task left out is not needed (`mpmsim check` prints both).
 """
 
 from __future__ import annotations
@@ -35,7 +36,13 @@ def describe_separation(deck) -> str:
 
 
 def build_task_list(scene) -> list[Task]:
+    return plan_tasks(scene)[0]
+
+
+def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
+    """(the step's tasks, [(task left out, why it is not needed)])."""
     deck = scene.deck
+    skipped: list[tuple[str, str]] = []
     upd = deck.update
     n_rigid = len(scene.materials.rigid)
     faces = [f for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * scene.dim]
@@ -50,6 +57,9 @@ def build_task_list(scene) -> list[Task]:
     if contact is not None:
         tasks.append(Task("material fields", material_fields,
                           f"{contact.n_groups} material groups: own velocity fields where they meet"))
+    else:
+        why = ("one material" if len(scene.materials.deformable) < 2 else "all materials joined by contact law none")
+        skipped.append(("contact (fields, geometry, passes)", f"{why}: a single velocity field"))
     tasks.append(Task("extrapolate", extrapolate,
                       "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")))
     if contact is not None:
@@ -57,28 +67,38 @@ def build_task_list(scene) -> list[Task]:
                           f"{deck.contact.normal} normals, {describe_separation(deck)}, contact areas"))
     if contact is not None and contact.passes == 2:
         tasks.append(Task("contact pass 1", contact_pass_1, "contact laws on the extrapolated momenta"))
+    elif contact is not None:
+        skipped.append(("contact pass 1", "contact.passes: 1"))
     energy = "; internal energy" + (", artificial viscosity" if deck.artificial_viscosity else "") \
         if scene.materials.tracks_energy else ""
     if upd.stress in ("usf", "usavg"):
         tasks.append(Task("update stress first", update_stress_first,
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"
                           + energy))
-    extra = [what for what, on in (("gravity", deck.gravity and any(deck.gravity)), (f"{len(deck.loads)} traction load(s)", deck.loads),
+    else:
+        skipped.append(("update stress first", f"stress update {upd.stress}"))
+    extra = [what for what, on in (("gravity", deck.gravity and any(deck.gravity)),
+                                   (f"{len(deck.loads)} traction load(s)", deck.loads),
                                    ("grid damping", deck.damping and deck.damping.grid > 0)) if on]
     tasks.append(Task("forces", forces, "internal forces" + "".join(f", {e}" for e in extra)))
     bc_rigid = [r for r in scene.materials.rigid if getattr(deck.materials[r], "mode", "bc") == "bc"]
     bc = ", ".join(faces + [f"rigid '{r}'" for r in bc_rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
     if contact is not None:
-        tasks.append(Task("contact pass 2", contact_pass_2, "contact laws on the updated momenta: contact forces"))
+        tasks.append(Task("contact pass 2", contact_pass_2, "contact laws on the updated momenta: contact forces"
+                          + ("; interface forces and energy" if contact.has_interface else "")))
     if upd.scheme in ("xpic", "fmpm"):
         what = "start-of-step" if upd.scheme == "xpic" else "updated"
         tasks.append(Task("xpic", xpic, f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
                                         f"{upd.order - 1} extra grid passes"))
+    else:
+        skipped.append(("xpic", f"{upd.scheme} update needs no grid filter"))
     name = f"{upd.scheme}({upd.order})" if upd.order else upd.scheme
     tasks.append(Task("particle update", particle_update, f"{name} velocity and position update"))
     if n_rigid:
         tasks.append(Task("move rigid", move_rigid, "rigid materials follow their prescribed velocity"))
+    else:
+        skipped.append(("move rigid", "no rigid materials"))
     if upd.stress in ("usl", "usavg") and upd.reextrapolate:
         tasks.append(Task("re-extrapolate", reextrapolate, "momenta from the updated particles (usl+/usavg+)"))
         if contact is not None:
@@ -87,5 +107,7 @@ def build_task_list(scene) -> list[Task]:
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
         tasks.append(Task("update stress last", update_stress_last,
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from {source}" + energy))
+    else:
+        skipped.append(("update stress last", f"stress update {upd.stress}"))
     tasks.append(Task("check stability", check_stability, "NaN, inverted particles, leaving the grid, energy growth"))
-    return tasks
+    return tasks, skipped

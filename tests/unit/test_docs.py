@@ -37,3 +37,15 @@ def test_relative_links_in_docs_resolve():
             if "://" in target:
                 continue
             assert (page.parent / target).exists(), f"{page.name} links to missing {target}"
+
+
+@pytest.mark.parametrize("sweep", sorted((ROOT / "inputs" / "sweeps").glob("*.yaml")), ids=lambda p: p.name)
+def test_shipped_sweeps_validate(sweep):
+    """Every combination of a shipped sweep is a valid deck, and its runs have distinct ids."""
+    from mpmsim.sweep import load_sweep
+    from mpmsim.sweep.matrix import expand
+    from mpmsim.sweep.runner import validate
+
+    runs, refs = expand(load_sweep(sweep))
+    validate(runs + refs, str(sweep))
+    assert len({r.id for r in runs + refs}) == len(runs) + len(refs)

@@ -89,7 +89,9 @@ def test_pvd_collection_lists_the_series(finished):
 
 def test_history_csv_has_units_and_every_row(finished):
     sim, result, out = finished
-    header = result.history_path.read_text().splitlines()[0].split(",")
+    lines = result.history_path.read_text().splitlines()
+    assert lines[0] == f"# title: {sim.scene.deck.title}"
+    header = lines[1].split(",")
     assert header[:4] == ["time [ms]", "step [-]", "dt [ms]", "sxx [MPa]"]
     assert "kinetic_energy [mJ (= N mm)]" in header and "F_ymin_y [N]" in header
     assert "F_platen_y [N]" in header and "u_platen_y [mm]" in header

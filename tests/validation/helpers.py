@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import numpy as np
 import yaml
 
 from mpmsim.deck.overrides import with_overrides
+from mpmsim.sweep.metrics import zero_crossings  # noqa: F401 (re-exported for the tests)
 
 from ..conftest import ROOT, simulate
 
@@ -19,9 +19,3 @@ def run_example(name: str, **overrides):
     "bodies.0.max": [25, 2]} (numbers index lists)."""
     deck = with_overrides(example(name), overrides)
     return simulate(deck, ROOT / "inputs"), deck
-
-
-def zero_crossings(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Times where y changes sign, by linear interpolation."""
-    i = np.nonzero(np.sign(y[:-1]) * np.sign(y[1:]) < 0)[0]
-    return t[i] - y[i] * (t[i + 1] - t[i]) / (y[i + 1] - y[i])

@@ -1,0 +1,94 @@
+"""Error metrics on history columns (dict name -> array), as named in a sweep file.
+
+Also used by bench/contact.py and the tests, so the Fig. 5 error is computed in one place.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def column(history: dict, expr: str) -> np.ndarray:
+    """A history column by name, or a numpy expression of columns (`-u_platen_y / 100`)."""
+    if expr in history:
+        return np.asarray(history[expr], dtype=float)
+    names = {k: np.asarray(v, dtype=float) for k, v in history.items() if k.isidentifier()}
+    try:
+        return np.asarray(eval(expr, {"__builtins__": {}, "np": np}, names), dtype=float)  # noqa: S307 (our own sweep files)
+    except NameError as exc:
+        raise KeyError(f"'{expr}': {exc}; history columns: {', '.join(history)}") from None
+
+
+def max_rel_error(x: np.ndarray, y: np.ndarray, x_ref: np.ndarray, y_ref: np.ndarray,
+                  lo: float = -np.inf, hi: float = np.inf) -> float:
+    """max |y - y_ref| / |y_ref| over x in [lo, hi], the reference interpolated at x (no
+    extrapolation past its range). NaN if no point is in range."""
+    order = np.argsort(x_ref, kind="stable")
+    x_ref, y_ref = np.asarray(x_ref)[order], np.asarray(y_ref)[order]
+    keep = (x >= lo) & (x <= hi) & (x >= x_ref[0]) & (x <= x_ref[-1])
+    if not keep.any():
+        return float("nan")
+    ref = np.interp(x[keep], x_ref, y_ref)
+    return float(np.max(np.abs(y[keep] - ref) / np.abs(ref)))
+
+
+def relative_error_curve(x, y, x_ref, y_ref, lo=-np.inf, hi=np.inf) -> tuple[np.ndarray, np.ndarray]:
+    """(x, (y - y_ref) / |y_ref|) over the same points as max_rel_error (signed, for plots)."""
+    order = np.argsort(x_ref, kind="stable")
+    x_ref, y_ref = np.asarray(x_ref)[order], np.asarray(y_ref)[order]
+    keep = (x >= lo) & (x <= hi) & (x >= x_ref[0]) & (x <= x_ref[-1])
+    ref = np.interp(x[keep], x_ref, y_ref)
+    return x[keep], (y[keep] - ref) / np.abs(ref)
+
+
+def zero_crossings(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Times where y changes sign, by linear interpolation."""
+    i = np.nonzero(np.sign(y[:-1]) * np.sign(y[1:]) < 0)[0]
+    return t[i] - y[i] * (t[i + 1] - t[i]) / (y[i + 1] - y[i])
+
+
+def period(t: np.ndarray, y: np.ndarray) -> float:
+    """Mean period of an oscillation from its zero crossings (half a period apart); NaN with
+    fewer than two crossings."""
+    tc = zero_crossings(np.asarray(t, float), np.asarray(y, float))
+    return 2 * (tc[-1] - tc[0]) / (len(tc) - 1) if len(tc) >= 2 else float("nan")
+
+
+def energy_change(energy: np.ndarray, at: str = "end") -> float:
+    e = np.asarray(energy, float)
+    change = np.abs(e - e[0]) / abs(e[0])
+    return float(change[-1] if at == "end" else change.max())
+
+
+def evaluate(metric, history: dict, reference: dict | None, analytic) -> float:
+    """One sweep metric on a run's history; `reference`: the reference run's history (or None),
+    `analytic`: the sweep's reference.analytic (or None)."""
+    kind = metric.type
+    if kind == "max_rel_error":
+        x, y = column(history, metric.x), column(history, metric.column)
+        lo, hi = metric.range if metric.range is not None else (-np.inf, np.inf)
+        if reference is not None:
+            x_ref, y_ref = column(reference, metric.x), column(reference, metric.column)
+        else:  # the analytic curve, on the run's own abscissae
+            x_ref = x
+            curve = analytic.curve
+            if curve.expression is not None:
+                y_ref = np.broadcast_to(eval(curve.expression, {"__builtins__": {}, "np": np}, {"x": x}), x.shape)  # noqa: S307
+            else:
+                y_ref = np.interp(x, curve.x, curve.y)
+                inside = (x >= min(curve.x)) & (x <= max(curve.x))
+                x, y, x_ref, y_ref = x[inside], y[inside], x_ref[inside], y_ref[inside]
+            if len(x) == 0:
+                return float("nan")
+        return max_rel_error(x, y, x_ref, y_ref, lo, hi)
+    if kind == "period_error":
+        if metric.expected is None:  # the reference run's own period
+            expected = period(reference["time"], column(reference, metric.column))
+        elif isinstance(metric.expected, str):
+            expected = analytic.values[metric.expected]
+        else:
+            expected = float(metric.expected)
+        return abs(period(history["time"], column(history, metric.column)) / expected - 1.0)
+    if kind == "energy_change":
+        return energy_change(sum(column(history, c) for c in metric.columns), metric.at)
+    raise ValueError(f"unknown metric type {kind}")

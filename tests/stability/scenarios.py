@@ -1,0 +1,174 @@
+"""The stability suite as data: each known failure reproduced, and the recommended method shown
+stable on the same scene. One row = scene, method, metric, threshold and which side of it the
+row must land; `test_suite.py` asserts every row, `report.py` writes the table in
+docs/stability-suite.md. A new failure mode (or method) is one more `Scenario` in SCENARIOS.
+
+Runs are cached per process (functools.cache), so rows sharing a run (the single-material
+column, LR with two passes) run it once.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from mpmsim.deck.overrides import with_overrides
+from mpmsim.errors import InstabilityError
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+from mpmsim.sweep.metrics import max_rel_error
+
+from ..conftest import ROOT, deck_from
+from ..validation.helpers import example
+
+
+@dataclass(frozen=True)
+class Measured:
+    value: float
+    stopped: str = ""  # the instability message if the run stopped
+
+
+@dataclass(frozen=True)
+class Scenario:
+    failure: str  # the known failure mode this row belongs to
+    scene: str
+    method: str
+    metric: str
+    threshold: float
+    expect: str  # "above": the failure is reproduced; "below": the method stays within bounds
+    measure: Callable[[], Measured]
+    unit: str = "%"  # "%": value and threshold are fractions shown in percent
+    must_stop: bool | None = None  # True: the run must be stopped as unstable; False: must finish
+
+    @property
+    def id(self) -> str:
+        return f"{self.scene}: {self.method}".replace(" ", "_")
+
+    def passed(self, m: Measured) -> bool:
+        side = m.value > self.threshold if self.expect == "above" else m.value < self.threshold
+        stop_ok = self.must_stop is None or bool(m.stopped) == self.must_stop
+        return bool(side and stop_ok)
+
+
+@functools.cache
+def _run(name: str, overrides_json: str) -> tuple[Simulation, str]:
+    """Run inputs/<name>.yaml with overrides; (simulation, instability message or '')."""
+    deck = with_overrides(example(name), json.loads(overrides_json))
+    sim = Simulation(build_scene(deck_from(deck, ROOT / "inputs")))
+    try:
+        sim.run()
+    except InstabilityError as exc:
+        return sim, str(exc).splitlines()[0]
+    return sim, ""
+
+
+def run(name: str, **overrides) -> tuple[Simulation, str]:
+    return _run(name, json.dumps(overrides, sort_keys=True))
+
+
+# --------------------------------------------------------------- two-block column (LR paper Fig. 5)
+COLUMN_5PCT = {"time.end": 5.2}  # 5% strain: CP = 0.8 has failed by then, LR once peaks at 1.4%
+CP08 = {"contact.normal": "average_gradient", "contact.separation": "cutoff", "contact.cutoff": 0.8}
+
+
+def column_error(**method) -> Measured:
+    """max |MM - SMM| / SMM of the mean axial stress over 0.2-5% strain (the Fig. 5 metric)."""
+    smm, _ = run("column", **COLUMN_5PCT)
+    mm, stopped = run("two_blocks", **COLUMN_5PCT, **method)
+
+    def strain(sim):
+        return -sim.history.column("u_platen_y") / 100.0
+
+    err = max_rel_error(strain(mm), mm.history.column("syy"), strain(smm), smm.history.column("syy"), 0.002, 0.05)
+    return Measured(err, stopped)
+
+
+# --------------------------------------------------------------- bar stretched to 100% (shape functions)
+K, G, RHO = 2450.0, 940.0, 0.001
+C0 = float(np.sqrt((K + 4 * G / 3) / RHO))
+
+
+def uniaxial_sxx(lam):
+    """Cauchy stress of the neo-Hookean bar (Eq. 18) in uniaxial strain at stretch lam."""
+    return 0.5 * K * (lam - 1 / lam) + (2 * G / 3) * lam ** (-5 / 3) * (lam**2 - 1)
+
+
+def grip_stretch(sim) -> float:
+    """The stretch the grip imposes on the 12 mm bar."""
+    return 1.0 + float(sim.state.rigid_disp[0, 0]) / 12.0
+
+
+def interior_deviation(sim) -> float:
+    """max |sxx - exact| / exact over particles two cells from the wall and the grip, exact at
+    their mean stretch; if that stretch is more than 0.03 off the grip's the bar tore, and the
+    strain it lost, |lam - lam_grip| / (lam_grip - 1), counts too (a torn bar scores ~100%)."""
+    P = sim.state.particles
+    inside = (P.x0[:, 0] > 2.0) & (P.x0[:, 0] < 10.0)
+    lam, grip = float(P.F[inside, 0, 0].mean()), grip_stretch(sim)
+    exact = uniaxial_sxx(lam)
+    dev = float(np.abs(P.stress[inside, 0] - exact).max() / exact)
+    return dev if abs(lam - grip) < 0.03 else max(dev, abs(lam - grip) / (grip - 1.0))
+
+
+def stretch_deviation(shape: str) -> Measured:
+    sim, stopped = run("stretch", shape_function=shape)
+    return Measured(interior_deviation(sim), stopped)
+
+
+# --------------------------------------------------------------- time step on a stiffening material
+# The stretch bar taken to stretch 3: the current wave speed rises 1.92x (uniaxial strain,
+# Eq. 18), so a step fixed at CFL 0.8 of the initial wave speed ends up at CFL ~1.5.
+STRETCH_3 = {"grid.domain": {"min": [0.0, 0.0], "max": [40.0, 1.0]}, "time.end": 6.235}
+
+
+def wave_speed(lam: float) -> float:
+    """Current dilatational wave speed of the bar at stretch lam: c^2 = lam^2 dsxx/dlam / rho0
+    (docs/stability.md)."""
+    d = 1e-6
+    return float(np.sqrt(lam**2 * (uniaxial_sxx(lam + d) - uniaxial_sxx(lam - d)) / (2 * d) / RHO))
+
+
+def fixed_step_cfl() -> Measured:
+    """Effective CFL, dt c(lam) / h at the bar's mean stretch (from the grip's displacement),
+    when the fixed-step run was stopped (the exact wave speed: the failing state's is garbage)."""
+    sim, stopped = run("stretch", **STRETCH_3, time={"end": STRETCH_3["time.end"], "dt": 0.8 * 1.0 / C0})
+    st = sim.state
+    return Measured(st.dt * wave_speed(grip_stretch(sim)) / float(st.grid.h.min()), stopped)
+
+
+def adaptive_step_stress() -> Measured:
+    sim, stopped = run("stretch", **STRETCH_3, **{"time.cfl": 0.8})
+    return Measured(interior_deviation(sim), stopped)
+
+
+STRETCH_METRIC = "max |sxx - exact(mean stretch)| / exact, interior particles (torn: strain lost)"
+
+SCENARIOS = [
+    Scenario("contact cutoff at large strain", "two-block column to 5% strain", "AVG normals, CP = 0.8 cutoff",
+             "max |MM - SMM| / SMM of mean syy, 0.2-5% strain", 0.04, "above", lambda: column_error(**CP08)),
+    Scenario("contact cutoff at large strain", "two-block column to 5% strain", "LR normals and separation, 2 passes",
+             "max |MM - SMM| / SMM of mean syy, 0.2-5% strain", 0.01, "below", lambda: column_error()),
+    Scenario("one contact pass", "two-block column to 5% strain", "LR, 1 pass (contact after the momentum update only)",
+             "max |MM - SMM| / SMM of mean syy, 0.2-5% strain", 0.001, "above",
+             lambda: column_error(**{"contact.passes": 1})),
+    Scenario("one contact pass", "two-block column to 5% strain", "LR, 2 passes",
+             "max |MM - SMM| / SMM of mean syy, 0.2-5% strain", 0.001, "below", lambda: column_error()),
+    Scenario("cell crossing at large stretch", "neo-Hookean bar stretched to 100%", "uGIMP (XPIC(5))",
+             STRETCH_METRIC, 0.5, "above", lambda: stretch_deviation("gimp")),
+    Scenario("cell crossing at large stretch", "neo-Hookean bar stretched to 100%", "CPDI (XPIC(5))",
+             STRETCH_METRIC, 0.02, "below", lambda: stretch_deviation("cpdi")),
+    Scenario("cell crossing at large stretch", "neo-Hookean bar stretched to 100%", "B2CPDI (XPIC(5))",
+             STRETCH_METRIC, 0.02, "below", lambda: stretch_deviation("b2cpdi")),
+    Scenario("time step too large on a stiffening material", "neo-Hookean bar stretched to 200%",
+             "fixed dt = 0.8 h / c0 (c rises 1.9x)", "effective CFL dt c(stretch) / h when stopped", 1.0, "above",
+             fixed_step_cfl, unit="", must_stop=True),
+    Scenario("time step too large on a stiffening material", "neo-Hookean bar stretched to 200%",
+             "adaptive step, CFL 0.8 on the current wave speed",
+             STRETCH_METRIC + " (to stretch 3)", 0.02, "below", adaptive_step_stress,
+             must_stop=False),
+    # pending issue 5 (shock bar, Mie-Grueneisen): uncorrected vs corrected multimaterial XPIC
+]
