@@ -66,13 +66,18 @@ stability-table: $(STAMP)
 
 # every PNG in docs/ from the decks and sweeps; one target per figure group, so a new
 # figure (e.g. issue 5's shock bar) is one more entry in FIGURES and one more rule
-FIGURES := figure-contact figure-sweeps figure-column-history
+FIGURES := figure-contact figure-sweeps figure-column-history figure-shock figure-interfaces
 figures: $(FIGURES)
 .PHONY: $(FIGURES)
 
 figure-contact: bench-contact
 
 figure-sweeps: sweeps
+
+figure-shock: bench-shock
+
+# the interface sweeps resume from results/bench_interfaces/; a first run takes hours
+figure-interfaces: bench-interfaces
 
 figure-column-history: $(STAMP)
 	$(BIN)/mpmsim run inputs/column.yaml --quiet --out results/column

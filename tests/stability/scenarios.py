@@ -147,6 +147,51 @@ def adaptive_step_stress() -> Measured:
 
 STRETCH_METRIC = "max |sxx - exact(mean stretch)| / exact, interior particles (torn: strain lost)"
 
+
+# --------------------------------------------------------------- shock bar (LR paper Fig. 7)
+def shock_ring(corrected: bool) -> Measured:
+    from ..validation.test_shock import fig7_deviations
+
+    c, u, _, _ = fig7_deviations()
+    return Measured(c if corrected else u)
+
+
+# --------------------------------------------------------------- imperfect interfaces (2013 paper)
+def two_layer_energy(**overrides) -> tuple[float, str]:
+    """Static strain + interfacial energy of the two-layer specimen at 1 mm cells."""
+    from ..validation.specimens import two_layer
+
+    sim = Simulation(build_scene(deck_from(two_layer(1.0, **overrides), ROOT / "inputs")))
+    try:
+        sim.run()
+    except InstabilityError as exc:
+        return float("nan"), str(exc).splitlines()[0]
+    h = sim.history
+    tail = max(1, len(h.rows) // 5)
+    return float((h.column("strain_energy") + h.column("interface_energy"))[-tail:].mean()), ""
+
+
+def stiff_interface(scheme: str) -> Measured:
+    """|E - E_perfect| / E_perfect with Dn = Dt = 1e8 MPa/mm (inf when the run stopped)."""
+    perfect, _ = two_layer_energy(Dt="perfect")
+    e, stopped = two_layer_energy(Dt=1e8, **{"contact.default.Dn": 1e8, "contact.interface_integration": scheme})
+    return Measured(abs(e / perfect - 1) if not stopped else float("inf"), stopped)
+
+
+def interface_energy_error(normal: str, Dn) -> Measured:
+    """Interfacial energy on cell mid-planes against the specified normal on a grid line (Dt = 1)."""
+    from ..validation.specimens import two_layer
+
+    def energy(deck):
+        sim = Simulation(build_scene(deck_from(deck, ROOT / "inputs")))
+        sim.run()
+        h = sim.history
+        return float(h.column("interface_energy")[-max(1, len(h.rows) // 5):].mean())
+
+    ref = energy(two_layer(1.0, 1.0, **{"contact.default.Dn": Dn}))
+    mid = energy(two_layer(1.0, 1.0, mid=True, **{"contact.default.Dn": Dn, "contact.normal": normal}))
+    return Measured(abs(mid / ref - 1))
+
 SCENARIOS = [
     Scenario("contact cutoff at large strain", "two-block column to 5% strain", "AVG normals, CP = 0.8 cutoff",
              "max |MM - SMM| / SMM of mean syy, 0.2-5% strain", 0.04, "above", lambda: column_error(**CP08)),
@@ -170,5 +215,26 @@ SCENARIOS = [
              "adaptive step, CFL 0.8 on the current wave speed",
              STRETCH_METRIC + " (to stretch 3)", 0.02, "below", adaptive_step_stress,
              must_stop=False),
-    # pending issue 5 (shock bar, Mie-Grueneisen): uncorrected vs corrected multimaterial XPIC
+    Scenario("multimaterial XPIC without its contact term", "nickel shock bar split by a perfect interface",
+             "uncorrected XPIC(5)", "max |split - single| axial stress behind the interface / plateau", 0.005,
+             "above", lambda: shock_ring(False)),
+    Scenario("multimaterial XPIC without its contact term", "nickel shock bar split by a perfect interface",
+             "XPIC(5) with the contact term on every increment",
+             "max |split - single| axial stress behind the interface / plateau", 0.02, "below",
+             lambda: shock_ring(True)),
+    Scenario("stiff imperfect interface", "two-layer specimen, Dn = Dt = 1e8 MPa/mm",
+             "first-order interface force, no limit", "|E / E_perfect - 1| (inf: stopped)", 0.01, "above",
+             lambda: stiff_interface("first_order"), must_stop=True),
+    Scenario("stiff imperfect interface", "two-layer specimen, Dn = Dt = 1e8 MPa/mm",
+             "2013 paper's force limit", "|E / E_perfect - 1| (inf: stopped)", 0.01, "above",
+             lambda: stiff_interface("force_limit"), must_stop=True),
+    Scenario("stiff imperfect interface", "two-layer specimen, Dn = Dt = 1e8 MPa/mm",
+             "exact oscillator, bonded when phi > 1.5", "|E / E_perfect - 1| (inf: stopped)", 1e-6, "below",
+             lambda: stiff_interface("oscillator"), must_stop=False),
+    Scenario("gradient normals at edge nodes, stiff normal", "two-layer specimen, interface on mid-planes, Dt = 1",
+             "AVG normals, Dn perfect", "|interfacial energy / specified-normal grid-line value - 1|", 0.5, "above",
+             lambda: interface_energy_error("average_gradient", "perfect")),
+    Scenario("gradient normals at edge nodes, stiff normal", "two-layer specimen, interface on mid-planes, Dt = 1",
+             "AVG normals, Dn = Dt (imperfect normal)", "|interfacial energy / specified-normal grid-line value - 1|",
+             0.02, "below", lambda: interface_energy_error("average_gradient", 1.0)),
 ]
