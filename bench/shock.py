@@ -25,7 +25,7 @@ import yaml  # noqa: E402
 from mpmsim.deck import load_deck_text  # noqa: E402
 from mpmsim.deck.overrides import with_overrides  # noqa: E402
 from mpmsim.scene import build_scene  # noqa: E402
-from mpmsim.shock import columns, hugoniot, measure_front, shock_speed  # noqa: E402
+from mpmsim.shock import columns, hugoniot, measure_front, run_with_profiles, shock_speed  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,16 +53,8 @@ def hugoniot_table(length=20.0, height=0.75):
         d = with_overrides(deck("nickel_shock"), {
             "bodies.0.max": [length, height], "bodies.1.min": [length, 0.0], "bodies.1.max": [length + 0.5, height],
             "materials.piston.velocity": [-up, 0.0], "time.end": end})
-        sim = simulation(d)
         times = end * np.arange(4, 11) / 10
-        snaps = []
-
-        def grab(st):
-            if len(snaps) < len(times) and st.t >= times[len(snaps)] * (1 - 1e-9):
-                P_ = st.particles
-                snaps.append((st.t, columns(P_.x0, P_.x, P_.pressure, SPACING)))
-
-        sim.run(progress=grab)
+        snaps = run_with_profiles(simulation(d), times, SPACING)
         last = measure_front(snaps[-1][1], length, 2.0)
         us, _ = shock_speed([t for t, _ in snaps], [p for _, p in snaps], last.plateau)
         rows.append((frac, up, Us, us, P, last.plateau, last.width))

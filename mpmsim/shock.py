@@ -81,3 +81,17 @@ def shock_speed(times, profiles: list[Profile], plateau: float) -> tuple[float, 
     plateau, and minus the slope of a least-squares line through them."""
     xs = [crossing(prof.x, prof.p, 0.5 * plateau) for prof in profiles]
     return float(-np.polyfit(np.asarray(times), xs, 1)[0]), xs
+
+
+def run_with_profiles(sim, times, spacing: float) -> list[tuple[float, Profile]]:
+    """Run a Simulation to its end, keeping the pressure profile by reference position at the
+    first step at or past each of `times`."""
+    snaps: list[tuple[float, Profile]] = []
+
+    def grab(st):
+        if len(snaps) < len(times) and st.t >= times[len(snaps)] * (1 - 1e-9):
+            P = st.particles
+            snaps.append((st.t, columns(P.x0, P.x, P.pressure, spacing)))
+
+    sim.run(progress=grab)
+    return snaps

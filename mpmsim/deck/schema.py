@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
 Vector = list[float]
 Face = Literal["free", "fixed", "roller", "slip"]
@@ -103,7 +103,14 @@ Material = Annotated[Union[LinearElastic, NeoHookean, MieGruneisen, Transversely
 
 
 # --------------------------------------------------------------------------- contact
-Stiffness = Annotated[float, Field(ge=0.0)] | Literal["perfect"]
+def _stiffness(value):
+    if value == "perfect" or (isinstance(value, float) and value >= 0.0):
+        return value
+    raise ValueError(f"{value!r} is not an interface stiffness: give a number >= 0 (stress per length) or 'perfect'")
+
+
+# one message for a bad stiffness instead of one per union member
+Stiffness = Annotated[Union[float, str], AfterValidator(_stiffness)]
 
 
 class ContactLaw(Strict):

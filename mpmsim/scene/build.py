@@ -176,4 +176,9 @@ def build_scene(loaded: LoadedDeck) -> Scene:
     deformable, rigid = seeds
     if len(deformable.x) == 0:
         raise_at([(("bodies",), "no body made of a deformable material holds any particle")], loaded)
+    empty = [(("loads", i, "region"), "holds no particle centre of a deformable material")
+             for i, load in enumerate(deck.loads)
+             if not np.all((deformable.x >= load.region.min) & (deformable.x <= load.region.max), axis=1).any()]
+    if empty:
+        raise_at(empty, loaded)
     return Scene(loaded, grid, mats, deformable, rigid, 0.5 * spacing, deck.thickness)

@@ -58,6 +58,15 @@ CASES = [
      "contact.pairs.0.between.1", 11, "no material named 'stone'"),
     ("unknown normal method", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {normal: logistic}\n")],
      "contact.normal", 11, "'logistic_regression'"),
+    ("bad interface stiffness", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {default: {law: interface, Dt: -2}}\n")],
+     "contact.default.Dt", 11, "'perfect'"),
+    ("load with face and normal", [("time: {end: 0.1}\n", "time: {end: 0.1}\nloads: [{region: {min: [0, 3], max: [4, 4]}, "
+                                    "face: ymax, normal: [0, 1], traction: [0, 1]}]\n")], "loads.0", 11, "either face or normal"),
+    ("load region misses the body", [("time: {end: 0.1}\n", "time: {end: 0.1}\nloads: [{region: {min: [10, 10], max: [11, 11]}, "
+                                      "face: ymax, traction: [0, 1]}]\n")], "loads.0.region", 11, "no particle"),
+    ("transversely isotropic without energy", [("type: neo_hookean, K: 100.0, G: 50.0,",
+                                                "type: transversely_isotropic, EA: 100, ET: 10, GA: 5, nuA: 3.0, nuT: 0.3, "
+                                                "axis: [0, 1],")], "materials.block.nuA", 7, "positive strain energy"),
     ("specified normal without vector", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {normal: specified}\n")],
      "contact.normal_vector", 11, "needs normal_vector"),
     ("static friction below kinetic", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {default: "

@@ -19,7 +19,7 @@ import pytest
 
 from mpmsim.deck.overrides import with_overrides
 from mpmsim.scene import build_scene
-from mpmsim.shock import columns, hugoniot, measure_front, shock_speed
+from mpmsim.shock import columns, hugoniot, measure_front, run_with_profiles, shock_speed
 from mpmsim.solver import Simulation
 
 from ..conftest import ROOT, deck_from
@@ -49,15 +49,7 @@ def bar(length=LENGTH, up=0.4 * C0, end=None, split=False, **over):
 def run(deck, snapshot_times=()):
     """Run a deck; column profiles of pressure at the given times (first step at or past each)."""
     sim = Simulation(build_scene(deck_from(deck, ROOT / "inputs")))
-    snaps = []
-
-    def grab(st):
-        if len(snaps) < len(snapshot_times) and st.t >= snapshot_times[len(snaps)] * (1 - 1e-9):
-            P = st.particles
-            snaps.append((st.t, columns(P.x0, P.x, P.pressure, SPACING)))
-
-    sim.run(progress=grab)
-    return sim, snaps
+    return sim, run_with_profiles(sim, snapshot_times, SPACING)
 
 
 # ------------------------------------------------------------------------------- Hugoniot
