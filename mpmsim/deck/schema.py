@@ -104,8 +104,14 @@ Material = Annotated[Union[LinearElastic, NeoHookean, MieGruneisen, Transversely
 
 # --------------------------------------------------------------------------- contact
 def _stiffness(value):
-    if value == "perfect" or (isinstance(value, float) and value >= 0.0):
+    if value == "perfect":
         return value
+    try:  # YAML reads 1.0e5 (no exponent sign) as a string
+        number = float(value)
+    except ValueError:
+        number = -1.0
+    if number >= 0.0:
+        return number
     raise ValueError(f"{value!r} is not an interface stiffness: give a number >= 0 (stress per length) or 'perfect'")
 
 
