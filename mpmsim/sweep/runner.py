@@ -16,6 +16,7 @@ run's peak, interpreter, numpy and numba included (about 150-200 MB of it is tha
 
 from __future__ import annotations
 
+import contextlib
 import json
 import multiprocessing
 import os
@@ -84,8 +85,24 @@ def execute(run: Run) -> dict:
     }
 
 
-def _worker(run: Run, runs_dir: str) -> str:
+@contextlib.contextmanager
+def one_numba_thread_in_children():
+    """NUMBA_NUM_THREADS=1 for the worker processes spawned meanwhile (they inherit the
+    environment and read it when they import numba), restored afterwards: numba re-reads the
+    variable at every compile in this process, and a value other than the running thread
+    pool's stops it ("Cannot set NUMBA_NUM_THREADS ... once the threads have been launched")."""
+    old = os.environ.get("NUMBA_NUM_THREADS")
     os.environ["NUMBA_NUM_THREADS"] = "1"
+    try:
+        yield
+    finally:
+        if old is None:
+            del os.environ["NUMBA_NUM_THREADS"]
+        else:
+            os.environ["NUMBA_NUM_THREADS"] = old
+
+
+def _worker(run: Run, runs_dir: str) -> str:
     try:
         record = execute(run)
     except Exception as exc:  # noqa: BLE001 - a crashing combination is recorded, the sweep goes on
@@ -152,9 +169,9 @@ def run_sweep(loaded: LoadedSweep, jobs: int = 1, limit: int | None = None, out_
         for r in todo:
             finished(_worker(r, str(runs_dir)))
     elif todo:
-        os.environ["NUMBA_NUM_THREADS"] = "1"  # inherited by the spawned workers
         ctx = multiprocessing.get_context("spawn")  # max_tasks_per_child needs spawn
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, max_tasks_per_child=1) as pool:
+        with one_numba_thread_in_children(), \
+                ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, max_tasks_per_child=1) as pool:
             pending = {pool.submit(_worker, r, str(runs_dir)) for r in todo}
             try:
                 while pending:
