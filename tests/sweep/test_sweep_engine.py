@@ -4,6 +4,7 @@ an interruption, the CSV and chart, and bad sweep files named by key path and li
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -83,7 +84,10 @@ def test_worker_processes_record_each_run(tmp_path):
     data["axes"]["update"] = {"flip": {"update.scheme": "flip"}}
     data["axes"]["grid.cell_size"] = [2.0, 1.0]
     loaded = load_sweep(write(tmp_path, data))
+    before = os.environ.get("NUMBA_NUM_THREADS")
     res = run_sweep(loaded, jobs=2, out_dir=tmp_path / "out")
+    # the workers' one-thread setting must not leak: numba re-reads it at every later compile
+    assert os.environ.get("NUMBA_NUM_THREADS") == before
     rows = read_csv(res.csv)
     assert len(res.executed) == 2 and [r["status"] for r in rows] == ["ok", "ok"]
     assert float(rows[1]["particle_steps"]) > 7 * float(rows[0]["particle_steps"])  # 4x particles, 2x steps
