@@ -95,7 +95,8 @@ def energy():
               f"{time.perf_counter() - t0:.1f} s; at t = {t[-1]:.4g} ms work {work[-1]:.6g} mJ, "
               f"KE + U {total[-1]:.6g} mJ: balance {100 * (total[-1] - work[-1]) / work[-1]:+.2f}%; "
               f"start-up loss at 0.3 us {early:.4g} mJ ({100 * early / work[-1]:.2f}% of the final work); "
-              f"after 20% of the run: {100 * ((total[-1] - total[i]) - (work[-1] - work[i])) / (work[-1] - work[i]):+.2f}%")
+              f"after 20% of the run: {100 * ((total[-1] - total[i]) - (work[-1] - work[i])) / (work[-1] - work[i]):+.2f}%; "
+              f"bar momentum / piston impulse - 1: {hist.column('px')[-1] * d['materials']['piston']['velocity'][0] / work[-1] - 1:+.1e}")
 
 
 def fig7(end):

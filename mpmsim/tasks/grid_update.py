@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range, node_ijk
-from ..bc import NO_BC, RIGID_OWNER, ghost_mirror, node_bc, rigid_holds
+from ..bc import NO_BC, add_reaction, ghost_mirror, node_bc, rigid_holds
 from .boundary import has_walls, mirror_field, slot_info
 
 
@@ -23,7 +23,6 @@ def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_t
                        constrain, rig_vel_start, rig_vel, nchunk, vnew, acc, vstart, chunk_reaction, chunk_work):
     dim = mom.shape[1]
     nq = fields.size
-    n_rigid = constrain.shape[0]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, nq)
         for a in range(chunk_reaction.shape[1]):
@@ -54,16 +53,7 @@ def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_t
                     f_bc = (m * vbc - mom[fid, d]) / dt
                     dfc = f_bc - fd
                     work += dfc * vbc * dt  # signed work done on the material
-                    if owner == RIGID_OWNER:
-                        wsum = 0.0
-                        for r in range(n_rigid):
-                            if constrain[r, d]:
-                                wsum += rigid_vol[node, r]
-                        for r in range(n_rigid):
-                            if constrain[r, d] and rigid_vol[node, r] > 0.0:
-                                chunk_reaction[c, RIGID_OWNER + r, d] += dfc * rigid_vol[node, r] / wsum
-                    else:
-                        chunk_reaction[c, owner, d] += dfc
+                    add_reaction(chunk_reaction, c, owner, node, d, dfc, rigid_vol, constrain)
                     fd = f_bc
                 acc[fid, d] = fd / m
                 vnew[fid, d] = (mom[fid, d] + fd * dt) / m

@@ -39,8 +39,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..gridops import node_ijk
-from ..bc import NO_BC, node_bc
+from ..gridops import chunk_range, node_ijk
+from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.passes import MAX_SLOTS, increment_contact
 from .boundary import has_walls, mirror_ghosts, slot_info
 
@@ -49,9 +49,13 @@ from .boundary import has_walls, mirror_ghosts, slot_info
 def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape, mass, vnew, vstart, seed_shift,
                 use_shift, filter_updated, m_order, face_type, wall_index, rigid_vol, constrain, rig_vel, walls, n_cn, cn_nodes,
                 cn_ptr, slot_group, n_def_groups, sep_method, role, partner, geo_n, delta2, slot_law, slot_mu, slot_mus,
-                bonded, touch, stick_total, applied_total, slots, dv, tmp, vstar):
-    """`nodes` are the particles' field indices (material slots at contact nodes)."""
+                bonded, touch, stick_total, applied_total, slots, nchunk, dv, tmp, vstar, chunk_impulse, chunk_work):
+    """`nodes` are the particles' field indices (material slots at contact nodes). The impulses
+    the velocity conditions exert on the increments (and their work) go to chunk_impulse and
+    chunk_work, so reactions and the energy check see the filter's share of the condition."""
     dim = vnew.shape[1]
+    chunk_work[:] = 0.0
+    chunk_impulse[:] = 0.0
     nq = fields.size
     K = S.shape[1]
     n_slab = ptr.size - 1
@@ -98,18 +102,31 @@ def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape
                         tmp[node, 1] += wm * g1
                         if dim == 3:
                             tmp[node, 2] += wm * g2
-        for q in prange(nq):
-            f = fields[q]
-            node = fnodes[q]
-            i, j, k = node_ijk(node, shape)
-            m = mass[f]
-            for d in range(dim):
-                free = False
-                if m > 0.0 and not skip[q]:
-                    owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
-                                         rig_vel)
-                    free = owner == NO_BC
-                dv[f, d] = dv[f, d] - tmp[f, d] / m if free else 0.0
+        for ch in prange(nchunk):
+            start, stop = chunk_range(ch, nchunk, nq)
+            work_ch = 0.0
+            for q in range(start, stop):
+                f = fields[q]
+                node = fnodes[q]
+                i, j, k = node_ijk(node, shape)
+                m = mass[f]
+                for d in range(dim):
+                    owner = NO_BC
+                    v_held = 0.0
+                    if m > 0.0 and not skip[q]:
+                        owner, v_held = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
+                                             rig_vel)
+                    if owner == NO_BC:
+                        dv[f, d] = dv[f, d] - tmp[f, d] / m if m > 0.0 and not skip[q] else 0.0
+                        continue
+                    # The condition holds this component at zero increment; the momentum the
+                    # increment would have put here, m dv - (S+S dv) m, is taken by the wall or
+                    # rigid body instead (the free nodes' increments sum to minus it).
+                    held = tmp[f, d] - m * dv[f, d]
+                    work_ch += held * v_held
+                    add_reaction(chunk_impulse, ch, owner, node, d, held, rigid_vol, constrain)
+                    dv[f, d] = 0.0
+            chunk_work[ch] += work_ch
         for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
             pbuf = np.zeros((MAX_SLOTS, 3))
             dpb = np.zeros((MAX_SLOTS, 3))
@@ -150,11 +167,17 @@ def xpic(state) -> None:
     spec_groups = contact.spec.n_def_groups if contact is not None else 0
     sep = contact.spec.separation if contact is not None else 0
     touch = contact.spec.touch * float(g.h.min()) if contact is not None else 0.0
+    nc = state.nchunk
+    impulse = np.zeros((nc,) + state.reaction.shape)
+    work = np.zeros(nc)
     xpic_series(box.order, box.ptr, state.field_index, sd.S, state.particles.mass, box.fields, box.fnodes, box.skip,
                 box.n_box, box.shape, f.mass, f.vnew, f.vstart, shift, shift is not _NO_SHIFT[dim], upd.scheme == "fmpm", upd.order, g.face_type,
                 g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid_v_end, has_walls(state), n_cn,
                 c.cn_nodes, c.cn_ptr, c.slot_group, spec_groups, sep, c.role, c.partner, c.normal, c.delta2, c.law,
-                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, slot_info(state), f.dv, f.tmp, f.vstar)
+                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, slot_info(state), nc, f.dv, f.tmp, f.vstar,
+                impulse, work)
+    state.reaction += impulse.sum(axis=0) / state.dt
+    state.work_in += float(work.sum())
 
 
 class _NoContact:
