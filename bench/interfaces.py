@@ -44,6 +44,10 @@ def dls_jobs():
     for deg in (0.0, 15.0, 30.0, 45.0, 60.0, 90.0):
         for hp in (True, False):
             jobs.append(("dls", {"degrees": deg, "cell": [0.25, 0.5], "Dt": 5.0, "h_perp": hp}))
+    # Fig. 9 at half the cells: 30 degrees on 0.125 x 0.25 against the untilted 0.125 mm
+    jobs.append(("dls", {"degrees": 0.0, "cell": 0.125, "Dt": 5.0}))
+    for hp in (True, False):
+        jobs.append(("dls", {"degrees": 30.0, "cell": [0.125, 0.25], "Dt": 5.0, "h_perp": hp}))
     return jobs
 
 
