@@ -14,11 +14,15 @@ import numpy as np
 
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras)
+from .bond import bond_points as _bond_points
+from .bond import point_bond as _point_bond
 from .passes import contact_geometry as _geometry
 from .passes import contact_pass_1 as _pass_1
 from .passes import contact_pass_2 as _pass_2
 from .passes import contact_pass_3 as _pass_3
 from .spec import ContactSpec, build_contact_spec
+
+_NO_ACC = np.zeros((1, 3))  # point_bond on momenta: no force to record
 
 __all__ = ["ContactState", "build_contact_spec", "material_fields", "contact_geometry", "contact_pass_1", "contact_pass_2",
            "contact_pass_3", "extrapolate_contact"]
@@ -62,7 +66,13 @@ class ContactState:
         self.law = z(cap, dtype=np.int64)
         self.mu, self.mus = z(cap), z(cap)
         self.open, self.stiff = z((cap, dim)), z((cap, 3))  # interfaces: tangential opening, [Dn, Dnc, Dt]
-        self.bonded = z(cap, dtype=np.int64)  # interfaces: bit 1 normal, bit 2 tangential act as perfect
+        self.bonded = z(cap, dtype=np.int64)  # interfaces: bit 1 normal, bit 2 tangential act as perfect,
+        # bit 4 normal held by the consistent edge constraints (contact.bond)
+        self.level = z(cap)  # signed distance of the node to the interface along n (a's side < 0)
+        # consistent-bond constraints: entries con_ptr[q]:con_ptr[q+1], slots of a and b and weights
+        self.con_ptr = z(cap + 1, dtype=np.int64)
+        self.ent_a, self.ent_b, self.ent_w = z(8 * cap, dtype=np.int64), z(8 * cap, dtype=np.int64), z(8 * cap)
+        self.n_con = 0
 
     @classmethod
     def create(cls, spec: ContactSpec, state) -> "ContactState":
@@ -146,7 +156,13 @@ def contact_geometry(state) -> None:
               spec.stiffness, state.dt, spec.interface_integration, spec.area_correction, spec.use_h_perp,
               screen_volume(state),
               state.nchunk, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.bonded, cs.law, cs.mu, cs.mus,
-              cs.stiff)
+              cs.stiff, cs.level)
+    cs.n_con = 0
+    if spec.consistent_bond and spec.has_interface:
+        cs.n_con = _bond_points(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.node_cn, g.shape, g.origin, g.h, cs.slot_group,
+                                spec.n_def_groups, cs.role, cs.partner, cs.law, cs.level, cs.normal, g.face_type,
+                                g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid_v_end, state.dim,
+                                cs.bonded, cs.con_ptr, cs.ent_a, cs.ent_b, cs.ent_w)
 
 
 def screen_volume(state) -> float:
@@ -165,6 +181,12 @@ def contact_pass_1(state) -> None:
     _pass_1(cs.n_cn, cs.cn_ptr, cs.slot_group, spec.n_def_groups, state.grid.n_nodes, f.mass, f.mom, spec.separation,
             cs.role, cs.partner, cs.normal, cs.delta, cs.law, cs.mu, cs.mus, cs.bonded, touch_length(state), state.nchunk,
             cs.dp1)
+    if cs.n_con:
+        nn, ns = state.grid.n_nodes, cs.n_slots
+        before = f.mom[nn:nn + ns].copy()
+        _point_bond(cs.n_con, cs.con_ptr, cs.ent_a, cs.ent_b, cs.ent_w, nn, f.mass, f.mom, True, _NO_ACC, 0.0,
+                    cs.normal, state.dim)
+        cs.dp1[:ns] += f.mom[nn:nn + ns] - before  # part of pass 1's change (uncorrected XPIC undoes it)
 
 
 def touch_length(state) -> float:
@@ -181,6 +203,8 @@ def contact_pass_2(state) -> None:
             state.rigid_v_end, spec.separation, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.law,
             cs.mu, cs.mus, cs.bonded, cs.stiff, spec.interface_integration, touch_length(state), state.nchunk, reaction,
             work, energy, cs.stick2, cs.applied2, cs.delta2, cs.contact2)
+    _point_bond(cs.n_con, cs.con_ptr, cs.ent_a, cs.ent_b, cs.ent_w, g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt,
+                cs.normal, state.dim)
     state.interface_energy = float(energy.sum())  # instantaneous total at the end of the step
     if state.n_rigid_materials:
         state.reaction[6:] += reaction.sum(axis=0)[: state.n_rigid_materials]
@@ -191,4 +215,6 @@ def contact_pass_3(state) -> None:
     cs, spec, f = state.contact, state.contact.spec, state.fields
     _pass_3(cs.n_cn, cs.cn_ptr, cs.slot_group, spec.n_def_groups, state.grid.n_nodes, f.mass, f.mom, cs.role,
             cs.partner, cs.normal, cs.contact2, cs.law, cs.mu, cs.mus, cs.bonded, state.nchunk)
+    _point_bond(cs.n_con, cs.con_ptr, cs.ent_a, cs.ent_b, cs.ent_w, state.grid.n_nodes, f.mass, f.mom, True, _NO_ACC,
+                0.0, cs.normal, state.dim)
 

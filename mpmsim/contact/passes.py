@@ -176,11 +176,12 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                      normal_method, sep_method, normal_vec, radial, normal_centre, rigid_bias, cutoff, fit_r, spline,
                      warm, warm_phi, stiffness, dt, integration, area_correction, use_h_perp, screen_volume, nchunk,
                      role, partner, geo_n, geo_delta, geo_area, geo_open, bonded, slot_law, slot_mu, slot_mus,
-                     slot_stiff):
+                     slot_stiff, geo_level):
     """Plan every contact node and give each target material its law, normal, separation
     and contact area, from the extrapolation of the start-of-step particles. Interface
     targets also get their tangential opening (from displacements) and which directions
-    act bonded this step (perfect, or too stiff for dt)."""
+    act bonded this step (perfect, or too stiff for dt), and the node's signed distance to the
+    interface along n (geo_level: negative on a's side; for the consistent bond)."""
     dim = geo_n.shape[1]
     max_cloud = 0
     for c in range(n_cn):
@@ -355,6 +356,12 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                 if not area_correction:
                     area = (omega_a + omega_b) / hp
                 geo_area[a] = area
+                # Eq. 20's factor sqrt(2 min / total) is the linear shape function of the node at
+                # the interface: 1 on the node, 1/2 half a cell away; the node sits on the side of
+                # its larger volume
+                tot = omega_a + omega_b
+                frac = np.sqrt(min(1.0, 2.0 * min(omega_a, omega_b) / tot)) if tot > 0.0 else 1.0
+                geo_level[a] = (1.0 - frac) * hp * (-1.0 if omega_a >= omega_b else 1.0)
                 bonded[a] = 0
                 if slot_law[a] == INTERFACE:
                     # openings from displacements; the normal one is d_LR with LR separation

@@ -59,6 +59,7 @@ class ContactSpec:
     area_correction: bool
     use_h_perp: bool
     edge_screening: float  # fraction of a cell's volume; 0: off
+    consistent_bond: bool  # bonded normals held where the interface crosses grid edges (contact.bond)
 
     @property
     def has_interface(self) -> bool:
@@ -151,7 +152,7 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
                        c.touch_tolerance, c.fit_exponent, c.passes, c.xpic_contact_term, c.warm_start,
                        c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
                        INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
-                       c.edge_screening or 0.0)
+                       c.edge_screening or 0.0, c.interface_bond == "consistent")
 
 
 def interface_stiffness(law) -> tuple[float, float, float]:

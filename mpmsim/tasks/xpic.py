@@ -41,6 +41,7 @@ from numba import njit, prange
 
 from ..gridops import chunk_range, node_ijk
 from ..bc import NO_BC, add_reaction, node_bc
+from ..contact.bond import point_bond
 from ..contact.passes import MAX_SLOTS, increment_contact
 from .boundary import has_walls, mirror_ghosts, slot_info
 
@@ -49,7 +50,9 @@ from .boundary import has_walls, mirror_ghosts, slot_info
 def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape, mass, vnew, vstart, seed_shift,
                 use_shift, filter_updated, m_order, face_type, wall_index, rigid_vol, constrain, rig_vel, walls, n_cn, cn_nodes,
                 cn_ptr, slot_group, n_def_groups, sep_method, role, partner, geo_n, delta2, slot_law, slot_mu, slot_mus,
-                bonded, touch, stick_total, applied_total, slots, nchunk, dv, tmp, vstar, chunk_impulse, chunk_work):
+                bonded, touch, stick_total, applied_total, n_con, con_ptr, ent_a, ent_b, ent_w, slots,
+                nchunk, dv, tmp, vstar,
+                chunk_impulse, chunk_work):
     """`nodes` are the particles' field indices (material slots at contact nodes). The impulses
     the velocity conditions exert on the increments (and their work) go to chunk_impulse and
     chunk_work, so reactions and the energy check see the filter's share of the condition."""
@@ -137,6 +140,8 @@ def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape
                               wall_index, rigid_vol, constrain, rig_vel, sep_method, role, partner, geo_n, delta2,
                               slot_law, slot_mu, slot_mus, bonded, touch, stick_total, applied_total, pbuf, dpb, imp,
                               out, nvec)
+        if n_cn > 0:  # and the consistent normal bond (contact.bond)
+            point_bond(n_con, con_ptr, ent_a, ent_b, ent_w, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)  # 1 row: no force
         if walls:  # ghost components of the increment mirror their interior node
             mirror_ghosts(fields, fnodes, shape, face_type, wall_index, rigid_vol, constrain, slots, dv)
         for q in prange(nq):
@@ -174,7 +179,8 @@ def xpic(state) -> None:
                 box.n_box, box.shape, f.mass, f.vnew, f.vstart, shift, shift is not _NO_SHIFT[dim], upd.scheme == "fmpm", upd.order, g.face_type,
                 g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid_v_end, has_walls(state), n_cn,
                 c.cn_nodes, c.cn_ptr, c.slot_group, spec_groups, sep, c.role, c.partner, c.normal, c.delta2, c.law,
-                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, slot_info(state), nc, f.dv, f.tmp, f.vstar,
+                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, c.n_con if n_cn else 0, c.con_ptr,
+                c.ent_a, c.ent_b, c.ent_w, slot_info(state), nc, f.dv, f.tmp, f.vstar,
                 impulse, work)
     state.reaction += impulse.sum(axis=0) / state.dt
     state.work_in += float(work.sum())
@@ -187,7 +193,9 @@ class _NoContact:
         i1, f1, f2 = np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros((1, 3))
         self.cn_nodes = self.cn_ptr = self.slot_group = self.role = self.partner = self.law = self.bonded = i1
         self.normal = self.stick_total = self.applied_total = f2
-        self.delta2 = self.mu = self.mus = f1
+        self.delta2 = self.mu = self.mus = self.ent_w = f1
+        self.con_ptr = self.ent_a = self.ent_b = i1
+        self.n_con = 0
 
 
 _EMPTY = _NoContact()

@@ -42,3 +42,33 @@ def test_force_limit_switches_a_stiff_direction_to_bonded():
     assert stiff[2] and stiff[1] == 0.0
     # the oscillator never switches by itself (the geometry does, at phi > 1.5)
     assert not direction_force(1e9, 1.0, m, delta0, 0.0, 0.0, dt, OSCILLATOR)[2]
+
+
+def test_point_bond_zeroes_the_interpolated_jump_and_conserves_momentum():
+    """The consistent normal bond (contact.bond) on a mid-plane pair of nodes (weights 1/2,
+    1/2) and a node on the interface (weight 1): afterwards each constraint's interpolated
+    relative normal velocity is zero, the tangential velocities are untouched, and the
+    momentum of each node (both materials) is unchanged; with unequal jumps the pair keeps
+    their difference (the in-cell strain jump the node-wise bond would remove)."""
+    from mpmsim.contact.bond import point_bond
+
+    nn = 1  # one grid node before the slots; slots 0..5 are fields 1..6
+    mass = np.array([1.0, 2.0, 1.0, 3.0, 1.5, 2.0, 0.5])
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(7, 2))
+    n = np.zeros((6, 2))
+    n[:, 0] = 1.0
+    con_ptr = np.array([0, 2, 3])
+    ent_a, ent_b, ent_w = np.array([0, 2, 4]), np.array([1, 3, 5]), np.array([0.5, 0.5, 1.0])
+    mom = v * mass[:, None]
+    before = mom.copy()
+    sweeps = point_bond(2, con_ptr, ent_a, ent_b, ent_w, nn, mass, mom, True, np.zeros((1, 3)), 0.0, n, 2)
+    assert sweeps <= 2
+    vel = mom / mass[:, None]
+    jump = [vel[nn + b, 0] - vel[nn + a, 0] for a, b in zip(ent_a, ent_b)]
+    assert 0.5 * jump[0] + 0.5 * jump[1] == pytest.approx(0.0, abs=1e-14)
+    assert jump[2] == pytest.approx(0.0, abs=1e-14)
+    assert abs(jump[0]) > 0.1  # not clamped node by node
+    np.testing.assert_allclose(mom[:, 1], before[:, 1], rtol=0, atol=0)
+    for a, b in zip(ent_a, ent_b):
+        np.testing.assert_allclose(mom[nn + a] + mom[nn + b], before[nn + a] + before[nn + b], atol=1e-14)
