@@ -205,7 +205,9 @@ def cost(steps: int = 300):
                 "bonded (law stick)": {"contact.default.law": "stick"},
                 "interface, oscillator": {},
                 "interface, force_limit": {"contact.interface_integration": "force_limit"},
-                "interface, Dn = Dt, LR normals": {"contact.default.Dn": 5.0, "contact.normal": "logistic_regression"}}
+                "interface, Dn = Dt, LR normals": {"contact.default.Dn": 5.0, "contact.normal": "logistic_regression"},
+                "mid-plane, consistent bond": {"mid": True},
+                "mid-plane, node-wise bond": {"mid": True, "contact.interface_bond": "nodal"}}
     print(f"{'variant':34s} {'M particle-steps/s':>18s} {'contact tasks':>14s}")
     for label, over in variants.items():
         sim = Simulation(build_scene(deck_from(two_layer(0.25, 5.0, **over), TROOT / "inputs")))
