@@ -67,7 +67,7 @@ class ContactState:
         self.mu, self.mus = z(cap), z(cap)
         self.open, self.stiff = z((cap, dim)), z((cap, 3))  # interfaces: tangential opening, [Dn, Dnc, Dt]
         self.bonded = z(cap, dtype=np.int64)  # interfaces: bit 1 normal, bit 2 tangential act as perfect,
-        # bit 4 normal held by the consistent edge constraints (contact.bond)
+        # bit 4 normal held by the consistent-bond constraints (contact.bond)
         self.level = z(cap)  # signed distance of the node to the interface along n (a's side < 0)
         # consistent-bond constraints: entries con_ptr[q]:con_ptr[q+1], slots of a and b and weights
         self.con_ptr = z(cap + 1, dtype=np.int64)

@@ -41,14 +41,14 @@ from ..bc import NO_BC, node_bc
 from ..gridops import node_ijk
 from .spec import INTERFACE
 
-NORMAL_BONDED, TANGENT_BONDED, NORMAL_BY_EDGES = 1, 2, 4
+NORMAL_BONDED, TANGENT_BONDED, NORMAL_BY_POINTS = 1, 2, 4
 MAX_SWEEPS = 100
 ALIGNED = 1.0 - 1e-6  # |n_d| of a grid-aligned normal
 
 
 @njit(cache=True, inline="always")
 def _candidate(c, cn_ptr, slot_group, n_def_groups, role, partner, slot_law, bonded):
-    """The target slot a of contact node c if its normal may join edge constraints, else -1."""
+    """The target slot a of contact node c if its normal may join the constraints, else -1."""
     for a in range(cn_ptr[c], cn_ptr[c + 1]):
         if role[a] == 0:
             continue
@@ -126,7 +126,7 @@ def bond_points(n_cn, cn_nodes, cn_ptr, node_cn, shape, origin, h, slot_group, n
         con_ptr[n_con] = q
     for e in range(q):
         a = ent_a[e]
-        bonded[a] = (bonded[a] & ~NORMAL_BONDED) | NORMAL_BY_EDGES
+        bonded[a] = (bonded[a] & ~NORMAL_BONDED) | NORMAL_BY_POINTS
     return n_con
 
 

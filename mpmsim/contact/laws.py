@@ -13,9 +13,9 @@ Coulomb friction, so it is not an input here; the interface force (pass 2) uses 
   mu_k N (N = |dotn|); with a static coefficient, S <= mu_s N sticks.
 - interface: no contact test (tractions act in tension and compression). A direction that is
   perfect, or too stiff for the step, takes the stick impulse (`bonded` bits: 1 normal,
-  2 tangential; 4: the normal is held by the consistent edge constraints of contact.bond,
-  applied after the node-wise laws); the others are left free here and get the interface force in pass 2
-  (`interface_impulse`; notes §4.2–4.3).
+  2 tangential; 4: the normal is held by the consistent-bond constraints of contact.bond,
+  applied after the node-wise laws); the others are left free here and get the interface force
+  in pass 2 (`interface_impulse`; notes §4.2–4.3).
 """
 
 from __future__ import annotations
@@ -123,7 +123,7 @@ def interface_impulse(stiff, bonded, dp, df, n, delta_n, open_t, area, mred, dt,
     if bonded & 1:
         for d in range(dim):
             out[d] = dotn * n[d]
-    elif bonded & 4:  # held by the consistent edge constraints (contact.bond), applied after this
+    elif bonded & 4:  # held by the consistent-bond constraints (contact.bond), applied after this
         for d in range(dim):
             out[d] = 0.0
     else:

@@ -50,9 +50,8 @@ from .boundary import has_walls, mirror_ghosts, slot_info
 def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape, mass, vnew, vstart, seed_shift,
                 use_shift, filter_updated, m_order, face_type, wall_index, rigid_vol, constrain, rig_vel, walls, n_cn, cn_nodes,
                 cn_ptr, slot_group, n_def_groups, sep_method, role, partner, geo_n, delta2, slot_law, slot_mu, slot_mus,
-                bonded, touch, stick_total, applied_total, n_con, con_ptr, ent_a, ent_b, ent_w, slots,
-                nchunk, dv, tmp, vstar,
-                chunk_impulse, chunk_work):
+                bonded, touch, stick_total, applied_total, n_con, con_ptr, ent_a, ent_b, ent_w, slots, nchunk, dv, tmp,
+                vstar, chunk_impulse, chunk_work):
     """`nodes` are the particles' field indices (material slots at contact nodes). The impulses
     the velocity conditions exert on the increments (and their work) go to chunk_impulse and
     chunk_work, so reactions and the energy check see the filter's share of the condition."""
@@ -140,8 +139,8 @@ def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape
                               wall_index, rigid_vol, constrain, rig_vel, sep_method, role, partner, geo_n, delta2,
                               slot_law, slot_mu, slot_mus, bonded, touch, stick_total, applied_total, pbuf, dpb, imp,
                               out, nvec)
-        if n_cn > 0:  # and the consistent normal bond (contact.bond)
-            point_bond(n_con, con_ptr, ent_a, ent_b, ent_w, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)  # 1 row: no force
+        if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
+            point_bond(n_con, con_ptr, ent_a, ent_b, ent_w, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
         if walls:  # ghost components of the increment mirror their interior node
             mirror_ghosts(fields, fnodes, shape, face_type, wall_index, rigid_vol, constrain, slots, dv)
         for q in prange(nq):
