@@ -155,14 +155,15 @@ def chart():
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
     rows = load(two_layer_jobs())
     ax = axes[0]
-    for kind, cell, style in [("two_layer", 0.5, "s-"), ("two_layer", 0.25, "^-"), ("two_layer", 0.1, "o-"),
-                              ("two_layer_3d", 0.5, "D--")]:
-        r = sorted((x for x in rows if x["kind"] == kind and x["cell"] == cell and x["status"] == "ok"),
-                   key=lambda x: x["Dt"])
+    for kind, cell, rollers, style, label in [
+            ("two_layer", 0.5, False, "s-", "2D 0.5 mm"), ("two_layer", 0.25, False, "^-", "2D 0.25 mm"),
+            ("two_layer", 0.1, False, "o-", "2D 0.1 mm"), ("two_layer_3d", 0.5, True, "x:", "3D 0.5 mm, z rollers"),
+            ("two_layer_3d", 0.5, False, "D--", "3D 0.5 mm, free z faces")]:
+        r = sorted((x for x in rows if x["kind"] == kind and x["cell"] == cell and x["status"] == "ok"
+                    and x.get("z_rollers", False) == rollers), key=lambda x: x["Dt"])
         if r:
             vol = 8.0 * 20.0 * 4.0
-            ax.plot([1 / x["Dt"] for x in r], [x["interface_energy"] / vol * 1e6 for x in r], style,
-                    label=f"{'3D' if kind.endswith('3d') else '2D'} {cell} mm")
+            ax.plot([1 / x["Dt"] for x in r], [x["interface_energy"] / vol * 1e6 for x in r], style, label=label)
     ax.set(xlabel="1/Dt (mm/MPa)", ylabel="interfacial energy density (J/m^3)", title="Two-layer specimen (Fig. 5)")
     ax.legend()
     ax = axes[1]
