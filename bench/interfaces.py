@@ -204,7 +204,8 @@ def cost(steps: int = 300):
 
     variants = {"one body (law none)": {"contact.default.law": "none"},
                 "bonded (law stick)": {"contact.default.law": "stick"},
-                "interface, oscillator": {},
+                "interface, trapezoidal": {},
+                "interface, oscillator": {"contact.interface_integration": "oscillator"},
                 "interface, force_limit": {"contact.interface_integration": "force_limit"},
                 "interface, Dn = Dt, LR normals": {"contact.default.Dn": 5.0, "contact.normal": "logistic_regression"},
                 "mid-plane, consistent bond": {"mid": True},

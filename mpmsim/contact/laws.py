@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .spec import COULOMB, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INTERFACE, STICK
+from .spec import COULOMB, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INTERFACE, STICK, TRAPEZOIDAL
 
 
 @njit(cache=True, inline="always")
@@ -91,6 +91,20 @@ def oscillator(k, mred, delta0, d, df, dt):
 
 
 @njit(cache=True, inline="always")
+def trapezoidal_spring(k, mred, delta0, d, df, dt):
+    """One interface direction over the step by the trapezoidal rule (average acceleration):
+    the force is k times the mean of the start and end openings, where the end opening is the
+    one the MPM update lands on, delta0 + dt (v0 + v_end)/2 with v_end = v0 + (df - force) dt /
+    m_red (FLIP's position update). Returns (force, end opening). For one isolated pair this
+    map conserves energy exactly, for any phi^2 = k dt^2 / m_red, so it needs no switch to
+    stay stable; the exact oscillator does not (see `oscillator`)."""
+    phi2 = k * dt * dt / mred
+    force = (k * delta0 + 0.5 * k * dt * d / mred + 0.25 * phi2 * df) / (1.0 + 0.25 * phi2)
+    end = 2.0 * force / k - delta0 if k > 0.0 else delta0 + dt * (d / mred + 0.5 * df * dt / mred)
+    return force, end
+
+
+@njit(cache=True, inline="always")
 def direction_force(D, area, mred, delta0, d, df, dt, mode):
     """(force on a, energy, bonded?) for one imperfect direction with stiffness D."""
     k = D * area
@@ -103,7 +117,10 @@ def direction_force(D, area, mred, delta0, d, df, dt, mode):
         if mode == FORCE_LIMIT and abs(force) > abs(limit):
             return 0.0, 0.0, True
         return force, 0.5 * k * delta0 * delta0, False
-    force, end = oscillator(k, mred, delta0, d, df, dt)
+    if mode == TRAPEZOIDAL:
+        force, end = trapezoidal_spring(k, mred, delta0, d, df, dt)
+    else:
+        force, end = oscillator(k, mred, delta0, d, df, dt)
     return force, 0.5 * k * end * end, False
 
 

@@ -23,7 +23,8 @@ Pass 3, after re-extrapolation (USL+/USAVG+): enforces pass 2's end-of-step deci
 Imperfect interfaces (law `interface`, 2013 paper; notes §4): no contact test. A direction
 that is perfect, or too stiff for the step, is bonded (stick impulse) in every pass; the other
 directions are left free in passes 1 and 3 and get the interface force in pass 2 only, from
-the exact oscillator of notes §4.3 (or the paper's first-order force with its limit), with
+the trapezoidal spring (default), the exact oscillator of notes §4.3, or the paper's
+first-order force with its limit, with
 the end-of-step interfacial energy summed for the history. Openings come from extrapolated
 displacements (the normal one is d_LR under LR separation).
 
@@ -43,10 +44,11 @@ from ..gridops import chunk_range, node_ijk
 from ..bc import NO_BC, node_bc
 from .geometry import cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal
 from .laws import apply_law, interface_impulse
-from .spec import (AVERAGE_GRADIENT, FRICTIONLESS, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT, OSCILLATOR,
-                   SEP_CUTOFF, STICK, SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
+from .spec import (AVERAGE_GRADIENT, FRICTIONLESS, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT, TRAPEZOIDAL,
+                   OSCILLATOR, SEP_CUTOFF, STICK, SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
+BOND_PHI2 = 2.25  # phi^2 = D A dt^2 / m_red above which a direction acts as perfect (notes §4.3)
 
 
 @njit(cache=True, inline="always")
@@ -389,7 +391,8 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                         slot_stiff[a, r] = stiffness[ga, gb, r]
                     Dn = stiffness[ga, gb, 0] if delta >= 0.0 else stiffness[ga, gb, 1]
                     Dt = stiffness[ga, gb, 2]
-                    limit = 2.25 * mred / (area * dt * dt) if (area > 0.0 and integration == OSCILLATOR) else 1e300
+                    limit = (BOND_PHI2 * mred / (area * dt * dt)
+                             if (area > 0.0 and (integration == OSCILLATOR or integration == TRAPEZOIDAL)) else 1e300)
                     if Dn < 0.0 or Dn > limit:
                         bonded[a] |= 1
                     if Dt < 0.0 or Dt > limit:
@@ -509,7 +512,7 @@ def contact_pass_2(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, rigid_of_gr
                     # reference code does this for grid separations only; d_LR too needs it: a
                     # 5 um gap closing by 70 um within the step must count as contact, or the
                     # free update drives the surfaces through each other, docs/contact.md), and
-                    # it drives the interface oscillator.
+                    # it drives the interface force.
                     relative_force(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, acc, dim, df)
                     dfn = 0.0
                     for d in range(dim):

@@ -17,8 +17,9 @@ from ..deck.schema import Deck, Rigid
 STICK, FRICTIONLESS, COULOMB, INTERFACE = 0, 1, 2, 3
 LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK, "interface": INTERFACE}
 PERFECT = -1.0  # interface stiffness code for a perfect direction
-OSCILLATOR, FORCE_LIMIT, FIRST_ORDER = 0, 1, 2
-INTEGRATION_CODES = {"oscillator": OSCILLATOR, "force_limit": FORCE_LIMIT, "first_order": FIRST_ORDER}
+OSCILLATOR, FORCE_LIMIT, FIRST_ORDER, TRAPEZOIDAL = 0, 1, 2, 3
+INTEGRATION_CODES = {"oscillator": OSCILLATOR, "force_limit": FORCE_LIMIT, "first_order": FIRST_ORDER,
+                     "trapezoidal": TRAPEZOIDAL}
 
 LOGISTIC, LINEAR_REGRESSION, AVERAGE_GRADIENT, MAX_GRADIENT, MAX_VOLUME, SPECIFIED = range(6)
 NORMAL_CODES = {"logistic_regression": LOGISTIC, "linear_regression": LINEAR_REGRESSION,

@@ -182,9 +182,12 @@ class Contact(Strict):
         default=None, description="For normal: specified: a radial normal from this centre point "
         "(spheres, cylinders) instead of normal_vector; points from the lower-numbered material to "
         "the higher.")
-    interface_integration: Literal["oscillator", "force_limit", "first_order"] = Field(
-        default="oscillator", description="Imperfect interfaces: oscillator (exact harmonic oscillator per "
-        "direction over the step; a direction with (D A dt^2 / m_red) > 2.25 acts as perfect), force_limit "
+    interface_integration: Literal["oscillator", "trapezoidal", "force_limit", "first_order"] = Field(
+        default="trapezoidal", description="Imperfect interfaces: trapezoidal (force D A times the mean of the "
+        "start and end openings, solved with the step's update; energy-neutral for an isolated pair at any "
+        "stiffness), oscillator (the reference code: exact harmonic oscillator per direction for the end "
+        "opening; an isolated pair gains energy every step, 2 sin(phi)/phi - cos(phi)); with either, a "
+        "direction with (D A dt^2 / m_red) > 2.25 acts as perfect), force_limit "
         "(the 2013 paper: first-order force D A delta, a direction whose force exceeds the force that "
         "would bring both materials to the centre of mass acts as perfect) or first_order (the force "
         "without any limit: unstable for stiff interfaces, kept to show that failure).")
