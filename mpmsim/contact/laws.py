@@ -96,8 +96,9 @@ def trapezoidal_spring(k, mred, delta0, d, df, dt):
     the force is k times the mean of the start and end openings, where the end opening is the
     one the MPM update lands on, delta0 + dt (v0 + v_end)/2 with v_end = v0 + (df - force) dt /
     m_red (FLIP's position update). Returns (force, end opening). For one isolated pair this
-    map conserves energy exactly, for any phi^2 = k dt^2 / m_red, so it needs no switch to
-    stay stable; the exact oscillator does not (see `oscillator`)."""
+    map conserves energy exactly, for any phi^2 = k dt^2 / m_red; the exact oscillator gains
+    energy (tests/unit/test_interfaces.py). The phi^2 > 2.25 bonding switch is kept for both, so
+    stiff directions bond (and get the consistent bond) as in the reference code."""
     phi2 = k * dt * dt / mred
     force = (k * delta0 + 0.5 * k * dt * d / mred + 0.25 * phi2 * df) / (1.0 + 0.25 * phi2)
     end = 2.0 * force / k - delta0 if k > 0.0 else delta0 + dt * (d / mred + 0.5 * df * dt / mred)

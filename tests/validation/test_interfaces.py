@@ -168,8 +168,9 @@ def test_h_perp_corrects_a_tilted_interface_on_uneven_cells():
 
 
 # --------------------------------------------------------------------------- stiff interfaces, 3D
-def test_stiff_interfaces_stay_stable_only_with_the_oscillator():
-    """Dn = Dt = 1e8 MPa/mm on the two-layer specimen: the oscillator switches the direction
+def test_stiff_interfaces_stay_stable_only_with_the_bonding_switch():
+    """Dn = Dt = 1e8 MPa/mm on the two-layer specimen: the default integrator (trapezoidal; the
+    oscillator alike) switches the direction
     to bonded and gives the perfect-interface energy to round-off; the first-order force
     without a limit blows up within a few steps (the failure the 2013 paper's limit is for);
     the paper's force limit also lets the energy grow here (stops after ~0.2 ms)."""
