@@ -58,7 +58,7 @@ def sphere_jobs():
 
 def deck_for(kind, p):
     from mpmsim.deck.overrides import with_overrides
-    from tests.validation.specimens import dls_tilted, shipped, two_layer
+    from tests.validation.specimens import dls_tilted, shipped, two_layer, two_layer_3d
 
     if kind == "two_layer":
         return two_layer(p["cell"], p["Dt"])
@@ -68,26 +68,6 @@ def deck_for(kind, p):
         return dls_tilted(p["degrees"], p["cell"], p["Dt"], **{"contact.h_perp": p.get("h_perp", True)})
     return with_overrides(shipped("sphere_composite"), {"grid.cell_size": p["cell"], "time.end": 0.01,
                                                        "contact.default.Dn": p["D"], "contact.default.Dt": p["D"]})
-
-
-def two_layer_3d(cell, Dt, z_rollers=False):
-    """The two-layer specimen as the paper's 4 x 4 x 20 mm layers in 3D; with z_rollers the z
-    faces are rollers, which makes it the plane-strain problem the 2D runs solve (free z faces
-    are nearer plane stress)."""
-    from tests.validation.specimens import shipped
-
-    deck = shipped("two_layer")
-    deck.update(analysis="3d", title=f"Two-layer specimen in 3D (Dt = {Dt})")
-    deck.pop("thickness")
-    deck["grid"] = {"cell_size": cell, "domain": {"min": [-1.0, 0.0, 0.0], "max": [9.0, 21.0, 4.0]},
-                    "boundaries": {"ymin": "fixed", **({"zmin": "roller", "zmax": "roller"} if z_rollers else {})}}
-    deck["bodies"] = [{"shape": "box", "min": [0.0, 0.0, 0.0], "max": [4.0, 20.0, 4.0], "material": "left"},
-                      {"shape": "box", "min": [4.0, 0.0, 0.0], "max": [8.0, 20.0, 4.0], "material": "right"}]
-    deck["contact"]["normal_vector"] = [1.0, 0.0, 0.0]
-    deck["contact"]["default"]["Dt"] = Dt
-    deck["loads"] = [{"region": {"min": [4.0, 19.0, 0.0], "max": [8.0, 20.0, 4.0]}, "face": "ymax",
-                      "traction": [0.0, 0.5, 0.0], "ramp": 0.02}]
-    return deck
 
 
 def run_job(job):

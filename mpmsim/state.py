@@ -134,6 +134,7 @@ class State:
     xref: np.ndarray  # positions the shape functions were evaluated at (APIC needs them after moving)
     t: float = 0.0
     dt: float = 0.0
+    dt_rule: float = 0.0  # the step the CFL rule (or the deck) allows, before the cut at the end time
     step: int = 0
     wave_max: float = 0.0  # max(c + |v|) over particles from the last stress update
     rigid_v_start: np.ndarray = None  # (n_rigid, dim) prescribed velocity at t

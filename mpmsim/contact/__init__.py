@@ -58,6 +58,7 @@ class ContactState:
         self.slot_node = z(cap, dtype=np.int64)
         self.vol, self.delta, self.area = z(cap), z(cap), z(cap)
         self.disp, self.pos, self.grad, self.dp1, self.normal = (z((cap, dim)) for _ in range(5))
+        self.udisp, self.ugrad = z((cap, dim)), z((cap, dim, dim))  # interfaces: displacement at the node, gradient
         self.stick2, self.applied2, self.stick_total, self.applied_total = (z((cap, dim)) for _ in range(4))
         self.delta2 = z(cap)
         self.contact2 = z(cap, dtype=np.int64)
@@ -133,27 +134,29 @@ def extrapolate_contact(state, with_mass: bool) -> None:
     P, R, f = state.particles, state.rigid, state.fields
     nn, ns = state.grid.n_nodes, cs.n_slots
     if with_mass:
-        for arr in (cs.vol, cs.disp, cs.pos, cs.grad):
+        for arr in (cs.vol, cs.disp, cs.pos, cs.grad, cs.udisp, cs.ugrad):
             arr[:ns] = 0.0
-        scatter_slot_extras(box.order, box.ptr, cs.fidx, sd.S, sd.G, P.mass, P.vol, P.x, P.x0, nn,
-                            spec.needs_displacement, spec.needs_position, spec.needs_gradients, cs.vol, cs.disp,
-                            cs.pos, cs.grad)
+        g = state.grid
+        scatter_slot_extras(box.order, box.ptr, cs.fidx, sd.S, sd.G, P.mass, P.vol, P.x, P.x0, P.F, nn, cs.slot_node,
+                            g.shape, g.origin, g.h, spec.needs_displacement, spec.needs_position,
+                            spec.needs_gradients, spec.has_interface, spec.opening_at_interface, cs.vol, cs.disp,
+                            cs.pos, cs.grad, cs.udisp, cs.ugrad)
     if R.n:
         scatter_rigid_slots(cs.rfidx, state.rigid_sd.S, state.rigid_sd.G, R.vol, R.v, R.x, R.x0, nn, with_mass,
-                            spec.needs_displacement, spec.needs_position, spec.needs_gradients, f.mass, f.mom, cs.vol,
-                            cs.disp, cs.pos, cs.grad)
+                            spec.needs_displacement, spec.needs_position, spec.needs_gradients, spec.has_interface,
+                            f.mass, f.mom, cs.vol, cs.disp, cs.pos, cs.grad, cs.udisp)
 
 
 def contact_geometry(state) -> None:
     cs, spec, g, f = state.contact, state.contact.spec, state.grid, state.fields
     spline = state.shape.grid_kind >= 2  # B-spline grid functions weight the area with the spline
     _geometry(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, g.n_nodes, g.shape, g.origin, g.h,
-              float(g.h.min()), f.mass, cs.vol, cs.disp, cs.pos, cs.grad, cs.cloud_ptr, cs.cloud_idx, cs.cloud_w,
-              spec.shape_weights, cs.group,
+              float(g.h.min()), f.mass, cs.vol, cs.disp, cs.pos, cs.grad, cs.udisp, cs.ugrad, cs.cloud_ptr,
+              cs.cloud_idx, cs.cloud_w, spec.shape_weights, cs.group,
               cs.rgroup, state.particles.n, state.particles.x, state.rigid.x, state.particles.F, state.scene.semi_size,
               spec.law, spec.mu, spec.mu_static, spec.normal, spec.separation, spec.normal_vector, spec.radial,
               spec.normal_center, spec.rigid_bias, spec.cutoff, spec.fit_exponent, spline, spec.warm_start, cs.warm_phi,
-              spec.stiffness, state.dt, spec.interface_integration, spec.area_correction, spec.use_h_perp,
+              spec.stiffness, state.dt_rule, spec.interface_integration, spec.area_correction, spec.use_h_perp,
               screen_volume(state),
               state.nchunk, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.bonded, cs.law, cs.mu, cs.mus,
               cs.stiff, cs.level)

@@ -15,6 +15,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..gridops import node_ijk
+from ..materials.kernels import inv3
+
 ONE = np.uint64(1)
 
 
@@ -154,18 +157,26 @@ def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, shape_weigh
 
 
 @njit(parallel=True, cache=True)
-def scatter_slot_extras(order, ptr, fidx, S, G, pmass, pvol, x, x0, n_nodes, want_disp, want_pos, want_grad,
-                        vol, disp, pos, grad):
+def scatter_slot_extras(order, ptr, fidx, S, G, pmass, pvol, x, x0, F, n_nodes, slot_node, shape, origin, h, want_disp,
+                        want_pos, want_grad, want_open, carry, vol, disp, pos, grad, udisp, ugrad):
     """Per-slot contact volume sum S V, and when asked mass-weighted displacement and position
-    and the volume gradient sum G V (deformable particles; slab-parallel)."""
+    and the volume gradient sum G V (deformable particles; slab-parallel).
+    want_open (interfaces): each particle's displacement carried to the node along its own
+    displacement gradient H = I - F^-1, udisp = sum S m (u + H (x_i - x)), and ugrad = sum S m H,
+    so that a side's displacement can be evaluated at the interface point (its opening then
+    excludes the strain between the particles and the interface). Without carry (the reference
+    code's opening at the node) H = 0: udisp = sum S m u."""
     n_slab = ptr.size - 1
     K = S.shape[1]
     dim = x.shape[1]
     for color in range(2):
         for s in prange((n_slab - color + 1) // 2):
             slab = color + 2 * s
+            H = np.zeros((3, 3))
+            Finv = np.zeros((3, 3))
             for q in range(ptr[slab], ptr[slab + 1]):
                 p = order[q]
+                have_h = False
                 for k in range(K):
                     f = fidx[p, k]
                     if f < n_nodes:
@@ -180,11 +191,40 @@ def scatter_slot_extras(order, ptr, fidx, S, G, pmass, pvol, x, x0, n_nodes, wan
                             pos[sl, d] += w * pmass[p] * x[p, d]
                         if want_grad:
                             grad[sl, d] += G[p, k, d] * pvol[p]
+                    if want_open:
+                        if carry and not have_h:
+                            displacement_gradient(F[p], dim, Finv, H)
+                            have_h = True
+                        i, j, kk = node_ijk(slot_node[sl], shape)
+                        xi = (origin[0] + i * h[0], origin[1] + j * h[1], origin[2] + kk * h[2] if dim == 3 else 0.0)
+                        wm = w * pmass[p]
+                        for d in range(dim):
+                            u = x[p, d] - x0[p, d]
+                            for e in range(dim):
+                                u += H[d, e] * (xi[e] - x[p, e])
+                                ugrad[sl, d, e] += wm * H[d, e]
+                            udisp[sl, d] += wm * u
+
+
+@njit(cache=True, inline="always")
+def displacement_gradient(Fp, dim, Finv, H):
+    """H = du/dx = I - F^-1 (spatial gradient of the displacement)."""
+    if dim == 2:
+        det = Fp[0, 0] * Fp[1, 1] - Fp[0, 1] * Fp[1, 0]
+        Finv[0, 0] = Fp[1, 1] / det
+        Finv[0, 1] = -Fp[0, 1] / det
+        Finv[1, 0] = -Fp[1, 0] / det
+        Finv[1, 1] = Fp[0, 0] / det
+    else:
+        inv3(Fp, Finv)
+    for d in range(dim):
+        for e in range(dim):
+            H[d, e] = (1.0 if d == e else 0.0) - Finv[d, e]
 
 
 @njit(cache=True)
-def scatter_rigid_slots(fidx, S, G, rvol, rv, rx, rx0, n_nodes, with_mass, want_disp, want_pos, want_grad, mass, mom,
-                        vol, disp, pos, grad):
+def scatter_rigid_slots(fidx, S, G, rvol, rv, rx, rx0, n_nodes, with_mass, want_disp, want_pos, want_grad, want_open,
+                        mass, mom, vol, disp, pos, grad, udisp):
     """Rigid contact particles fill their slots with volume-weighted quantities: the slot's
     'mass' is sum S V and its momentum sum S V v, so p/m is the rigid velocity (notes §0).
     Without with_mass (re-extrapolation) only the momentum is added."""
@@ -206,6 +246,8 @@ def scatter_rigid_slots(fidx, S, G, rvol, rv, rx, rx0, n_nodes, with_mass, want_
             for d in range(dim):
                 if want_disp:
                     disp[sl, d] += w * (rx[p, d] - rx0[p, d])
+                if want_open:  # a rigid body has no displacement gradient
+                    udisp[sl, d] += w * (rx[p, d] - rx0[p, d])
                 if want_pos:
                     pos[sl, d] += w * rx[p, d]
                 if want_grad:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .spec import COULOMB, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INTERFACE, STICK, TRAPEZOIDAL
+from .spec import BACKWARD_EULER, COULOMB, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INTERFACE, STICK, TRAPEZOIDAL
 
 
 @njit(cache=True, inline="always")
@@ -91,18 +91,18 @@ def oscillator(k, mred, delta0, d, df, dt):
 
 
 @njit(cache=True, inline="always")
-def trapezoidal_spring(k, mred, delta0, d, df, dt):
-    """One interface direction over the step by the trapezoidal rule (average acceleration):
-    the force is k times the mean of the start and end openings, where the end opening is the
-    one the MPM update lands on, delta0 + dt (v0 + v_end)/2 with v_end = v0 + (df - force) dt /
-    m_red (FLIP's position update). Returns (force, end opening). For one isolated pair this
-    map conserves energy exactly, for any phi^2 = k dt^2 / m_red; the exact oscillator gains
-    energy (tests/unit/test_interfaces.py). The phi^2 > 2.25 bonding switch is kept for both, so
-    stiff directions bond (and get the consistent bond) as in the reference code."""
+def implicit_spring(k, mred, delta0, d, df, dt, theta):
+    """One interface direction over the step with the force k ((1 - theta) delta0 + theta
+    delta_end), solved together with the end opening the MPM update lands on: delta_end =
+    delta0 + dt/m_red (d + dt/2 (df - force)) (FLIP's position update). Returns (force,
+    end opening). theta = 1/2 is the trapezoidal rule (implicit midpoint: one isolated pair
+    keeps its energy for any phi^2 = k dt^2 / m_red); theta = 1 is backward Euler, which
+    damps the interface's own oscillation (tests/unit/test_interfaces.py). At rest both give
+    force = k delta."""
     phi2 = k * dt * dt / mred
-    force = (k * delta0 + 0.5 * k * dt * d / mred + 0.25 * phi2 * df) / (1.0 + 0.25 * phi2)
-    end = 2.0 * force / k - delta0 if k > 0.0 else delta0 + dt * (d / mred + 0.5 * df * dt / mred)
-    return force, end
+    free_end = delta0 + dt * d / mred + 0.5 * dt * dt * df / mred  # the end opening without the spring
+    force = k * ((1.0 - theta) * delta0 + theta * free_end) / (1.0 + 0.5 * theta * phi2)
+    return force, free_end - 0.5 * dt * dt * force / mred
 
 
 @njit(cache=True, inline="always")
@@ -118,8 +118,8 @@ def direction_force(D, area, mred, delta0, d, df, dt, mode):
         if mode == FORCE_LIMIT and abs(force) > abs(limit):
             return 0.0, 0.0, True
         return force, 0.5 * k * delta0 * delta0, False
-    if mode == TRAPEZOIDAL:
-        force, end = trapezoidal_spring(k, mred, delta0, d, df, dt)
+    if mode == BACKWARD_EULER or mode == TRAPEZOIDAL:
+        force, end = implicit_spring(k, mred, delta0, d, df, dt, 1.0 if mode == BACKWARD_EULER else 0.5)
     else:
         force, end = oscillator(k, mred, delta0, d, df, dt)
     return force, 0.5 * k * end * end, False

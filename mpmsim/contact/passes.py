@@ -23,10 +23,10 @@ Pass 3, after re-extrapolation (USL+/USAVG+): enforces pass 2's end-of-step deci
 Imperfect interfaces (law `interface`, 2013 paper; notes §4): no contact test. A direction
 that is perfect, or too stiff for the step, is bonded (stick impulse) in every pass; the other
 directions are left free in passes 1 and 3 and get the interface force in pass 2 only, from
-the trapezoidal spring (default), the exact oscillator of notes §4.3, or the paper's
-first-order force with its limit, with
-the end-of-step interfacial energy summed for the history. Openings come from extrapolated
-displacements (the normal one is d_LR under LR separation).
+the backward-Euler spring (default), the trapezoidal spring, the exact oscillator of notes
+§4.3, or the paper's first-order force with its limit, with the end-of-step interfacial energy
+summed for the history. Openings are each side's displacement at the interface point, carried
+there along the particles' displacement gradients (the normal one is d_LR under LR separation).
 
 Node plans: with a rigid contact material present, every other material contacts the
 rigid one with the largest volume (rigid mode). With exactly two materials, the first gets
@@ -44,8 +44,8 @@ from ..gridops import chunk_range, node_ijk
 from ..bc import NO_BC, node_bc
 from .geometry import cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal
 from .laws import apply_law, interface_impulse
-from .spec import (AVERAGE_GRADIENT, FRICTIONLESS, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT, TRAPEZOIDAL,
-                   OSCILLATOR, SEP_CUTOFF, STICK, SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
+from .spec import (AVERAGE_GRADIENT, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INTERFACE, LINEAR_REGRESSION, LOGISTIC,
+                   MAX_GRADIENT, SEP_CUTOFF, STICK, SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
 BOND_PHI2 = 2.25  # phi^2 = D A dt^2 / m_red above which a direction acts as perfect (notes §4.3)
@@ -172,9 +172,35 @@ def side_average(a, b, s0, s1, slot_group, n_def_groups, nn, weight, arr, dim, s
         out[d] /= w
 
 
+@njit(cache=True, inline="always")
+def side_at_point(a, b, s0, s1, slot_group, n_def_groups, nn, mass, udisp, ugrad, shift, dim, side, out):
+    """A side's mass-weighted displacement evaluated at node + shift: (sum S m u(node) +
+    sum S m H shift) / sum S m, with u(node) and H from fields.scatter_slot_extras."""
+    for d in range(dim):
+        out[d] = 0.0
+    m = 0.0
+    for s in range(s0, s1):
+        if side == 0:
+            take = s == a
+        elif b >= 0:
+            take = s == b
+        else:
+            take = s != a and slot_group[s] < n_def_groups
+        if not take:
+            continue
+        m += mass[nn + s]
+        for d in range(dim):
+            out[d] += udisp[s, d]
+            for e in range(dim):
+                out[d] += ugrad[s, d, e] * shift[e]
+    for d in range(dim):
+        out[d] /= m
+
+
 @njit(parallel=True, cache=True)
 def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, origin, h, h_min, mass, vol, disp,
-                     pos, grad, cloud_ptr, cloud_idx, cloud_w, balance, pgroup, rgroup, n_def, x, rx, F, semi, law, mu, mus,
+                     pos, grad, udisp, ugrad, cloud_ptr, cloud_idx, cloud_w, balance, pgroup, rgroup, n_def, x, rx, F,
+                     semi, law, mu, mus,
                      normal_method, sep_method, normal_vec, radial, normal_centre, rigid_bias, cutoff, fit_r, spline,
                      warm, warm_phi, stiffness, dt, integration, area_correction, use_h_perp, screen_volume, nchunk,
                      role, partner, geo_n, geo_delta, geo_area, geo_open, bonded, slot_law, slot_mu, slot_mus,
@@ -204,6 +230,7 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
         pen = np.zeros((3, 3))
         n = np.zeros(3)
         xnode = np.zeros(3)
+        shift = np.zeros(3)
         ga_vec = np.zeros(3)
         gb_vec = np.zeros(3)
         for c in range(start, stop):
@@ -366,9 +393,15 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                 geo_level[a] = (1.0 - frac) * hp * (-1.0 if omega_a >= omega_b else 1.0)
                 bonded[a] = 0
                 if slot_law[a] == INTERFACE:
-                    # openings from displacements; the normal one is d_LR with LR separation
-                    side_average(a, b, s0, s1, slot_group, n_def_groups, nn, mass, disp, dim, 0, ga_vec)
-                    side_average(a, b, s0, s1, slot_group, n_def_groups, nn, mass, disp, dim, 1, gb_vec)
+                    # openings: each side's displacement at the interface point x_node - level n
+                    # (not at the node, where the strain between the two sides' particles would
+                    # count as opening); the normal one is d_LR with LR separation
+                    for d in range(dim):
+                        shift[d] = -geo_level[a] * n[d]
+                    side_at_point(a, b, s0, s1, slot_group, n_def_groups, nn, mass, udisp, ugrad, shift, dim, 0,
+                                  ga_vec)
+                    side_at_point(a, b, s0, s1, slot_group, n_def_groups, nn, mass, udisp, ugrad, shift, dim, 1,
+                                  gb_vec)
                     dn = 0.0
                     for d in range(dim):
                         dn += (gb_vec[d] - ga_vec[d]) * n[d]
@@ -392,7 +425,7 @@ def contact_geometry(n_cn, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape
                     Dn = stiffness[ga, gb, 0] if delta >= 0.0 else stiffness[ga, gb, 1]
                     Dt = stiffness[ga, gb, 2]
                     limit = (BOND_PHI2 * mred / (area * dt * dt)
-                             if (area > 0.0 and (integration == OSCILLATOR or integration == TRAPEZOIDAL)) else 1e300)
+                             if (area > 0.0 and integration != FORCE_LIMIT and integration != FIRST_ORDER) else 1e300)
                     if Dn < 0.0 or Dn > limit:
                         bonded[a] |= 1
                     if Dt < 0.0 or Dt > limit:

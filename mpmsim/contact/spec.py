@@ -17,9 +17,9 @@ from ..deck.schema import Deck, Rigid
 STICK, FRICTIONLESS, COULOMB, INTERFACE = 0, 1, 2, 3
 LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK, "interface": INTERFACE}
 PERFECT = -1.0  # interface stiffness code for a perfect direction
-OSCILLATOR, FORCE_LIMIT, FIRST_ORDER, TRAPEZOIDAL = 0, 1, 2, 3
+OSCILLATOR, FORCE_LIMIT, FIRST_ORDER, TRAPEZOIDAL, BACKWARD_EULER = 0, 1, 2, 3, 4
 INTEGRATION_CODES = {"oscillator": OSCILLATOR, "force_limit": FORCE_LIMIT, "first_order": FIRST_ORDER,
-                     "trapezoidal": TRAPEZOIDAL}
+                     "trapezoidal": TRAPEZOIDAL, "backward_euler": BACKWARD_EULER}
 
 LOGISTIC, LINEAR_REGRESSION, AVERAGE_GRADIENT, MAX_GRADIENT, MAX_VOLUME, SPECIFIED = range(6)
 NORMAL_CODES = {"logistic_regression": LOGISTIC, "linear_regression": LINEAR_REGRESSION,
@@ -61,6 +61,7 @@ class ContactSpec:
     use_h_perp: bool
     edge_screening: float  # fraction of a cell's volume; 0: off
     consistent_bond: bool  # bonded normals held where the interface crosses grid edges (contact.bond)
+    opening_at_interface: bool  # interface openings carried to the interface point (else: at the node)
 
     @property
     def has_interface(self) -> bool:
@@ -77,7 +78,7 @@ class ContactSpec:
 
     @property
     def needs_displacement(self) -> bool:
-        return self.separation == SEP_DISPLACEMENT or self.has_interface  # interface openings
+        return self.separation == SEP_DISPLACEMENT
 
     @property
     def needs_position(self) -> bool:
@@ -153,7 +154,7 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
                        c.touch_tolerance, c.fit_exponent, c.passes, c.xpic_contact_term, c.warm_start,
                        c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
                        INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
-                       c.edge_screening or 0.0, c.interface_bond == "consistent")
+                       c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface")
 
 
 def interface_stiffness(law) -> tuple[float, float, float]:

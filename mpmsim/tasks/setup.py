@@ -17,6 +17,7 @@ def set_time_step(state) -> None:
         if state.n_rigid_materials:
             speed = max(speed, float(np.abs(state.rigid_v_start).max()))
         dt = cfl * float(state.grid.h.min()) / speed
+    state.dt_rule = dt
     dt = min(dt, deck.time.end - state.t)
     state.dt = dt
     motions = state.materials.motions

@@ -178,6 +178,34 @@ def stiff_interface(scheme: str) -> Measured:
     return Measured(abs(e / perfect - 1) if not stopped else float("inf"), stopped)
 
 
+def stiff_normal(opening: str) -> Measured:
+    """Dt = 1, Dn = 3000 MPa/mm (phi^2 ~ 0.8 at the interface nodes, below the bonding switch):
+    |E / E_perfect normal - 1| (inf when the run stopped)."""
+    perfect, _ = two_layer_energy(Dt=1.0)
+    e, stopped = two_layer_energy(Dt=1.0, **{"contact.default.Dn": 3000.0, "contact.interface_opening": opening})
+    return Measured(abs(e / perfect - 1) if not stopped else float("inf"), stopped)
+
+
+def sphere_moduli_gap(integration: str) -> Measured:
+    """3D glass sphere at 100 um cells, Dn = Dt = 1e6 MPa/mm: |K_energy / K_pressure - 1| (inf
+    when the run stopped)."""
+    deck = with_overrides(example("sphere_composite"), {
+        "grid.cell_size": 0.1, "time.end": 0.01, "contact.default.Dn": 1e6, "contact.default.Dt": 1e6,
+        "contact.interface_integration": integration})
+    sim = Simulation(build_scene(deck_from(deck, ROOT / "inputs")))
+    try:
+        sim.run()
+    except InstabilityError as exc:
+        return Measured(float("inf"), str(exc).splitlines()[0])
+    h = sim.history
+    tail = max(1, len(h.rows) // 5)
+    mean = lambda c: float(h.column(c)[-tail:].mean())  # noqa: E731
+    e0 = 0.005
+    k_energy = 2 * (mean("strain_energy") + mean("interface_energy")) / (9 * e0**2)
+    k_pressure = (mean("sxx") + mean("syy") + mean("szz")) / 3 / (3 * e0)
+    return Measured(abs(k_energy / k_pressure - 1))
+
+
 def interface_energy_error(normal: str, Dn, bond: str = "consistent") -> Measured:
     """Interfacial energy on cell mid-planes against the specified normal on a grid line (Dt = 1)."""
     from ..validation.specimens import two_layer
@@ -232,6 +260,18 @@ SCENARIOS = [
     Scenario("stiff imperfect interface", "two-layer specimen, Dn = Dt = 1e8 MPa/mm",
              "exact oscillator, bonded when phi > 1.5", "|E / E_perfect - 1| (inf: stopped)", 1e-6, "below",
              lambda: stiff_interface("oscillator"), must_stop=False),
+    Scenario("stiff normal below the bonding switch", "two-layer specimen, grid line, Dt = 1, Dn = 3000 MPa/mm",
+             "opening at the node (reference code)", "|E / E_perfect normal - 1| (inf: stopped)", 0.01, "above",
+             lambda: stiff_normal("node"), must_stop=True),
+    Scenario("stiff normal below the bonding switch", "two-layer specimen, grid line, Dt = 1, Dn = 3000 MPa/mm",
+             "opening at the interface point", "|E / E_perfect normal - 1| (inf: stopped)", 0.01, "below",
+             lambda: stiff_normal("interface"), must_stop=False),
+    Scenario("stiff curved interface", "3D glass sphere, 100 um cells, Dn = Dt = 1e6 MPa/mm",
+             "trapezoidal spring", "|K_energy / K_pressure - 1| (inf: stopped)", 0.02, "above",
+             lambda: sphere_moduli_gap("trapezoidal"), must_stop=True),
+    Scenario("stiff curved interface", "3D glass sphere, 100 um cells, Dn = Dt = 1e6 MPa/mm",
+             "backward-Euler spring (default)", "|K_energy / K_pressure - 1| (inf: stopped)", 0.02, "below",
+             lambda: sphere_moduli_gap("backward_euler"), must_stop=False),
     Scenario("gradient normals at edge nodes, stiff normal", "two-layer specimen, interface on mid-planes, Dt = 1",
              "AVG normals, Dn perfect, node-wise bond (reference code)",
              "|interfacial energy / specified-normal grid-line value - 1|", 0.5, "above",

@@ -1,13 +1,15 @@
-"""Imperfect-interface integration: the per-direction oscillator, the trapezoidal spring and the paper's
-force limit."""
+"""Imperfect-interface integration: the per-direction oscillator, the implicit (backward-Euler and
+trapezoidal) springs and the paper's force limit; the opening measured at the interface."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from mpmsim.contact.laws import direction_force, oscillator, trapezoidal_spring
-from mpmsim.contact.spec import FORCE_LIMIT, OSCILLATOR, TRAPEZOIDAL
+from mpmsim.contact.laws import direction_force, implicit_spring, oscillator
+from mpmsim.contact.spec import BACKWARD_EULER, FORCE_LIMIT, OSCILLATOR, TRAPEZOIDAL
+
+from ..conftest import ROOT
 
 
 @pytest.mark.parametrize("phi", [1e-5, 0.3, 1.0, 1.5])
@@ -33,16 +35,18 @@ def test_oscillator_tends_to_the_first_order_force():
     assert f0 == 0.0 and end0 == pytest.approx(delta0 + dt * 0.5 / m + 0.5 * 0.2 * dt**2 / m)
 
 
-def test_trapezoidal_spring_acts_at_the_mean_opening():
-    """The force is k times the mean of the start and end openings, and the end opening is
-    the one the ordinary update delta0 + dt/m (d + dt/2 (df - f)) lands on."""
+@pytest.mark.parametrize("theta", [0.5, 1.0], ids=["trapezoidal", "backward Euler"])
+def test_implicit_spring_acts_at_its_opening(theta):
+    """The force is k times (1 - theta) start + theta end opening (theta = 1/2: the mean; 1: the
+    end), and the end opening is the one the ordinary update delta0 + dt/m (d + dt/2 (df - f))
+    lands on."""
     m, dt, delta0, d, df = 2.0, 0.1, 0.3, -0.7, 0.4
     for phi2 in (1e-6, 0.5, 2.25, 1e4):
         k = phi2 * m / dt**2
-        f, end = trapezoidal_spring(k, m, delta0, d, df, dt)
-        assert f == pytest.approx(0.5 * k * (delta0 + end), rel=1e-9)
+        f, end = implicit_spring(k, m, delta0, d, df, dt, theta)
+        assert f == pytest.approx(k * ((1 - theta) * delta0 + theta * end), rel=1e-9)
         assert delta0 + dt / m * (d + 0.5 * dt * (df - f)) == pytest.approx(end, rel=1e-9, abs=1e-12)
-    f0, end0 = trapezoidal_spring(0.0, m, delta0, 0.5, 0.2, dt)  # D = 0: a free direction
+    f0, end0 = implicit_spring(0.0, m, delta0, 0.5, 0.2, dt, theta)  # D = 0: a free direction
     assert f0 == 0.0 and end0 == pytest.approx(delta0 + dt * 0.5 / m + 0.5 * 0.2 * dt**2 / m)
 
 
@@ -55,12 +59,13 @@ def pair_step(mode, k, m, dt, delta, v):
 
 
 @pytest.mark.parametrize("phi2", [0.1, 1.0, 2.25, 100.0])
-def test_isolated_pair_keeps_its_energy_only_with_the_trapezoidal_spring(phi2):
+def test_isolated_pair_energy_kept_by_trapezoidal_lost_by_backward_euler_gained_by_oscillator(phi2):
     """The exact oscillator lands on the exact end opening but not on the exact end velocity:
     its step map has determinant 2 sin(phi)/phi - cos(phi) > 1, so an isolated pair gains
     energy every step (1.6% per step at phi^2 = 0.1, 26% at the 2.25 switch; only grid damping
     or the materials around it can hold it). The trapezoidal spring is the implicit midpoint
-    rule: the pair's energy is kept to round-off for any phi^2."""
+    rule: the pair's energy is kept to round-off for any phi^2. Backward Euler (the default)
+    loses energy every step and never gains: its map's determinant is 1 / (1 + phi^2 / 2)."""
     m, dt = 1.5, 0.01
     k = phi2 * m / dt**2
     energy = lambda s: 0.5 * k * s[0] ** 2 + 0.5 * m * s[1] ** 2  # noqa: E731
@@ -69,6 +74,15 @@ def test_isolated_pair_keeps_its_energy_only_with_the_trapezoidal_spring(phi2):
     for _ in range(400):
         s = pair_step(TRAPEZOIDAL, k, m, dt, *s)
     assert energy(s) == pytest.approx(energy(start), rel=1e-10)
+    cols = [pair_step(BACKWARD_EULER, k, m, dt, *e) for e in ((1.0, 0.0), (0.0, 1.0))]
+    det = cols[0][0] * cols[1][1] - cols[1][0] * cols[0][1]
+    assert det == pytest.approx(1.0 / (1.0 + 0.5 * phi2), rel=1e-9)
+    s = start
+    for _ in range(50):
+        before = energy(s)
+        s = pair_step(BACKWARD_EULER, k, m, dt, *s)
+        assert energy(s) <= before * (1 + 1e-12)
+    assert energy(s) < 0.5 * energy(start)
     # the oscillator's map, column by column (it is linear in (delta, v))
     cols = [pair_step(OSCILLATOR, k, m, dt, *e) for e in ((1.0, 0.0), (0.0, 1.0))]
     det = cols[0][0] * cols[1][1] - cols[1][0] * cols[0][1]
@@ -123,3 +137,47 @@ def test_point_bond_zeroes_the_interpolated_jump_and_conserves_momentum():
     np.testing.assert_allclose(mom[:, 1], before[:, 1], rtol=0, atol=0)
     for a, b in zip(ent_a, ent_b):
         np.testing.assert_allclose(mom[nn + a] + mom[nn + b], before[nn + a] + before[nn + b], atol=1e-14)
+
+
+def interface_geometry(mid: bool, strain, offset):
+    """The two-layer specimen (1 mm cells, interface on a grid line or a cell mid-plane, normal
+    (1, 0)) with every particle displaced by the affine field u = E X, the right layer also by
+    `offset`, and F = I + E; the contact geometry of that configuration (no step taken)."""
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    from ..conftest import deck_from
+    from ..validation.specimens import two_layer
+
+    sim = Simulation(build_scene(deck_from(two_layer(1.0, 1.0, mid=mid, **{"contact.default.Dn": 1.0}),
+                                           ROOT / "inputs")))
+    st = sim.state
+    P = st.particles
+    E = np.asarray(strain)
+    P.x[:] = P.x0 @ (np.eye(2) + E).T
+    P.F[:] = np.eye(2) + E
+    P.x[P.x0[:, 0] > (4.5 if mid else 4.0)] += offset
+    for task in sim.tasks:
+        task.run(st)
+        if task.name == "contact geometry":
+            break
+    cs = st.contact
+    targets = np.flatnonzero(cs.role[: cs.n_slots] != 0)
+    assert targets.size > 20
+    return cs.delta[targets], cs.open[targets]
+
+
+@pytest.mark.parametrize("mid", [False, True], ids=["grid line", "mid-plane"])
+def test_interface_opening_is_measured_at_the_interface_not_at_the_node(mid):
+    """A continuous strain field opens nothing: each side's displacement is carried to the
+    interface point along its own displacement gradient (I - F^-1), so the strain between the
+    particles and the node (which made a bonded interface look open by ~ eps h / 2 at every
+    node) drops out, exactly for an affine field. A rigid offset of one layer is measured
+    exactly: normal part as delta, tangential part as the opening vector."""
+    eps = [[0.01, 0.004], [0.003, -0.02]]
+    delta, opening = interface_geometry(mid, eps, [0.0, 0.0])
+    assert np.abs(delta).max() < 1e-12 and np.abs(opening).max() < 1e-12
+    delta, opening = interface_geometry(mid, np.zeros((2, 2)), [2e-3, -5e-3])
+    np.testing.assert_allclose(delta, 2e-3, rtol=1e-9)
+    np.testing.assert_allclose(opening[:, 0], 0.0, atol=1e-15)
+    np.testing.assert_allclose(opening[:, 1], -5e-3, rtol=1e-9)

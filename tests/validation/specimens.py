@@ -30,6 +30,24 @@ def two_layer(cell: float, Dt, *, mid: bool = False, **overrides) -> dict:
         "loads.0.region.min": [4.0 + s, 19.0], "loads.0.region.max": [8.0 + s, 20.0], **overrides})
 
 
+def two_layer_3d(cell: float, Dt, z_rollers: bool = False, **overrides) -> dict:
+    """The two-layer specimen as the paper's 4 x 4 x 20 mm layers in 3D; with z_rollers the z
+    faces are rollers, which makes it the plane-strain problem the 2D runs solve (free z faces
+    are nearer plane stress)."""
+    deck = shipped("two_layer")
+    deck.update(analysis="3d", title=f"Two-layer specimen in 3D (Dt = {Dt})")
+    deck.pop("thickness")
+    deck["grid"] = {"cell_size": cell, "domain": {"min": [-1.0, 0.0, 0.0], "max": [9.0, 21.0, 4.0]},
+                    "boundaries": {"ymin": "fixed", **({"zmin": "roller", "zmax": "roller"} if z_rollers else {})}}
+    deck["bodies"] = [{"shape": "box", "min": [0.0, 0.0, 0.0], "max": [4.0, 20.0, 4.0], "material": "left"},
+                      {"shape": "box", "min": [4.0, 0.0, 0.0], "max": [8.0, 20.0, 4.0], "material": "right"}]
+    deck["contact"]["normal_vector"] = [1.0, 0.0, 0.0]
+    deck["contact"]["default"]["Dt"] = Dt
+    deck["loads"] = [{"region": {"min": [4.0, 19.0, 0.0], "max": [8.0, 20.0, 4.0]}, "face": "ymax",
+                      "traction": [0.0, 0.5, 0.0], "ramp": 0.02}]
+    return with_overrides(deck, overrides)
+
+
 def dls_tilted(degrees: float, cell: list[float] | float, Dt, **overrides) -> dict:
     """The DLS specimen rotated by `degrees` about the origin: strands as polygons, the
     grain and the specified normal rotated, end loads as total forces on bands along the
