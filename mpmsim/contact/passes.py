@@ -48,7 +48,12 @@ from .spec import (AVERAGE_GRADIENT, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INT
                    MAX_GRADIENT, SEP_CUTOFF, STICK, SEP_DISPLACEMENT, SEP_FIT, SEP_LR, SEP_VELOCITY, SPECIFIED)
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
-BOND_PHI2 = 2.25  # phi^2 = D A dt^2 / m_red above which a direction acts as perfect (notes §4.3)
+# phi^2 = D A dt^2 / m_red above which a direction acts as perfect. The reference code uses 2.25
+# (notes §4.3); at cfl 0.5, phi^2 ~ D h / E, so 1 is an interface as stiff as one cell of the
+# material next to it, whose compliance the grid cannot resolve. With the interface-point
+# opening, unbonded directions between 1 and 2.25 went unstable on the sphere at 50 um cells
+# (docs/interfaces.md)
+BOND_PHI2 = 1.0
 
 
 @njit(cache=True, inline="always")

@@ -189,7 +189,7 @@ class Contact(Strict):
         "isolated pair, unstable on the sphere specimen at D = 3e5 and 1e6 MPa/mm), oscillator (the reference "
         "code: exact harmonic oscillator per direction for the end opening; an isolated pair gains energy "
         "every step, 2 sin(phi)/phi - cos(phi)); with these three, a "
-        "direction with (D A dt^2 / m_red) > 2.25 acts as perfect), force_limit "
+        "direction with (D A dt^2 / m_red) > 1 acts as perfect), force_limit "
         "(the 2013 paper: first-order force D A delta, a direction whose force exceeds the force that "
         "would bring both materials to the centre of mass acts as perfect) or first_order (the force "
         "without any limit: unstable for stiff interfaces, kept to show that failure).")

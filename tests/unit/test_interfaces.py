@@ -62,7 +62,7 @@ def pair_step(mode, k, m, dt, delta, v):
 def test_isolated_pair_energy_kept_by_trapezoidal_lost_by_backward_euler_gained_by_oscillator(phi2):
     """The exact oscillator lands on the exact end opening but not on the exact end velocity:
     its step map has determinant 2 sin(phi)/phi - cos(phi) > 1, so an isolated pair gains
-    energy every step (1.6% per step at phi^2 = 0.1, 26% at the 2.25 switch; only grid damping
+    energy every step (1.6% per step at phi^2 = 0.1, 26% at 2.25, the reference code's switch; only grid damping
     or the materials around it can hold it). The trapezoidal spring is the implicit midpoint
     rule: the pair's energy is kept to round-off for any phi^2. Backward Euler (the default)
     loses energy every step and never gains: its map's determinant is 1 / (1 + phi^2 / 2)."""
@@ -89,7 +89,7 @@ def test_isolated_pair_energy_kept_by_trapezoidal_lost_by_backward_euler_gained_
     phi = np.sqrt(phi2)
     assert det == pytest.approx(2.0 * np.sin(phi) / phi - np.cos(phi), rel=1e-9)
     if phi2 > 2.25:
-        return  # above the switch the direction is bonded; the map there is not used
+        return  # above any switch the direction is bonded; the map there is not used
     assert det > 1.0 + phi2 / 9.0
     s = start
     for _ in range(50):
@@ -105,7 +105,7 @@ def test_force_limit_switches_a_stiff_direction_to_bonded():
     assert soft[0] == pytest.approx(1.0 * delta0) and soft[1] == pytest.approx(0.5 * delta0**2) and not soft[2]
     stiff = direction_force(1e9, 1.0, m, delta0, 0.0, 0.0, dt, FORCE_LIMIT)
     assert stiff[2] and stiff[1] == 0.0
-    # the oscillator never switches by itself (the geometry does, at phi > 1.5)
+    # the oscillator never switches by itself (the geometry does, at phi^2 > 1)
     assert not direction_force(1e9, 1.0, m, delta0, 0.0, 0.0, dt, OSCILLATOR)[2]
 
 
