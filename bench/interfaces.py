@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import os
 import sys
 import time
@@ -117,19 +118,13 @@ def load(jobs):
     return out
 
 
-def csa_bulk_modulus():
-    """Composite spheres assemblage, perfect interface (Hashin 1962)."""
-    Em, num, Ep, nup = 2400.0, 0.33, 70000.0, 0.25
-    Km, Gm, Kp = Em / (3 * (1 - 2 * num)), Em / (2 * (1 + num)), Ep / (3 * (1 - 2 * nup))
-    phi = 3.141592653589793 * 0.7**3 / 6
-    return Km + phi * (Kp - Km) / (1 + (1 - phi) * (Kp - Km) / (Km + 4 * Gm / 3))
-
-
 def chart():
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from mpmsim.sweep.metrics import csa_bulk_modulus, cube_bulk_modulus
 
     FIGURES.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
@@ -161,11 +156,13 @@ def chart():
         r = sorted((x for x in rows if x["cell"] == cell and x["status"] == "ok"), key=lambda x: x["D"])
         if r:
             inv = [1 / x["D"] for x in r]
-            ax.semilogx(inv, [2 * (x["strain_energy"] + x["interface_energy"]) / (9 * SIDE**3 * E0**2) for x in r],
-                        style + "-", label=f"energy, {cell * 1000:g} um")
-            ax.semilogx(inv, [x["pressure"] / (3 * E0) for x in r], style + "--", mfc="none",
-                        label=f"pressure, {cell * 1000:g} um")
-    ax.axhline(csa_bulk_modulus(), color="k", lw=0.8, ls=":", label="CSA, perfect")
+            K = [cube_bulk_modulus(x["strain_energy"] + x["interface_energy"], x["pressure"], SIDE, E0) for x in r]
+            ax.semilogx(inv, [k[0] for k in K], style + "-", label=f"energy, {cell * 1000:g} um")
+            ax.semilogx(inv, [k[1] for k in K], style + "--", mfc="none", label=f"pressure, {cell * 1000:g} um")
+    inv = [10**e for e in range(-10, -2)]
+    inv = [x * f for x in inv for f in (1, 2, 5)]
+    csa = [csa_bulk_modulus(2400.0, 0.33, 70000.0, 0.25, math.pi * 0.7**3 / 6 / SIDE**3, 1 / x, 0.7) for x in inv]
+    ax.semilogx(inv, csa, "k:", lw=1, label="CSA, imperfect interface (Hashin 1991)")
     ax.set(xlabel="1/D (mm/MPa), D = Dn = Dt", ylabel="bulk modulus K (MPa)", title="Glass spheres in polymer (Figs. 12-13)")
     ax.legend(fontsize=8)
     fig.tight_layout()

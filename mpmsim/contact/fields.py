@@ -165,7 +165,7 @@ def scatter_slot_extras(order, ptr, fidx, S, G, pmass, pvol, x, x0, F, n_nodes, 
     displacement gradient H = I - F^-1, udisp = sum S m (u + H (x_i - x)), and ugrad = sum S m H,
     so that a side's displacement can be evaluated at the interface point (its opening then
     excludes the strain between the particles and the interface). Without carry (the reference
-    code's opening at the node) H = 0: udisp = sum S m u."""
+    code's opening at the node) udisp = sum S m u and ugrad stays zero."""
     n_slab = ptr.size - 1
     K = S.shape[1]
     dim = x.shape[1]
@@ -192,12 +192,16 @@ def scatter_slot_extras(order, ptr, fidx, S, G, pmass, pvol, x, x0, F, n_nodes, 
                         if want_grad:
                             grad[sl, d] += G[p, k, d] * pvol[p]
                     if want_open:
-                        if carry and not have_h:
+                        wm = w * pmass[p]
+                        if not carry:
+                            for d in range(dim):
+                                udisp[sl, d] += wm * (x[p, d] - x0[p, d])
+                            continue
+                        if not have_h:
                             displacement_gradient(F[p], dim, Finv, H)
                             have_h = True
                         i, j, kk = node_ijk(slot_node[sl], shape)
                         xi = (origin[0] + i * h[0], origin[1] + j * h[1], origin[2] + kk * h[2] if dim == 3 else 0.0)
-                        wm = w * pmass[p]
                         for d in range(dim):
                             u = x[p, d] - x0[p, d]
                             for e in range(dim):

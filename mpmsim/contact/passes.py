@@ -154,22 +154,24 @@ def relative_force(a, b, rigid_b, s0, s1, slot_group, n_def_groups, nn, mass, ac
 
 
 @njit(cache=True, inline="always")
+def on_side(s, a, b, side, slot_group, n_def_groups):
+    """Whether slot s belongs to a side of target a: a itself (side 0), or its partner (side 1:
+    slot b, or every other deformable slot when b < 0)."""
+    if side == 0:
+        return s == a
+    if b >= 0:
+        return s == b
+    return s != a and slot_group[s] < n_def_groups
+
+
+@njit(cache=True, inline="always")
 def side_average(a, b, s0, s1, slot_group, n_def_groups, nn, weight, arr, dim, side, out):
-    """Weighted average of a slot quantity for material a (side 0) or its partner side
-    (side 1: slot b, or all other deformable slots when b < 0)."""
+    """Weighted average of a slot quantity (arr holds weighted sums) over one side of target a."""
     for d in range(dim):
         out[d] = 0.0
-    if side == 0:
-        for d in range(dim):
-            out[d] = arr[a, d] / weight[nn + a]
-        return
-    if b >= 0:
-        for d in range(dim):
-            out[d] = arr[b, d] / weight[nn + b]
-        return
     w = 0.0
     for s in range(s0, s1):
-        if s != a and slot_group[s] < n_def_groups:
+        if on_side(s, a, b, side, slot_group, n_def_groups):
             w += weight[nn + s]
             for d in range(dim):
                 out[d] += arr[s, d]
@@ -185,13 +187,7 @@ def side_at_point(a, b, s0, s1, slot_group, n_def_groups, nn, mass, udisp, ugrad
         out[d] = 0.0
     m = 0.0
     for s in range(s0, s1):
-        if side == 0:
-            take = s == a
-        elif b >= 0:
-            take = s == b
-        else:
-            take = s != a and slot_group[s] < n_def_groups
-        if not take:
+        if not on_side(s, a, b, side, slot_group, n_def_groups):
             continue
         m += mass[nn + s]
         for d in range(dim):

@@ -1,5 +1,6 @@
 """Imperfect-interface integration: the per-direction oscillator, the implicit (backward-Euler and
-trapezoidal) springs and the paper's force limit; the opening measured at the interface."""
+trapezoidal) springs and the paper's force limit; the opening measured at the interface; the
+composite spheres assemblage the sphere tests compare with."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import pytest
 
 from mpmsim.contact.laws import direction_force, implicit_spring, oscillator
 from mpmsim.contact.spec import BACKWARD_EULER, FORCE_LIMIT, OSCILLATOR, TRAPEZOIDAL
+from mpmsim.sweep.metrics import csa_bulk_modulus
 
 from ..conftest import ROOT
 
@@ -181,3 +183,19 @@ def test_interface_opening_is_measured_at_the_interface_not_at_the_node(mid):
     np.testing.assert_allclose(delta, 2e-3, rtol=1e-9)
     np.testing.assert_allclose(opening[:, 0], 0.0, atol=1e-15)
     np.testing.assert_allclose(opening[:, 1], -5e-3, rtol=1e-9)
+
+
+def test_csa_bulk_modulus_spans_the_debonded_and_perfect_assemblages():
+    """The composite sphere with an interface spring (the sphere tests' reference): Dn -> inf is
+    Hashin's perfect-interface closed form, Dn -> 0 the hollow sphere's 4 G K (1 - f) / (4 G +
+    3 K f), and K rises monotonically between them; for the glass/polymer cube 3062 MPa."""
+    Em, num, Ep, nup, f = 2400.0, 0.33, 70000.0, 0.25, np.pi * 0.7**3 / 6
+    Km, Gm, Kp = Em / (3 * (1 - 2 * num)), Em / (2 * (1 + num)), Ep / (3 * (1 - 2 * nup))
+    perfect = Km + f * (Kp - Km) / (1 + (1 - f) * (Kp - Km) / (Km + 4 * Gm / 3))
+    assert csa_bulk_modulus(Em, num, Ep, nup, f) == pytest.approx(perfect, rel=1e-12)
+    assert perfect == pytest.approx(3062.0, abs=0.1)
+    hollow = 4 * Gm * Km * (1 - f) / (4 * Gm + 3 * Km * f)
+    assert csa_bulk_modulus(Em, num, Ep, nup, f, 1e-9, 0.7) == pytest.approx(hollow, rel=1e-9)
+    curve = [csa_bulk_modulus(Em, num, Ep, nup, f, D, 0.7) for D in 10.0 ** np.arange(0, 13)]
+    assert np.all(np.diff(curve) > 0) and hollow < curve[0] and curve[-1] < perfect
+    assert curve[-1] == pytest.approx(perfect, rel=1e-6)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mpmsim.deck.overrides import with_overrides
+from mpmsim.sweep.metrics import csa_bulk_modulus, cube_bulk_modulus
 
 from ..conftest import ROOT, simulate
 from .specimens import dls_tilted, shipped, two_layer, two_layer_3d
@@ -56,7 +57,7 @@ def test_interfacial_energy_does_not_depend_on_where_the_interface_lies(Dt):
 def test_perfect_normal_interface_position_does_not_matter(Dt):
     """Paper Fig. 8 as the paper runs it (Dn perfect), 1 mm cells, plane strain: with the
     consistent normal bond (contact.bond) the mid-plane energy agrees with the grid-line one
-    within 2% (measured +0.05%, +0.08%, +0.09%); without the area correction the mid-plane
+    within 2% (measured +0.05%, +0.10%, +0.09%); without the area correction the mid-plane
     interface acts as if Dt were doubled (measured +0.06%, +0.13%, +0.08% against the grid
     line at 2 Dt; 1.93x / 1.68x / 1.10x the energy at Dt). On a grid line the consistent bond
     is the node-wise one (measured +0.018% at Dt = 1)."""
@@ -212,38 +213,71 @@ def test_stiff_normal_near_the_bonding_switch_is_stable_and_monotone():
     assert energies[0] < 1.06 * energies[-1]
 
 
-def csa_bulk_modulus() -> float:
-    """Composite spheres assemblage with a perfect interface (Hashin 1962): 3062 MPa."""
-    Km, Gm, Kp = 2400.0 / (3 * (1 - 0.66)), 2400.0 / 2.66, 70000.0 / (3 * (1 - 0.5))
-    phi = np.pi * 0.7**3 / 6  # one eighth of the sphere in the unit cube: 17.96%
-    return Km + phi * (Kp - Km) / (1 + (1 - phi) * (Kp - Km) / (Km + 4 * Gm / 3))
+SPHERE_STRAIN, SPHERE_CUBE = 0.005, 1.0
+CSA = csa_bulk_modulus(2400.0, 0.33, 70000.0, 0.25, np.pi * 0.7**3 / 6)  # 3062 MPa (17.96% glass)
+
+
+def sphere_moduli(deck) -> tuple[float, float]:
+    """(K from energy, K from pressure) of the settled cube (Eqs. 34-36 at finite strain)."""
+    e = settled(deck, "strain_energy", "interface_energy", "sxx", "syy", "szz")
+    return cube_bulk_modulus(e["strain_energy"] + e["interface_energy"], (e["sxx"] + e["syy"] + e["szz"]) / 3,
+                             SPHERE_CUBE, SPHERE_STRAIN)
+
+
+def sphere_deck(cell: float, D) -> dict:
+    return with_overrides(shipped("sphere_composite"), {"grid.cell_size": cell, "time.end": 0.01,
+                                                        "contact.default.Dn": D, "contact.default.Dt": D})
+
+
+def test_bulk_modulus_measures_read_the_matrix_modulus_of_a_uniform_cube():
+    """The sphere deck without the sphere (polymer alone, K = 2353 MPa), 100 um cells: both
+    measures give K within 0.5% (measured +0.13% from energy, +0.06% from pressure). With the
+    paper's small-strain forms (V = l^3, dV/V0 = 3 e0) at this 0.5% strain, K from energy reads
+    +1.13% (and from pressure -0.19%): most of the 1.4% gap those forms leave between the two
+    measures on the composite."""
+    deck = shipped("sphere_composite")
+    deck["bodies"] = [b for b in deck["bodies"] if b["material"] != "glass"]
+    del deck["materials"]["glass"]
+    deck = with_overrides(deck, {"grid.cell_size": 0.1, "time.end": 0.01})
+    e = settled(deck, "strain_energy", "sxx", "syy", "szz")
+    K_matrix = 2400.0 / (3 * (1 - 2 * 0.33))
+    K_energy, K_pressure = cube_bulk_modulus(e["strain_energy"], (e["sxx"] + e["syy"] + e["szz"]) / 3,
+                                             SPHERE_CUBE, SPHERE_STRAIN)
+    assert K_energy == pytest.approx(K_matrix, rel=0.005)
+    assert K_pressure == pytest.approx(K_matrix, rel=0.005)
+    small_strain_energy = 2 * e["strain_energy"] / (9 * SPHERE_CUBE**3 * SPHERE_STRAIN**2)
+    assert small_strain_energy / K_matrix - 1 > 0.008
 
 
 def test_composite_sphere_bulk_modulus_in_the_stiff_limit():
-    """3D, 100 um cells, D = Dn = Dt = 1e12 (stable, acts as perfect): K from energy (Eq. 35)
-    and from pressure (Eq. 36) agree within 2% (measured 3208 and 3157 MPa, 1.6%) and lie
-    within 5% of the CSA value 3062 MPa (+4.8%, +3.1%; at 50 um see docs/interfaces.md)."""
-    e0 = 0.005
-    deck = with_overrides(shipped("sphere_composite"), {"grid.cell_size": 0.1, "time.end": 0.01,
-                                                        "contact.default.Dn": 1e12, "contact.default.Dt": 1e12})
-    e = settled(deck, "strain_energy", "interface_energy", "sxx", "syy", "szz")
-    K_energy = 2 * (e["strain_energy"] + e["interface_energy"]) / (9 * e0**2)
-    K_pressure = (e["sxx"] + e["syy"] + e["szz"]) / 3 / (3 * e0)
+    """3D, 100 um cells, D = Dn = Dt = 1e12 (stable, acts as perfect): K from energy and from
+    pressure agree within 2% (measured 3176.6 and 3165.3 MPa, +0.36%) and lie within 4% of the
+    CSA value 3062 MPa (+3.7%, +3.4%; at 50 um within 3%, docs/interfaces.md)."""
+    K_energy, K_pressure = sphere_moduli(sphere_deck(0.1, 1e12))
     assert K_energy == pytest.approx(K_pressure, rel=0.02)
     for K in (K_energy, K_pressure):
-        assert K == pytest.approx(csa_bulk_modulus(), rel=0.05)
+        assert K == pytest.approx(CSA, rel=0.04)
+
+
+@pytest.mark.parametrize("D, csa", [(1e4, 2328.7), (1e5, 2939.0)])
+def test_composite_sphere_follows_the_imperfect_interface_csa(D, csa):
+    """3D, 100 um cells, D = Dn = Dt below the bonding switch: K from energy and from pressure
+    lie within 2% of the composite spheres assemblage with an interface spring Dn (Hashin 1991,
+    the paper's Fig. 13 lines); measured K_energy, K_pressure: D = 1e4 2354.8, 2345.5 MPa
+    (+1.1%, +0.7%); D = 1e5 2952.5, 2957.9 MPa (+0.5%, +0.6%). A cubic array is not the
+    assemblage, so the gap is not all numerical (at 50 um see docs/interfaces.md)."""
+    analytic = csa_bulk_modulus(2400.0, 0.33, 70000.0, 0.25, np.pi * 0.7**3 / 6, D, 0.7)
+    assert analytic == pytest.approx(csa, rel=1e-4)  # limits checked in tests/unit/test_interfaces.py
+    for K in sphere_moduli(sphere_deck(0.1, D)):
+        assert K == pytest.approx(analytic, rel=0.02)
 
 
 def test_composite_sphere_moduli_agree_where_interface_nodes_bond():
     """3D, 100 um cells, D = Dn = Dt = 1e7: every interface node bonds (phi^2 > 1), so K from
-    energy and from pressure agree within 2% (measured 3208 and 3157 MPa, +1.6%, the perfect
-    values). The run's last step is cut short to land on time.end; judged at that step the
-    switch un-bonded every node for one step and reported their kept openings as 0.15 mJ of
-    interfacial energy (+6.0% in K from energy); the switch now uses the CFL step."""
-    e0 = 0.005
-    deck = with_overrides(shipped("sphere_composite"), {"grid.cell_size": 0.1, "time.end": 0.01,
-                                                        "contact.default.Dn": 1e7, "contact.default.Dt": 1e7})
-    e = settled(deck, "strain_energy", "interface_energy", "sxx", "syy", "szz")
-    K_energy = 2 * (e["strain_energy"] + e["interface_energy"]) / (9 * e0**2)
-    K_pressure = (e["sxx"] + e["syy"] + e["szz"]) / 3 / (3 * e0)
+    energy and from pressure agree within 2% (measured 3176.6 and 3165.3 MPa, +0.36%, the
+    perfect values).
+    The run's last step is cut short to land on time.end; judged at that step the switch
+    un-bonded every node for one step and reported their kept openings as 0.15 mJ of
+    interfacial energy (K from energy +4.7%); the switch now uses the CFL step."""
+    K_energy, K_pressure = sphere_moduli(sphere_deck(0.1, 1e7))
     assert K_energy == pytest.approx(K_pressure, rel=0.02)
