@@ -134,7 +134,8 @@ def extrapolate_contact(state, with_mass: bool) -> None:
     P, R, f = state.particles, state.rigid, state.fields
     nn, ns = state.grid.n_nodes, cs.n_slots
     if with_mass:
-        for arr in (cs.vol, cs.disp, cs.pos, cs.grad, cs.udisp, cs.ugrad):
+        interface_sums = (cs.udisp, cs.ugrad) if spec.has_interface else ()  # read only by interfaces
+        for arr in (cs.vol, cs.disp, cs.pos, cs.grad, *interface_sums):
             arr[:ns] = 0.0
         g = state.grid
         scatter_slot_extras(box.order, box.ptr, cs.fidx, sd.S, sd.G, P.mass, P.vol, P.x, P.x0, P.F, nn, cs.slot_node,
