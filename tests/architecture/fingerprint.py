@@ -74,8 +74,9 @@ def _digest(a) -> str:
     return h.hexdigest()[:20]
 
 
-def run_case(deck: str, overrides: dict, steps: int = STEPS):
-    """The finished simulation after `steps` steps (one thread), and its history rows."""
+def run_case(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] | None = None):
+    """The finished simulation after `steps` steps (one thread), and its history rows (only
+    `columns`, in that order, when given: the history may have grown columns since)."""
     from tests.conftest import deck_from
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
@@ -86,7 +87,11 @@ def run_case(deck: str, overrides: dict, steps: int = STEPS):
     for _ in range(steps):
         sim.step()
         sim.history.record(sim.state)
-    return sim, np.array(sim.history.rows, dtype=float)
+    rows = np.array(sim.history.rows, dtype=float)
+    if columns is not None:
+        names = sim.history.names
+        rows = rows[:, [names.index(c) for c in columns]]
+    return sim, rows
 
 
 def arrays(sim) -> dict[str, np.ndarray]:
@@ -104,9 +109,11 @@ def arrays(sim) -> dict[str, np.ndarray]:
     return out
 
 
-def fingerprint(deck: str, overrides: dict, steps: int = STEPS) -> dict:
-    sim, rows = run_case(deck, overrides, steps)
-    return {"steps": steps, "history": _digest(rows), "last_row": [float(v).hex() for v in rows[-1]],
+def fingerprint(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] | None = None) -> dict:
+    sim, rows = run_case(deck, overrides, steps, columns)
+    names = columns if columns is not None else sim.history.names
+    return {"steps": steps, "columns": names, "history": _digest(rows),
+            "last_row": [float(v).hex() for v in rows[-1]],
             "arrays": {k: _digest(v) for k, v in sorted(arrays(sim).items())}}
 
 

@@ -19,7 +19,7 @@ REF = json.loads(REFERENCE.read_text())
 @pytest.mark.parametrize("name,deck,overrides", cases(), ids=[c[0] for c in cases()])
 def test_results_are_bit_identical(name, deck, overrides):
     want = REF[name]
-    got = fingerprint(deck, overrides, want["steps"])
+    got = fingerprint(deck, overrides, want["steps"], want["columns"])
     if got != want:
         rows = [(float.fromhex(a), float.fromhex(b)) for a, b in zip(got["last_row"], want["last_row"])]
         diff = max((abs(a - b) / max(abs(b), 1e-300) for a, b in rows), default=0.0)
