@@ -44,8 +44,7 @@ def measure(deck: Path, steps: int, threads: int, warmup: int = 5, shape=None, u
     sim = Simulation(build_scene(load(deck, shape, update)), out_dir=None, threads=threads)
     for _ in range(warmup):
         sim.step()
-    for k in sim.timers:
-        sim.timers[k] = 0.0
+    sim.reset_timers()
     t0 = time.perf_counter()
     for _ in range(steps):
         sim.step()

@@ -153,8 +153,7 @@ def time_steps(job):
     sim = simulation(name, overrides)
     for _ in range(3):
         sim.step()
-    for k in sim.timers:
-        sim.timers[k] = 0.0
+    sim.reset_timers()
     first = sim.state.step
     t0 = time.perf_counter()
     if steps is None:
@@ -235,7 +234,7 @@ def ellipse_to_end(job):
         stopped = str(exc).splitlines()[0]
     wall = time.perf_counter() - t0
     P, h = sim.state.particles, sim.state.grid.h
-    frac = overlap_fraction(P.x, P.F, P.mat, sim.state.scene.semi_size, float(h.min()) / 8)
+    frac = overlap_fraction(P.x, P.F, P.mat, sim.scene.semi_size, float(h.min()) / 8)
     return {"method": label, "syy": float(sim.history.column("syy")[-1]), "overlap": frac, "wall": wall,
             "steps": sim.state.step, "particles": P.n, "stopped": stopped,
             "u_piston": float(sim.history.column("u_piston_y")[-1])}

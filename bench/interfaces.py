@@ -194,7 +194,7 @@ def cost(steps: int = 300):
         sim = Simulation(build_scene(deck_from(two_layer(0.25, 5.0, **over), TROOT / "inputs")))
         for _ in range(20):  # compile and warm up
             sim.step()
-        sim.timers = dict.fromkeys(sim.timers, 0.0)
+        sim.reset_timers()
         for _ in range(steps):
             sim.step()
         total = sum(sim.timers.values())

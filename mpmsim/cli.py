@@ -131,8 +131,8 @@ def _timing_table(result, sim) -> None:
 @app.command()
 def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
+    from .integrators import make_integrator
     from .state import State
-    from .tasks import plan_tasks
 
     scene = _load_scene(deck)
     d, g, u = scene.deck, scene.grid, _units(scene)
@@ -154,14 +154,16 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
     rig = ", ".join(f"{m}: {int(np.sum(state.rigid.mat == i))}" for i, m in enumerate(scene.materials.rigid))
     out.print(f"particles: {P.n} deformable ({per})" + (f"; {state.rigid.n} rigid ({rig})" if rig else ""),
               highlight=False)
+    integrator = make_integrator(scene)
+    dt = integrator.stable_dt(state)
     if d.time.dt is not None:
-        dt, how = d.time.dt, "fixed"
+        how = "fixed"
     else:
         cfl = d.time.cfl if d.time.cfl is not None else 0.5
         speed = state.wave_max
         if state.n_rigid_materials:
-            speed = max(speed, float(np.abs(state.rigid_v_start).max()))
-        dt, how = cfl * g.h.min() / speed, f"CFL {cfl:g}, max wave speed + |v| = {speed:.4g} {u.velocity}"
+            speed = max(speed, float(np.abs(state.rigid.v_start).max()))
+        how = f"CFL {cfl:g}, max wave speed + |v| = {speed:.4g} {u.velocity}"
     steps = int(np.ceil(d.time.end / dt))
     out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
               highlight=False)
@@ -169,13 +171,12 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
     out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
               f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
     out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
-    tasks, skipped = plan_tasks(scene)
-    out.print("[bold]tasks per step[/] (only what this scene needs):")
-    for i, t in enumerate(tasks, 1):
-        out.print(f"  {i:2d}. {t.name:22s} {t.why}", highlight=False)
-    if skipped:
+    out.print(f"[bold]tasks per step[/] ({integrator.name} integrator; only what this scene needs):")
+    for i, (name, why) in enumerate(integrator.plan, 1):
+        out.print(f"  {i:2d}. {name:22s} {why}", highlight=False)
+    if integrator.skipped:
         out.print("[bold]left out[/] (not needed by this scene):")
-        for name, why in skipped:
+        for name, why in integrator.skipped:
             out.print(f"      {name:22s} {why}", highlight=False)
 
 

@@ -1,7 +1,14 @@
-"""Run a scene: walk the task list each step, time each task, schedule output, stop cleanly.
+"""The run loop: step an integrator to time.end, schedule history and output, check stability
+after every step, time everything, stop cleanly.
 
     sim = Simulation.from_deck("inputs/disks.yaml")
     result = sim.run()
+
+Data flows one way: deck -> scene (mpmsim/scene: bodies, grid, materials, contact) -> state
+(mpmsim/state.py: plain arrays) -> integrator (mpmsim/integrators: how a step advances the
+state) -> output (mpmsim/output). The loop knows the integrator only through `stable_dt`,
+`advance` and `timers`; any integrator runs with the same history, output, checks and
+messages.
 """
 
 from __future__ import annotations
@@ -13,11 +20,16 @@ from typing import Callable
 
 from .deck import LoadedDeck, load_deck
 from .errors import InstabilityError
+from .integrators import Integrator, make_integrator
 from .output.history import History
 from .output.vtu import VtuSeries
 from .scene import Scene, build_scene
+from .bodies import KINETIC
+from .stability import StabilityCheck, total_sums
 from .state import State, StepFlags
-from .tasks import build_task_list
+
+CHECK = "check stability"
+OUTPUT = "output"
 
 
 @dataclass
@@ -33,7 +45,7 @@ class RunResult:
     @property
     def rate(self) -> float:
         """Particle-steps per second over the stepping (output excluded)."""
-        stepping = sum(v for k, v in self.timers.items() if k != "output")
+        stepping = sum(v for k, v in self.timers.items() if k != OUTPUT)
         return self.particle_steps / stepping if stepping > 0 else 0.0
 
 
@@ -46,18 +58,20 @@ def default_output_dir(loaded: LoadedDeck) -> Path:
 
 
 class Simulation:
-    def __init__(self, scene: Scene, out_dir: Path | None = None, threads: int | None = None):
-        """`out_dir=None` keeps the history in memory and writes no files (tests, sweeps)."""
+    def __init__(self, scene: Scene, out_dir: Path | None = None, threads: int | None = None,
+                 integrator: Integrator | None = None):
+        """`out_dir=None` keeps the history in memory and writes no files (tests, sweeps).
+        `integrator=None`: the deck's (make_integrator)."""
         self.scene = scene
         self.state = State.from_scene(scene, threads)
-        self.tasks = build_task_list(scene)
-        self.timers = {t.name: 0.0 for t in self.tasks}
-        self.timers["output"] = 0.0
+        self.integrator = integrator if integrator is not None else make_integrator(scene)
+        self.check = StabilityCheck(scene)
+        self.loop_timers = {CHECK: 0.0, OUTPUT: 0.0}
         self.out_dir = Path(out_dir) if out_dir is not None else None
         stem = scene.loaded.stem
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
-        self.history = History(self.state, self.out_dir / f"{stem}_history.csv" if self.out_dir else None)
+        self.history = History(scene, self.state, self.out_dir / f"{stem}_history.csv" if self.out_dir else None)
         self.vtu = VtuSeries(self.out_dir, stem) if self.out_dir is not None else None
         self.files: list[Path] = []
 
@@ -65,24 +79,40 @@ class Simulation:
     def from_deck(cls, deck_path, out_dir: Path | None = None, threads: int | None = None) -> "Simulation":
         return cls(build_scene(load_deck(deck_path)), out_dir=out_dir, threads=threads)
 
+    @property
+    def timers(self) -> dict[str, float]:
+        """Seconds per part of the run: the integrator's, then the stability check and output."""
+        return {**self.integrator.timers, **self.loop_timers}
+
+    def reset_timers(self) -> None:
+        """Zero every timer (benchmarks: measure after a first, compiling step)."""
+        for timers in (self.integrator.timers, self.loop_timers):
+            for k in timers:
+                timers[k] = 0.0
+
     def step(self) -> None:
-        st = self.state
-        if st.t >= self.scene.deck.time.end * (1.0 - 1e-9):
-            raise RuntimeError(f"the run has reached time.end = {self.scene.deck.time.end:g}; nothing left to step")
+        """One step of the integrator, then the stability check; advances the clock."""
+        st, end = self.state, self.scene.deck.time.end
+        if st.t >= end * (1.0 - 1e-9):
+            raise RuntimeError(f"the run has reached time.end = {end:g}; nothing left to step")
+        rule = self.integrator.stable_dt(st)
+        st.dt_rule = rule
+        st.dt = min(rule, end - st.t)
         st.flags = StepFlags()
-        for task in self.tasks:
-            t0 = wallclock.perf_counter()
-            task.run(st)
-            self.timers[task.name] += wallclock.perf_counter() - t0
+        taken = self.integrator.advance(st, st.dt)
+        st.dt = taken
+        t0 = wallclock.perf_counter()
+        self.check(st)
+        self.loop_timers[CHECK] += wallclock.perf_counter() - t0
         st.t += st.dt
         st.step += 1
 
     def _write_output(self, vtu: bool) -> None:
         t0 = wallclock.perf_counter()
         if vtu and self.vtu is not None:
-            self.files.append(self.vtu.write(self.state))
+            self.files += self.vtu.write(self.state)
         self.history.flush()
-        self.timers["output"] += wallclock.perf_counter() - t0
+        self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
 
     def run(self, progress: Callable[[State], None] | None = None) -> RunResult:
         st, deck = self.state, self.scene.deck
@@ -92,7 +122,8 @@ class Simulation:
         eps = 1e-9 * end
         start = wallclock.perf_counter()
         if st.step == 0:  # the energy balance starts from the state as the caller left it
-            st.energy0 = 0.5 * float((st.particles.mass[:, None] * st.particles.v**2).sum())
+            sums = total_sums(st)
+            st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
         self.history.record(st)
         self._write_output(vtu=True)
         next_vtu, next_hist = vtu_dt, hist_dt
@@ -126,5 +157,5 @@ class Simulation:
             self.history.record(st)
         self._write_output(vtu=written_at != st.t)
         wall = wallclock.perf_counter() - start
-        return RunResult(st.step, wall, st.step * st.particles.n, dict(self.timers), list(self.files),
+        return RunResult(st.step, wall, st.step * st.particles.n, self.timers, list(self.files),
                          self.history.path, self.vtu.pvd_path if self.vtu else None)

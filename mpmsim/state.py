@@ -1,9 +1,15 @@
-"""Simulation state as struct-of-arrays numpy data.
+"""Simulation state: plain data, struct-of-arrays numpy arrays.
 
-Particles (deformable) and rigid particles are separate sets: kernels over deformable
-particles never branch on rigidity, and rigid particles only extrapolate volume for the
-velocity conditions they impose. Grid fields cover the whole (scene-sized) grid but every
-task touches only the active node box.
+- `bodies`: one set per body kind present (mpmsim/bodies): deformable particles, rigid
+  particles; `particles` and `rigid` name the two particle sets.
+- the background grid's workspace: field arrays (`fields`), the active node box (`box`) and
+  each particle set's shape data (`sd`, `rigid_sd`);
+- the contact workspace (`contact`, mpmsim/contact/workspace.py) where materials meet;
+- the clock (t, dt, step) and the run's energy accounts (work put in, reactions, the energy
+  stored in interfaces), and the flags kernels raise when something goes bad.
+
+The state holds no methods of the step; integrators (mpmsim/integrators) change it, the run
+loop (mpmsim/solver.py) reads it for history, output and stability checks.
 """
 
 from __future__ import annotations
@@ -12,53 +18,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .contact import ContactState, build_contact_spec
-from .loads import build_loads
+from .bodies.particles import Particles
+from .bodies.rigid import RigidParticles
+from .contact.workspace import ContactWorkspace
 from .gridops import ActiveBox, n_threads
+from .loads import build_loads
 from .materials import MaterialTable
 from .materials.kernels import initial_modulus
 from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
-from .tasks.particle_update import SCHEMES
-
-
-@dataclass
-class Particles:
-    x: np.ndarray  # (n, dim) position
-    v: np.ndarray  # (n, dim) velocity
-    mass: np.ndarray  # (n,)
-    vol0: np.ndarray  # (n,) initial volume
-    vol: np.ndarray  # (n,) current volume = vol0 * J
-    F: np.ndarray  # (n, dim, dim) deformation gradient (2D: F33 = 1)
-    stress: np.ndarray  # (n, 6) Cauchy stress, Voigt [xx, yy, zz, xy, yz, xz]
-    mat: np.ndarray  # (n,) deformable material index
-    body: np.ndarray  # (n,) deck body index
-    x0: np.ndarray  # (n, dim) initial position
-    B: np.ndarray  # (n, dim, dim) APIC affine matrix (a (1, dim, dim) placeholder otherwise)
-    C: np.ndarray  # (n, dim, dim) APIC B D^-1 for the current step (placeholder otherwise)
-    # with Mie–Grüneisen or artificial viscosity (else (1,) placeholders the kernels never read):
-    U: np.ndarray  # (n,) internal energy per unit mass
-    pressure: np.ndarray  # (n,) pressure (Mie–Grüneisen: the EOS pressure, without q)
-    q: np.ndarray  # (n,) artificial-viscosity pressure in the stress since the last update
-
-    @property
-    def n(self) -> int:
-        return len(self.mass)
-
-
-@dataclass
-class RigidParticles:
-    x: np.ndarray
-    v: np.ndarray
-    vol: np.ndarray
-    mat: np.ndarray  # rigid material index
-    body: np.ndarray
-    x0: np.ndarray
-
-    @property
-    def n(self) -> int:
-        return len(self.vol)
 
 
 @dataclass
@@ -115,12 +84,13 @@ class StepFlags:
 
 @dataclass
 class State:
-    scene: Scene
+    dim: int
     grid: GridSpec
     materials: MaterialTable
     shape: ShapeFunction
     particles: Particles
     rigid: RigidParticles
+    bodies: list  # the body sets, in kind order (deformable particles, rigid particles, ...)
     sd: ShapeData  # shape data of deformable particles
     rigid_sd: ShapeData
     fields: GridFields
@@ -128,18 +98,15 @@ class State:
     gravity: np.ndarray  # (dim,)
     threads: int
     nchunk: int
-    scheme_name: str  # particle update: flip, pic, xpic, fmpm, apic
-    scheme: int  # its kernel code
     entry_offsets: np.ndarray  # (K, 3) node offset of shape entry k from the particle's lowest node
-    xref: np.ndarray  # positions the shape functions were evaluated at (APIC needs them after moving)
+    contact: ContactWorkspace | None  # where materials meet (None: a single velocity field)
+    loads: object  # mpmsim.loads.Loads when the deck has traction loads, else None
+    damping: float  # grid damping alpha (1/time)
     t: float = 0.0
     dt: float = 0.0
-    dt_rule: float = 0.0  # the step the CFL rule (or the deck) allows, before the cut at the end time
+    dt_rule: float = 0.0  # the step the integrator allows, before the cut at the end time
     step: int = 0
     wave_max: float = 0.0  # max(c + |v|) over particles from the last stress update
-    rigid_v_start: np.ndarray = None  # (n_rigid, dim) prescribed velocity at t
-    rigid_v_end: np.ndarray = None  # at t + dt
-    rigid_disp: np.ndarray = None  # (n_rigid, dim) displacement since t = 0
     reaction: np.ndarray = None  # (6 + n_rigid, dim) force walls/rigid bodies exert on material
     energy0: float = 0.0  # mechanical energy at the start of the run
     interface_energy: float = 0.0  # imperfect interfaces, end of the last step
@@ -147,14 +114,7 @@ class State:
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)
     flags: StepFlags = field(default_factory=StepFlags)
     particle_bounds: tuple = ()  # (lo, hi): where particle centres may go (GridSpec.particle_bounds)
-    _noise_scratch: tuple | None = None  # shape data and grid arrays for the noise metric
-    contact: object = None  # mpmsim.contact.ContactState for scenes where materials meet
-    loads: object = None  # mpmsim.loads.Loads when the deck has traction loads
-    damping: float = 0.0  # grid damping alpha (1/time)
-
-    @property
-    def dim(self) -> int:
-        return self.grid.dim
+    noise_scratch: tuple | None = None  # shape data and grid arrays for the noise metric
 
     @property
     def field_index(self) -> np.ndarray:
@@ -169,50 +129,38 @@ class State:
     @classmethod
     def from_scene(cls, scene: Scene, threads: int | None = None) -> "State":
         dim = scene.dim
+        deck = scene.deck
         mats = scene.materials
-        seed = scene.deformable
-        mass = seed.vol * mats.density[seed.mat]
-        n = len(mass)
-        F = np.zeros((n, dim, dim))
-        for a in range(dim):
-            F[:, a, a] = 1.0
-        scheme_name = scene.deck.update.scheme
-        na = n if scheme_name == "apic" else 1
-        ne = n if mats.tracks_energy else 1
-        particles = Particles(seed.x.copy(), seed.v.copy(), mass, seed.vol.copy(), seed.vol.copy(), F,
-                              np.zeros((n, 6)), seed.mat.copy(), seed.body.copy(), seed.x.copy(),
-                              np.zeros((na, dim, dim)), np.zeros((na, dim, dim)), np.zeros(ne), np.zeros(ne),
-                              np.zeros(ne))
-        rs = scene.rigid
-        rigid = RigidParticles(rs.x.copy(), rs.v.copy(), rs.vol.copy(), rs.mat.copy(), rs.body.copy(), rs.x.copy())
-        sf = shape_function(scene.deck.shape_function)
+        scheme = deck.update.scheme
+        particles = Particles.from_seed(scene.deformable, mats.density, scene.semi_size, scene.deformable_bodies,
+                                        affine=scheme == "apic", energy=mats.tracks_energy)
+        rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim)
+        sf = shape_function(deck.shape_function)
         K = sf.nodes_per_particle(dim)
         threads = threads or n_threads()
         nr = len(mats.rigid)
         g = np.zeros(dim)
-        if scene.deck.gravity is not None:
-            g[:] = scene.deck.gravity
+        if deck.gravity is not None:
+            g[:] = deck.gravity
         per = sf.per_axis
         offsets = np.array([(k % per, (k // per) % per, k // (per * per)) for k in range(K)], dtype=np.int64)
+        nn = scene.grid.n_nodes
+        contact = None
+        if scene.contact is not None:
+            contact = ContactWorkspace.create(scene.contact, particles.mat, rigid.mat, nn, K, dim)
         state = cls(
-            scene=scene, grid=scene.grid, materials=mats, shape=sf, particles=particles, rigid=rigid,
-            sd=ShapeData.empty(n, K, dim), rigid_sd=ShapeData.empty(rigid.n, K, dim),
-            fields=GridFields.allocate(scene.grid.n_nodes, dim, nr, scheme_name in ("xpic", "fmpm")),
+            dim=dim, grid=scene.grid, materials=mats, shape=sf, particles=particles, rigid=rigid,
+            bodies=[particles, rigid], sd=ShapeData.empty(particles.n, K, dim),
+            rigid_sd=ShapeData.empty(rigid.n, K, dim),
+            fields=GridFields.allocate(nn, dim, nr, scheme in ("xpic", "fmpm")),
             box=ActiveBox(scene.grid.shape), gravity=g, threads=threads, nchunk=max(1, 4 * threads),
-            scheme_name=scheme_name, scheme=SCHEMES[scheme_name], entry_offsets=offsets,
-            xref=particles.x if scheme_name != "apic" else particles.x.copy(),
+            entry_offsets=offsets, contact=contact, loads=build_loads(scene, particles.x, particles.vol),
+            damping=deck.damping.grid if deck.damping is not None else 0.0,
         )
-        state.rigid_v_start = np.array([m.velocity(0.0) for m in mats.motions]).reshape(nr, dim)
-        state.rigid_v_end = state.rigid_v_start.copy()
-        state.rigid_disp = np.zeros((nr, dim))
         state.reaction = np.zeros((6 + nr, dim))
         state.particle_bounds = scene.grid.particle_bounds
+        mass = particles.mass
         state.energy0 = 0.5 * float(np.sum(mass[:, None] * particles.v**2))
-        spec = build_contact_spec(scene.deck, mats)
-        if spec is not None:
-            state.contact = ContactState.create(spec, state)
-        state.loads = build_loads(scene, particles.x, particles.vol)
-        state.damping = scene.deck.damping.grid if scene.deck.damping is not None else 0.0
         modulus = np.array([initial_modulus(c, row) for c, row in zip(mats.type_code, mats.props)])
         c0 = np.sqrt(modulus / mats.density)
         state.energy_floor = 1e-12 * float(np.sum(mass * c0[particles.mat] ** 2))

@@ -8,8 +8,6 @@ of these tasks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
@@ -20,73 +18,13 @@ from .passes import contact_geometry as _geometry
 from .passes import contact_pass_1 as _pass_1
 from .passes import contact_pass_2 as _pass_2
 from .passes import contact_pass_3 as _pass_3
-from .spec import ContactSpec, build_contact_spec
+from .spec import build_contact_spec
+from .workspace import ContactWorkspace
 
 _NO_ACC = np.zeros((1, 3))  # point_bond on momenta: no force to record
 
-__all__ = ["ContactState", "build_contact_spec", "material_fields", "contact_geometry", "contact_pass_1", "contact_pass_2",
+__all__ = ["ContactWorkspace", "build_contact_spec", "material_fields", "contact_geometry", "contact_pass_1", "contact_pass_2",
            "contact_pass_3", "extrapolate_contact"]
-
-
-@dataclass
-class ContactState:
-    spec: ContactSpec
-    group: np.ndarray  # (n,) group of each deformable particle
-    rgroup: np.ndarray  # (n_rigid_particles,) group of each rigid particle (-1: velocity-condition rigid)
-    mask: np.ndarray  # (n_nodes,) uint64 groups touching each node
-    node_cn: np.ndarray  # (n_nodes,) contact-node index or -1
-    fidx: np.ndarray  # (n, K) field of each deformable particle-node entry
-    rfidx: np.ndarray  # (n_rigid_particles, K) slot of each rigid entry, -1 off contact nodes
-    warm_phi: np.ndarray  # (n_nodes, G, 4) last logistic fit per node and group (warm start only)
-    n_cn: int = 0
-    n_slots: int = 0
-    cap: int = 0
-    cloud_ptr: np.ndarray = None
-    cloud_idx: np.ndarray = None
-    cloud_w: np.ndarray = None
-
-    def ensure(self, n_cn: int, n_slots: int, dim: int) -> None:
-        """Grow the per-contact-node and per-slot arrays (doubling) to hold this step."""
-        if n_slots <= self.cap and n_cn < self.cn_nodes.size:
-            return
-        cap = max(64, 2 * n_slots)
-        z = np.zeros
-        self.cap = cap
-        self.cn_nodes = z(cap, dtype=np.int64)
-        self.cn_ptr = z(cap + 1, dtype=np.int64)
-        self.slot_group = z(cap, dtype=np.int64)
-        self.slot_node = z(cap, dtype=np.int64)
-        self.vol, self.delta, self.area = z(cap), z(cap), z(cap)
-        self.disp, self.pos, self.grad, self.dp1, self.normal = (z((cap, dim)) for _ in range(5))
-        self.udisp, self.ugrad = z((cap, dim)), z((cap, dim, dim))  # interfaces: displacement at the node, gradient
-        self.stick2, self.applied2, self.stick_total, self.applied_total = (z((cap, dim)) for _ in range(4))
-        self.delta2 = z(cap)
-        self.contact2 = z(cap, dtype=np.int64)
-        self.role = z(cap, dtype=np.int64)
-        self.partner = z(cap, dtype=np.int64)
-        self.law = z(cap, dtype=np.int64)
-        self.mu, self.mus = z(cap), z(cap)
-        self.open, self.stiff = z((cap, dim)), z((cap, 3))  # interfaces: tangential opening, [Dn, Dnc, Dt]
-        self.bonded = z(cap, dtype=np.int64)  # interfaces: bit 1 normal, bit 2 tangential act as perfect,
-        # bit 4 normal held by the consistent-bond constraints (contact.bond)
-        self.level = z(cap)  # signed distance of the node to the interface along n (a's side < 0)
-        # consistent-bond constraints: entries con_ptr[q]:con_ptr[q+1], slots of a and b and weights
-        self.con_ptr = z(cap + 1, dtype=np.int64)
-        self.ent_a, self.ent_b, self.ent_w = z(8 * cap, dtype=np.int64), z(8 * cap, dtype=np.int64), z(8 * cap)
-        self.n_con = 0
-
-    @classmethod
-    def create(cls, spec: ContactSpec, state) -> "ContactState":
-        P, R = state.particles, state.rigid
-        nn = state.grid.n_nodes
-        K = state.sd.S.shape[1]
-        cs = cls(spec, spec.mat_group[P.mat], spec.rigid_group[R.mat] if R.n else np.zeros(0, dtype=np.int64),
-                 np.zeros(nn, dtype=np.uint64), np.full(nn, -1, dtype=np.int64), np.zeros((P.n, K), dtype=np.int64),
-                 np.full((R.n, K), -1, dtype=np.int64),
-                 np.zeros((nn, spec.n_groups, 4) if spec.warm_start else (1, 1, 4)))
-        cs.cn_nodes = np.zeros(0, dtype=np.int64)
-        cs.ensure(1, 1, state.dim)
-        return cs
 
 
 def material_fields(state) -> None:
@@ -148,35 +86,44 @@ def extrapolate_contact(state, with_mass: bool) -> None:
                             f.mass, f.mom, cs.vol, cs.disp, cs.pos, cs.grad, cs.udisp)
 
 
-def contact_geometry(state) -> None:
+def contact_geometry(screen: float):
+    """Task: plan the contact nodes, their normals, separations and areas. `screen`: the
+    edge-screening volume (0: off; see screen_volume)."""
+
+    def run(state) -> None:
+        _contact_geometry(state, screen)
+
+    return run
+
+
+def _contact_geometry(state, screen: float) -> None:
     cs, spec, g, f = state.contact, state.contact.spec, state.grid, state.fields
     spline = state.shape.grid_kind >= 2  # B-spline grid functions weight the area with the spline
     _geometry(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, g.n_nodes, g.shape, g.origin, g.h,
               float(g.h.min()), f.mass, cs.vol, cs.disp, cs.pos, cs.grad, cs.udisp, cs.ugrad, cs.cloud_ptr,
               cs.cloud_idx, cs.cloud_w, spec.shape_weights, cs.group,
-              cs.rgroup, state.particles.n, state.particles.x, state.rigid.x, state.particles.F, state.scene.semi_size,
+              cs.rgroup, state.particles.n, state.particles.x, state.rigid.x, state.particles.F, state.particles.semi,
               spec.law, spec.mu, spec.mu_static, spec.normal, spec.separation, spec.normal_vector, spec.radial,
               spec.normal_center, spec.rigid_bias, spec.cutoff, spec.fit_exponent, spline, spec.warm_start, cs.warm_phi,
               spec.stiffness, state.dt_rule, spec.interface_integration, spec.area_correction, spec.use_h_perp,
-              screen_volume(state),
+              screen,
               state.nchunk, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.bonded, cs.law, cs.mu, cs.mus,
               cs.stiff, cs.level)
     cs.n_con = 0
     if spec.consistent_bond and spec.has_interface:
         cs.n_con = _bond_points(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.node_cn, g.shape, g.origin, g.h, cs.slot_group,
                                 spec.n_def_groups, cs.role, cs.partner, cs.law, cs.level, cs.normal, g.face_type,
-                                g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid_v_end, state.dim,
+                                g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid.v_end, state.dim,
                                 cs.bonded, cs.con_ptr, cs.ent_a, cs.ent_b, cs.ent_w)
 
 
-def screen_volume(state) -> float:
+def screen_volume(spec, grid, thickness: float) -> float:
     """Edge screening threshold: the fraction of a cell's volume (2D: times the thickness, as
     particle volumes are)."""
-    frac = state.contact.spec.edge_screening
+    frac = spec.edge_screening
     if frac <= 0.0:
         return 0.0
-    g = state.grid
-    cell = float(np.prod(g.h[: state.dim])) * (state.scene.thickness if state.dim == 2 else 1.0)
+    cell = float(np.prod(grid.h[: grid.dim])) * (thickness if grid.dim == 2 else 1.0)
     return frac * cell
 
 
@@ -204,7 +151,7 @@ def contact_pass_2(state) -> None:
     energy = np.zeros(state.nchunk)
     _pass_2(cs.n_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, spec.n_def_groups, spec.rigid_of_group, g.n_nodes,
             g.shape, state.dt, f.mass, f.vnew, f.acc, g.face_type, g.wall_index, f.rigid_vol, state.materials.constrain,
-            state.rigid_v_end, spec.separation, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.law,
+            state.rigid.v_end, spec.separation, cs.role, cs.partner, cs.normal, cs.delta, cs.area, cs.open, cs.law,
             cs.mu, cs.mus, cs.bonded, cs.stiff, spec.interface_integration, touch_length(state), state.nchunk, reaction,
             work, energy, cs.stick2, cs.applied2, cs.delta2, cs.contact2)
     _point_bond(cs.n_con, cs.con_ptr, cs.ent_a, cs.ent_b, cs.ent_w, g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt,

@@ -255,6 +255,8 @@ class Domain(Strict):
 class BodyBase(Strict):
     """Keys every body takes."""
 
+    name: str | None = Field(
+        default=None, description="Name used in per-body history columns and messages (default: body<index>).")
     material: str = Field(description="Name of a material in `materials`.")
     velocity: Vector | SineVelocity | RotationVelocity | None = Field(
         default=None,
@@ -543,6 +545,8 @@ class Deck(Strict):
     artificial_viscosity: ArtificialViscosity | None = Field(
         default=None, description="Shock artificial viscosity {A1, A2, materials} (Eq. 52). Default: none.")
     contact: Contact = Field(default_factory=Contact, description="Multimaterial contact settings.")
+    integrator: Literal["explicit"] = Field(
+        default="explicit", description="Time integration: explicit (the MPM step as a list of tasks).")
     time: Time
     update: Update = Field(default_factory=Update)
     output: Output = Field(default_factory=Output)

@@ -122,8 +122,15 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     problems += check_contact(deck, [n for n, m in deck.materials.items() if not isinstance(m, Rigid)])
 
     # bodies
+    seen_names: dict[str, int] = {}
     for i, body in enumerate(deck.bodies):
         path = ["bodies", i]
+        name = body_name(body, i)
+        if not name.replace("_", "").replace("-", "").replace(".", "").isalnum():
+            add(path + ["name"], f"body name '{name}' may hold only letters, digits, '_', '-' and '.'")
+        elif name in seen_names:
+            add(path + ["name"], f"body name '{name}' is already used by bodies.{seen_names[name]}")
+        seen_names.setdefault(name, i)
         shape = body.shape
         if dim == 2 and shape in SHAPES_3D:
             add(path + ["shape"], f"'{shape}' is a 3D shape; this is a plane_strain deck")
@@ -176,6 +183,11 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
         if isinstance(body, Image):
             _check_image(body, base_dir, path, add)
     return problems
+
+
+def body_name(body, index: int) -> str:
+    """The body's name in history columns and messages."""
+    return body.name if body.name is not None else f"body{index}"
 
 
 def _check_image(body: Image, base_dir: Path, path, add):

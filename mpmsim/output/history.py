@@ -1,10 +1,21 @@
 """CSV history of global quantities: one row per history time, header 'name [unit]', after
 a first line `# title: <deck title>` (for plot labels; readers skip '#' lines).
 
-Stress is the volume-weighted Cauchy average over deformable particles (notes §8).
-Reaction forces are what each constrained face or rigid material exerts on the material,
-from the last step (instantaneous, not averaged). In 2D, forces and energies are for the
-deck's thickness.
+Every sum comes from the body sets (mpmsim/bodies: each kind sums its own arrays); the
+history adds them up and adds the run's accounts. Columns, in order:
+- time, step, dt;
+- the volume-weighted Cauchy stress average over deformable material, kinetic and strain
+  energy, the work put in (walls, rigid bodies, gravity, loads), internal energy (with
+  Mie–Grüneisen or artificial viscosity), linear momentum p<axis>, angular momentum about
+  the origin (L, or Lx, Ly, Lz in 3D; with APIC's affine part), interface energy;
+- particle velocity noise (and its null-space part when asked for);
+- reaction forces of constrained faces (what the face exerts on the material, from the last
+  step: instantaneous, not averaged);
+- each body kind's own columns (rigid materials: reaction force and displacement);
+- chosen materials' own average stress (output.material_stress);
+- per body, when the scene has two or more bodies with mass: ke_, se_, p<axis>_ and L_
+  followed by the body's name.
+In 2D, forces, energies and momenta are for the deck's thickness.
 """
 
 from __future__ import annotations
@@ -13,21 +24,27 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bodies import ANGULAR, INTERNAL, KINETIC, MOMENTUM, STRAIN, VOLUME
 from ..deck.units import unit_system
-from ..globals import INTERNAL, KINETIC, MOMENTUM, STRAIN, VOLUME, null_space_noise, particle_sums, velocity_noise
+from ..noise import null_space_noise, velocity_noise
 from ..scene.grid import FACES
 from .atomic import write_text
 
 STRESS_NAMES = ("sxx", "syy", "szz", "sxy", "syz", "sxz")
 
 
+def angular_names(dim: int) -> list[str]:
+    return ["L"] if dim == 2 else ["Lx", "Ly", "Lz"]
+
+
 class History:
     """Rows in memory; `flush` rewrites the CSV whole."""
 
-    def __init__(self, state, path: Path | None = None):
+    def __init__(self, scene, state, path: Path | None = None):
         self.path = Path(path) if path is not None else None
-        self.title = " ".join(str(state.scene.deck.title).split())  # one line
-        u = unit_system(state.scene.deck.units)
+        deck = scene.deck
+        self.title = " ".join(str(deck.title).split())  # one line
+        u = unit_system(deck.units)
         dim = state.dim
         axes = "xyz"[:dim]
         self.columns: list[tuple[str, str]] = [("time", u.time), ("step", "-"), ("dt", u.time)]
@@ -38,24 +55,33 @@ class History:
         self._internal = state.materials.tracks_energy
         if self._internal:  # Mie–Grüneisen or artificial viscosity: sum of m U
             self.columns += [("internal_energy", u.energy)]
-        self.columns += [(f"p{a}", u.momentum.split(" (")[0]) for a in axes]
+        momentum = u.momentum.split(" (")[0]
+        self.columns += [(f"p{a}", momentum) for a in axes]
+        self._angular = [2] if dim == 2 else [0, 1, 2]
+        self.columns += [(n, f"{momentum} {u.length}") for n in angular_names(dim)]
         self._interface = state.contact is not None and state.contact.spec.has_interface
         if self._interface:
             self.columns += [("interface_energy", u.energy)]
         self.columns += [("velocity_noise", "-")]
-        self._null_space = state.scene.deck.output.null_space_noise
+        self._null_space = deck.output.null_space_noise
         if self._null_space:
             self.columns += [("null_space_noise", "-")]
         self._faces = [f for f, t in zip(FACES[: 2 * dim], state.grid.face_type[: 2 * dim]) if t != 0]
         for f in self._faces:
             self.columns += [(f"F_{f}_{a}", u.force) for a in axes]
-        for r in state.materials.rigid:
-            self.columns += [(f"F_{r}_{a}", u.force) for a in axes]
-            self.columns += [(f"u_{r}_{a}", u.length) for a in axes]
+        for body in state.bodies:
+            self.columns += body.history_columns(u, dim)
         names = state.materials.deformable
-        self._material_ids = [names.index(m) for m in state.scene.deck.output.material_stress]
-        for m in state.scene.deck.output.material_stress:
+        self._material_ids = [names.index(m) for m in deck.output.material_stress]
+        for m in deck.output.material_stress:
             self.columns += [(f"{sname}@{m}", u.stress) for sname in stress_cols]
+        massive = [(b, info) for b in state.bodies if b.has_mass for info in b.bodies]
+        self._per_body = len(massive) >= 2
+        if self._per_body:
+            for _, info in massive:
+                self.columns += [(f"ke_{info.name}", u.energy), (f"se_{info.name}", u.energy)]
+                self.columns += [(f"p{a}_{info.name}", momentum) for a in axes]
+                self.columns += [(f"{n}_{info.name}", f"{momentum} {u.length}") for n in angular_names(dim)]
         self.rows: list[list[float]] = []
 
     @property
@@ -63,13 +89,18 @@ class History:
         return [n for n, _ in self.columns]
 
     def record(self, state) -> None:
-        s = particle_sums(state)
+        dim = state.dim
+        sums = [s for s in (b.sums(state) for b in state.bodies) if s is not None]
+        s = sums[0].total
+        for more in sums[1:]:
+            s = s + more.total
         row = [state.t, state.step, state.dt]
         row += [s[i] / s[VOLUME] for i in self._stress_idx]
         row += [s[KINETIC], s[STRAIN], state.work_in]
         if self._internal:
             row.append(s[INTERNAL])
-        row += list(s[MOMENTUM][: state.dim])
+        row += list(s[MOMENTUM][:dim])
+        row += [s[ANGULAR][a] for a in self._angular]
         if self._interface:
             row.append(state.interface_energy)
         row.append(velocity_noise(state))
@@ -78,13 +109,17 @@ class History:
         face_index = {f: i for i, f in enumerate(FACES)}
         for f in self._faces:
             row += list(state.reaction[face_index[f]])
-        for r in range(state.n_rigid_materials):
-            row += list(state.reaction[6 + r]) + list(state.rigid_disp[r])
+        for body in state.bodies:
+            row += body.history_values(state)
         P = state.particles
         for m in self._material_ids:
             sel = P.mat == m
             w = P.vol[sel]
             row += list((P.stress[sel][:, self._stress_idx] * w[:, None]).sum(axis=0) / max(w.sum(), 1e-300))
+        if self._per_body:
+            for part in sums:
+                for b in part.per_body:
+                    row += [b[KINETIC], b[STRAIN]] + list(b[MOMENTUM][:dim]) + [b[ANGULAR][a] for a in self._angular]
         self.rows.append(row)
 
     def column(self, name: str) -> np.ndarray:

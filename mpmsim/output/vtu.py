@@ -1,5 +1,7 @@
-"""Particles as VTK vertex cells (meshio), one .vtu per output time, and the .pvd collection
-that ParaView opens as one time series."""
+"""The output time series: each body kind contributes pieces of named parts (particles as
+VTK vertex cells; mesh bodies as their cells); pieces of one part are written together as
+one .vtu per output time, and one .pvd collection lists every part's files, so ParaView
+opens the whole series (all parts, as blocks) in one step."""
 
 from __future__ import annotations
 
@@ -11,71 +13,83 @@ import numpy as np
 
 from .atomic import atomic_path, write_text
 
+MAIN_PART = "particles"  # its files keep the plain <stem>_NNNNNN.vtu name
 
-def _pad3(a: np.ndarray) -> np.ndarray:
-    out = np.zeros((a.shape[0], 3))
-    out[:, : a.shape[1]] = a
-    return out
+
+def merge_pieces(pieces: list[dict]) -> meshio.Mesh:
+    """One mesh from pieces of one part, in order. A field missing from a piece is zero there
+    (e.g. internal energy on rigid particles)."""
+    points = np.concatenate([p["points"] for p in pieces])
+    counts = [len(p["points"]) for p in pieces]
+    names: list[str] = []
+    for p in pieces:
+        names += [k for k in p["point_data"] if k not in names]
+    data = {}
+    for name in names:
+        ref = next(p["point_data"][name] for p in pieces if name in p["point_data"])
+        data[name] = np.concatenate([p["point_data"].get(name, np.zeros((c,) + ref.shape[1:], ref.dtype))
+                                     for p, c in zip(pieces, counts)])
+    if all(p.get("cells") is None for p in pieces):
+        cells = [("vertex", np.arange(len(points), dtype=np.int64).reshape(-1, 1))]
+        return meshio.Mesh(points, cells, point_data=data)
+    cells, cell_data, offset = [], {}, 0
+    for p, c in zip(pieces, counts):
+        for ctype, conn in p["cells"]:
+            cells.append((ctype, conn + offset))
+        for k, v in p.get("cell_data", {}).items():
+            cell_data.setdefault(k, []).extend(v)
+        offset += c
+    return meshio.Mesh(points, cells, point_data=data, cell_data=cell_data or None)
+
+
+def part_meshes(state) -> dict[str, meshio.Mesh]:
+    """{part name: mesh} of every body set's pieces (parts in first-seen order)."""
+    parts: dict[str, list[dict]] = {}
+    for body in state.bodies:
+        for part, piece in body.vtu_pieces(state):
+            parts.setdefault(part, []).append(piece)
+    return {name: merge_pieces(pieces) for name, pieces in parts.items()}
 
 
 def particle_mesh(state) -> meshio.Mesh:
-    """Deformable then rigid particles with their fields (rigid: zero stress, F = I)."""
-    P, R, mats = state.particles, state.rigid, state.materials
-    dim = state.dim
-    n, nr = P.n, R.n
-    F9 = np.zeros((n + nr, 3, 3))
-    F9[:, 2, 2] = 1.0
-    F9[:n, :dim, :dim] = P.F
-    F9[n:] = np.eye(3)
-    J = np.concatenate([np.linalg.det(F9[:n]), np.ones(nr)])
-    gid_def = np.array([mats.global_id(m) for m in mats.deformable], dtype=np.int32)
-    gid_rig = np.array([mats.global_id(m) for m in mats.rigid], dtype=np.int32)
-    material = np.concatenate([gid_def[P.mat], gid_rig[R.mat] if nr else np.zeros(0, np.int32)])
-    x = np.concatenate([P.x, R.x])
-    data = {
-        "velocity": _pad3(np.concatenate([P.v, R.v])),
-        "displacement": _pad3(np.concatenate([P.x - P.x0, R.x - R.x0])),
-        "stress": np.concatenate([P.stress, np.zeros((nr, 6))]),
-        "deformation_gradient": F9.reshape(-1, 9),
-        "J": J,
-        "material": material,
-        "body": np.concatenate([P.body, R.body]).astype(np.int32),
-        "rigid": np.concatenate([np.zeros(n, np.uint8), np.ones(nr, np.uint8)]),
-        "mass": np.concatenate([P.mass, np.zeros(nr)]),
-        "volume": np.concatenate([P.vol, R.vol]),
-    }
-    if mats.tracks_energy:  # zero on particles of materials without internal energy
-        on = mats.energy[P.mat]
-        data["internal_energy"] = np.concatenate([np.where(on, P.U, 0.0), np.zeros(nr)])
-        data["pressure"] = np.concatenate([np.where(on, P.pressure, 0.0), np.zeros(nr)])
-    cells = [("vertex", np.arange(n + nr, dtype=np.int64).reshape(-1, 1))]
-    return meshio.Mesh(_pad3(x), cells, point_data=data)
+    """The particles part: deformable then rigid particles with their fields."""
+    return part_meshes(state)[MAIN_PART]
 
 
 class VtuSeries:
-    """Numbered VTU files plus the .pvd collection, rewritten whole after each file."""
+    """Numbered VTU files (one per part and output time) plus the .pvd collection, rewritten
+    whole after each output time."""
 
     def __init__(self, directory: Path, stem: str):
         self.directory = Path(directory)
         self.stem = stem
-        self.entries: list[tuple[float, str]] = []
+        self.entries: list[tuple[float, int, str]] = []  # (time, part index, file)
+        self.parts: list[str] = []
+        self.count = 0
 
     @property
     def pvd_path(self) -> Path:
         return self.directory / f"{self.stem}.pvd"
 
-    def write(self, state) -> Path:
-        name = f"{self.stem}_{len(self.entries):06d}.vtu"
-        path = self.directory / name
-        with atomic_path(path) as tmp:
-            meshio.write(tmp, particle_mesh(state), file_format="vtu")
-        self.entries.append((state.t, name))
+    def write(self, state) -> list[Path]:
+        paths = []
+        for part, mesh in part_meshes(state).items():
+            if part not in self.parts:
+                self.parts.append(part)
+            label = "" if part == MAIN_PART else f"_{part}"
+            name = f"{self.stem}{label}_{self.count:06d}.vtu"
+            path = self.directory / name
+            with atomic_path(path) as tmp:
+                meshio.write(tmp, mesh, file_format="vtu")
+            self.entries.append((state.t, self.parts.index(part), name))
+            paths.append(path)
+        self.count += 1
         self._write_pvd()
-        return path
+        return paths
 
     def _write_pvd(self) -> None:
-        rows = "\n".join(f'    <DataSet timestep="{t:.10g}" group="" part="0" file={quoteattr(f)}/>'
-                         for t, f in self.entries)
+        rows = "\n".join(f'    <DataSet timestep="{t:.10g}" group="" part="{k}" file={quoteattr(f)}/>'
+                         for t, k, f in self.entries)
         text = ('<?xml version="1.0"?>\n'
                 '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
                 f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")

@@ -11,8 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..bodies import BodyInfo
+from ..contact.spec import ContactSpec, build_contact_spec
 from ..deck.loader import LoadedDeck, raise_at
 from ..deck.schema import Image, RotationVelocity, SineVelocity
+from ..deck.semantics import body_name
 from ..materials import MaterialTable, build_material_table
 from .geometry import bbox, body_materials, inside
 from ..shapes import shape_function
@@ -30,6 +33,10 @@ class ParticleSeed:
 
 @dataclass
 class Scene:
+    """The deck resolved once: grid, materials, the bodies with their initial particles, and
+    the contact groups and laws. Everything downstream (state, integrator, output) is built
+    from this; nothing reads the deck while a run steps."""
+
     loaded: LoadedDeck
     grid: GridSpec
     materials: MaterialTable
@@ -37,6 +44,9 @@ class Scene:
     rigid: ParticleSeed
     semi_size: np.ndarray  # (dim,) undeformed particle semi-lengths
     thickness: float
+    contact: ContactSpec | None  # None: a single velocity field, nothing in contact
+    deformable_bodies: list[BodyInfo]  # deck bodies holding deformable particles
+    rigid_bodies: list[BodyInfo]  # deck bodies holding rigid particles
 
     @property
     def deck(self):
@@ -181,4 +191,7 @@ def build_scene(loaded: LoadedDeck) -> Scene:
              if not np.all((deformable.x >= load.region.min) & (deformable.x <= load.region.max), axis=1).any()]
     if empty:
         raise_at(empty, loaded)
-    return Scene(loaded, grid, mats, deformable, rigid, 0.5 * spacing, deck.thickness)
+    infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind)  # noqa: E731
+                                for i in np.unique(seed.body)]
+    return Scene(loaded, grid, mats, deformable, rigid, 0.5 * spacing, deck.thickness,
+                 build_contact_spec(deck, mats), infos(deformable, "particles"), infos(rigid, "rigid particles"))

@@ -1,8 +1,11 @@
-"""The time step as a list of named tasks, built once from the deck.
+"""The explicit MPM step as a list of named tasks, built once from the resolved scene.
 
 Only what the scene needs is in the list: no stress-first task for USL, no rigid motion
 without rigid materials, no contact tasks for one material. Each entry says why it is there,
 and `plan_tasks` also says why each task left out is not needed (`mpmsim check` prints both).
+A task is a function of the state; whatever it needs from the deck (scheme, fractions,
+tolerances) is bound when the list is built, so nothing reads the deck while a run steps.
+The explicit integrator (mpmsim/integrators/explicit.py) runs the list each step.
 """
 
 from __future__ import annotations
@@ -10,16 +13,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..contact import contact_geometry, contact_pass_1, contact_pass_2, contact_pass_3, material_fields
+from ..contact import (contact_geometry, contact_pass_1, contact_pass_2, contact_pass_3, material_fields,
+                       screen_volume)
 from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
 from .grid_update import grid_update
 from .particle_update import move_rigid, particle_update
-from .setup import compute_shape_functions, set_time_step
-from .stability import check_stability
+from .setup import compute_shape_functions, prescribed_motion
 from .stress import update_stress_first, update_stress_last
 from .xpic import xpic
-from ..contact.spec import build_contact_spec
 
 
 @dataclass(frozen=True)
@@ -48,12 +50,12 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     faces = [f for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * scene.dim]
              if getattr(deck.grid.boundaries, f) != "free"]
     tasks = [
-        Task("time step", set_time_step,
+        Task("time step", prescribed_motion(scene.materials.motions),
              f"fixed dt = {deck.time.dt:g}" if deck.time.dt else "CFL rule on current wave speeds, every step"),
         Task("shape functions", compute_shape_functions,
              f"{deck.shape_function} weights and the active node box"),
     ]
-    contact = build_contact_spec(deck, scene.materials)
+    contact = scene.contact
     if contact is not None:
         tasks.append(Task("material fields", material_fields,
                           f"{contact.n_groups} material groups: own velocity fields where they meet"))
@@ -63,7 +65,7 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     tasks.append(Task("extrapolate", extrapolate,
                       "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")))
     if contact is not None:
-        tasks.append(Task("contact geometry", contact_geometry,
+        tasks.append(Task("contact geometry", contact_geometry(screen_volume(contact, scene.grid, scene.thickness)),
                           f"{deck.contact.normal} normals, {describe_separation(deck)}, contact areas"))
     if contact is not None and contact.passes == 2:
         tasks.append(Task("contact pass 1", contact_pass_1, "contact laws on the extrapolated momenta"))
@@ -71,8 +73,9 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
         skipped.append(("contact pass 1", "contact.passes: 1"))
     energy = "; internal energy" + (", artificial viscosity" if deck.artificial_viscosity else "") \
         if scene.materials.tracks_energy else ""
+    fraction = 0.5 if upd.stress == "usavg" else 1.0
     if upd.stress in ("usf", "usavg"):
-        tasks.append(Task("update stress first", update_stress_first,
+        tasks.append(Task("update stress first", update_stress_first(fraction),
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"
                           + energy))
     else:
@@ -89,12 +92,12 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
                           + ("; interface forces and energy" if contact.has_interface else "")))
     if upd.scheme in ("xpic", "fmpm"):
         what = "start-of-step" if upd.scheme == "xpic" else "updated"
-        tasks.append(Task("xpic", xpic, f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
+        tasks.append(Task("xpic", xpic(upd.scheme, upd.order), f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
                                         f"{upd.order - 1} extra grid passes"))
     else:
         skipped.append(("xpic", f"{upd.scheme} update needs no grid filter"))
     name = f"{upd.scheme}({upd.order})" if upd.order else upd.scheme
-    tasks.append(Task("particle update", particle_update, f"{name} velocity and position update"))
+    tasks.append(Task("particle update", particle_update(upd.scheme), f"{name} velocity and position update"))
     if n_rigid:
         tasks.append(Task("move rigid", move_rigid, "rigid materials follow their prescribed velocity"))
     else:
@@ -105,9 +108,8 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
             tasks.append(Task("contact pass 3", contact_pass_3, "contact laws on the re-extrapolated momenta"))
     if upd.stress in ("usl", "usavg"):
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
-        tasks.append(Task("update stress last", update_stress_last,
+        tasks.append(Task("update stress last", update_stress_last(fraction, upd.reextrapolate),
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from {source}" + energy))
     else:
         skipped.append(("update stress last", f"stress update {upd.stress}"))
-    tasks.append(Task("check stability", check_stability, "NaN, inverted particles, leaving the grid, energy growth"))
     return tasks, skipped

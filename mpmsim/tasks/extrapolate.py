@@ -98,12 +98,12 @@ def p2g_rigid_volume(nodes, S, vol, mat, rigid_vol):
 
 def _scatter_momentum(state, with_mass: bool) -> None:
     f, box, P, sd, g = state.fields, state.box, state.particles, state.sd, state.grid
-    affine = state.scheme_name == "apic"
+    affine = P.affine
     if affine:
-        apic_affine(sd.nodes, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, state.xref, P.B, state.nchunk,
+        apic_affine(sd.nodes, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, P.xref, P.B, state.nchunk,
                     P.C)
     p2g_momentum(box.order, box.ptr, state.field_index, sd.S, P.mass, P.v, with_mass, f.mass, f.mom, affine, P.C,
-                 sd.lowest, state.entry_offsets, g.origin, g.h, state.xref)
+                 sd.lowest, state.entry_offsets, g.origin, g.h, P.xref)
 
 
 def extrapolate(state) -> None:

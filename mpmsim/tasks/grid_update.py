@@ -101,7 +101,7 @@ def grid_update(state) -> None:
     work = np.zeros(nc)
     grid_update_kernel(box.fields, box.fnodes, box.skip, box.shape, state.dt, f.mass, f.mom, f.force, g.face_type,
                        g.wall_index,
-                       f.rigid_vol, state.materials.constrain, state.rigid_v_start, state.rigid_v_end, nc, f.vnew,
+                       f.rigid_vol, state.materials.constrain, state.rigid.v_start, state.rigid.v_end, nc, f.vnew,
                        f.acc, f.vstart, reaction, work)
     state.reaction[:] = reaction.sum(axis=0)
     state.work_in += float(work.sum())

@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range
-from .stress import BAD_LEFT_GRID, BAD_NAN
+from ..faults import BAD_LEFT_GRID, BAD_NAN
 
 FLIP, PIC, XPIC, FMPM, APIC = 0, 1, 2, 3, 4
 SCHEMES = {"flip": FLIP, "pic": PIC, "xpic": XPIC, "fmpm": FMPM, "apic": APIC}
@@ -114,28 +114,33 @@ def particle_update_kernel(nodes, S, lowest, offs, origin, h, vnew, acc, vstart,
         chunk_code[c] = code
 
 
-def particle_update(state) -> None:
-    P, f, sd, g = state.particles, state.fields, state.sd, state.grid
-    nc = state.nchunk
-    gwork = np.zeros(nc)
-    bad = np.full(nc, -1, dtype=np.int64)
-    code = np.zeros(nc, dtype=np.int64)
-    particle_update_kernel(state.field_index, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, f.vnew, f.acc, f.vstart,
-                           f.vstar,
-                           state.dt, state.scheme, P.x, P.v, P.B, P.mass, state.gravity, *state.particle_bounds,
-                           nc, gwork, bad, code)
-    state.work_in += float(gwork.sum())
-    if state.loads is not None:
-        state.work_in += state.loads.work_of_step(P.x)
-    hits = np.nonzero(bad >= 0)[0]
-    if len(hits):
-        state.flags.set(int(bad[hits[0]]), int(code[hits[0]]), 0.0)
+def particle_update(scheme: str):
+    """The particle update of one scheme (flip, pic, xpic, fmpm, apic)."""
+    code_of_scheme = SCHEMES[scheme]
+
+    def run(state) -> None:
+        P, f, sd, g = state.particles, state.fields, state.sd, state.grid
+        nc = state.nchunk
+        gwork = np.zeros(nc)
+        bad = np.full(nc, -1, dtype=np.int64)
+        code = np.zeros(nc, dtype=np.int64)
+        particle_update_kernel(state.field_index, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, f.vnew, f.acc,
+                               f.vstart, f.vstar, state.dt, code_of_scheme, P.x, P.v, P.B, P.mass, state.gravity,
+                               *state.particle_bounds, nc, gwork, bad, code)
+        state.work_in += float(gwork.sum())
+        if state.loads is not None:
+            state.work_in += state.loads.work_of_step(P.x)
+        hits = np.nonzero(bad >= 0)[0]
+        if len(hits):
+            state.flags.set(int(bad[hits[0]]), int(code[hits[0]]), 0.0)
+
+    return run
 
 
 def move_rigid(state) -> None:
     """Rigid particles: x += dt (v(t) + v(t+dt))/2, V = v(t+dt)."""
     R = state.rigid
-    mean = 0.5 * (state.rigid_v_start + state.rigid_v_end)
+    mean = 0.5 * (R.v_start + R.v_end)
     R.x += state.dt * mean[R.mat]
-    R.v[:] = state.rigid_v_end[R.mat]
-    state.rigid_disp += state.dt * mean
+    R.v[:] = R.v_end[R.mat]
+    R.disp += state.dt * mean

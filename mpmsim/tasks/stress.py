@@ -14,26 +14,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..faults import BAD_EOS, BAD_INVERTED, BAD_NAN
 from ..gridops import chunk_range
 from ..materials import MIE_GRUNEISEN
 from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, bulk_wave_modulus,
                                  constitutive_update, det3)
 from .boundary import set_grid_velocity
-
-BAD_NONE = 0
-BAD_NAN = 1
-BAD_INVERTED = 2
-BAD_LEFT_GRID = 3
-BAD_ENERGY = 4
-BAD_EOS = 8
-BAD_MESSAGES = {
-    BAD_EOS: "Mie–Grüneisen compression reached eta = 1 - J = 1/S1 (1 - S1 eta = {value:.4g}), where the "
-             "pressure of Eq. (51) has no finite value: the load is beyond the EOS (check S1 and the "
-             "drive), or the run is unstable (try a smaller time.cfl or artificial viscosity)",
-    BAD_NAN: "stress or velocity is not finite (NaN/Inf)",
-    BAD_INVERTED: "J = {value:.4g} <= 0: the particle inverted",
-    BAD_LEFT_GRID: "the particle left the grid domain",
-}
 
 
 @njit(parallel=True, cache=True)
@@ -154,25 +140,30 @@ def _update_stress(state, dt, gvel) -> None:
         state.flags.set(int(bad[c]), int(code[c]), float(value[c]))
 
 
-def stress_fraction(state) -> float:
-    return 0.5 if state.scene.deck.update.stress == "usavg" else 1.0
+def update_stress_first(fraction: float):
+    """USF/USAVG (fraction 1 or 1/2 of the step): velocities from the initial extrapolation,
+    BCs at the step's start."""
+
+    def run(state) -> None:
+        set_grid_velocity(state, state.rigid.v_start)
+        _update_stress(state, fraction * state.dt, state.fields.vel)
+
+    return run
 
 
-def update_stress_first(state) -> None:
-    """USF/USAVG: velocities from the initial extrapolation, BCs at the step's start."""
-    set_grid_velocity(state, state.rigid_v_start)
-    _update_stress(state, stress_fraction(state) * state.dt, state.fields.vel)
+def update_stress_last(fraction: float, reextrapolate: bool):
+    """USL/USAVG (fraction 1 or 1/2 of the step). Default ("+", reextrapolate): from the
+    momenta the re-extrapolate task rebuilt (and contact pass 3 corrected), with velocity
+    conditions at the step's end. With `update.reextrapolate: false` ("-"): from the updated
+    grid velocity v+ directly, so the stress and the FLIP position update integrate the same
+    grid field (much less FLIP ringing in long compressions; docs/stability.md)."""
 
+    def run(state) -> None:
+        if reextrapolate:
+            set_grid_velocity(state, state.rigid.v_end)
+            gvel = state.fields.vel
+        else:
+            gvel = state.fields.vnew
+        _update_stress(state, fraction * state.dt, gvel)
 
-def update_stress_last(state) -> None:
-    """USL/USAVG. Default ("+"): from the momenta the re-extrapolate task rebuilt (and contact
-    pass 3 corrected), with velocity conditions at the step's end. With
-    `update.reextrapolate: false` ("-"): from the updated grid velocity v+ directly, so the
-    stress and the FLIP position update integrate the same grid field (much less FLIP
-    ringing in long compressions; docs/stability.md)."""
-    if state.scene.deck.update.reextrapolate:
-        set_grid_velocity(state, state.rigid_v_end)
-        gvel = state.fields.vel
-    else:
-        gvel = state.fields.vnew
-    _update_stress(state, stress_fraction(state) * state.dt, gvel)
+    return run

@@ -149,12 +149,20 @@ def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape
                 vstar[f, d] += dv[f, d]
 
 
-def xpic(state) -> None:
+def xpic(scheme: str, order: int):
+    """XPIC(order) (scheme xpic) or FMPM(order) (scheme fmpm)."""
+
+    def run(state) -> None:
+        _xpic(state, scheme == "fmpm", order)
+
+    return run
+
+
+def _xpic(state, fmpm: bool, order: int) -> None:
     f, g, box, sd = state.fields, state.grid, state.box, state.sd
-    upd = state.scene.deck.update
     cs = state.contact
     dim = state.dim
-    if cs is None or upd.scheme == "fmpm" or cs.spec.passes == 1:
+    if cs is None or fmpm or cs.spec.passes == 1:
         n_cn, shift, contact = 0, _NO_SHIFT[dim], None
     else:
         ns = cs.n_slots
@@ -175,8 +183,8 @@ def xpic(state) -> None:
     impulse = np.zeros((nc,) + state.reaction.shape)
     work = np.zeros(nc)
     xpic_series(box.order, box.ptr, state.field_index, sd.S, state.particles.mass, box.fields, box.fnodes, box.skip,
-                box.n_box, box.shape, f.mass, f.vnew, f.vstart, shift, shift is not _NO_SHIFT[dim], upd.scheme == "fmpm", upd.order, g.face_type,
-                g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid_v_end, has_walls(state), n_cn,
+                box.n_box, box.shape, f.mass, f.vnew, f.vstart, shift, shift is not _NO_SHIFT[dim], fmpm, order, g.face_type,
+                g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid.v_end, has_walls(state), n_cn,
                 c.cn_nodes, c.cn_ptr, c.slot_group, spec_groups, sep, c.role, c.partner, c.normal, c.delta2, c.law,
                 c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, c.n_con if n_cn else 0, c.con_ptr,
                 c.ent_a, c.ent_b, c.ent_w, slot_info(state), nc, f.dv, f.tmp, f.vstar,

@@ -99,7 +99,7 @@ def uniaxial_sxx(lam):
 
 def grip_stretch(sim) -> float:
     """The stretch the grip imposes on the 12 mm bar."""
-    return 1.0 + float(sim.state.rigid_disp[0, 0]) / 12.0
+    return 1.0 + float(sim.state.rigid.disp[0, 0]) / 12.0
 
 
 def interior_deviation(sim) -> float:

@@ -159,7 +159,7 @@ def interface_geometry(mid: bool, strain, offset):
     P.x[:] = P.x0 @ (np.eye(2) + E).T
     P.F[:] = np.eye(2) + E
     P.x[P.x0[:, 0] > (4.5 if mid else 4.0)] += offset
-    for task in sim.tasks:
+    for task in sim.integrator.tasks:
         task.run(st)
         if task.name == "contact geometry":
             break

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from mpmsim.deck.overrides import with_overrides
-from mpmsim.globals import null_space_noise, velocity_noise
+from mpmsim.noise import null_space_noise, velocity_noise
 from mpmsim.scene import build_scene
 from mpmsim.shapes import ShapeData
 from mpmsim.solver import Simulation
@@ -23,7 +23,7 @@ def disk_state():
 def grid_field_on_particles(st, w):
     P = st.particles
     sd = ShapeData.empty(P.n, st.sd.S.shape[1], st.dim)
-    st.shape.compute(P.x, P.F, st.scene.semi_size, st.grid, st.nchunk, sd)
+    st.shape.compute(P.x, P.F, P.semi, st.grid, st.nchunk, sd)
     return np.einsum("pk,pkd->pd", sd.S, w[sd.nodes])
 
 

@@ -17,7 +17,7 @@ def angular_momentum(sim) -> float:
     """2D: sum m (x x v) + sum m (B_yx - B_xy) (the affine part counts for APIC)."""
     P = sim.state.particles
     L = float(np.sum(P.mass * (P.x[:, 0] * P.v[:, 1] - P.x[:, 1] * P.v[:, 0])))
-    if sim.state.scheme_name == "apic":
+    if sim.state.particles.affine:
         L += float(np.sum(P.mass * (P.B[:, 1, 0] - P.B[:, 0, 1])))
     return L
 

@@ -100,7 +100,7 @@ def test_contact_passes_conserve_momentum_at_pair_nodes():
                 applied.append(int(state.contact.contact2[: state.contact.n_slots].sum()))
         return Task(task.name, run, task.why)
 
-    sim.tasks = [checked(t) if t.name in worst else t for t in sim.tasks]
+    sim.integrator.tasks = [checked(t) if t.name in worst else t for t in sim.integrator.tasks]
     for _ in range(300):
         sim.step()
     applied = sum(applied)
@@ -188,7 +188,7 @@ def ellipse_run(h, **over):
     over.update({"grid.cell_size": h, "bodies.1.max": [1.0, 2.0 + 2 * h]})
     sim, _ = run_example("ellipse_box", **over)
     P = sim.state.particles
-    return sim, overlap_fraction(P.x, P.F, P.mat, sim.state.scene.semi_size, h / 8)
+    return sim, overlap_fraction(P.x, P.F, P.mat, sim.scene.semi_size, h / 8)
 
 
 def test_lr_keeps_ellipses_apart_and_cp_does_not():

@@ -74,5 +74,5 @@ def test_flip_ringing_blow_up_is_detected_by_the_energy_check():
     sim = Simulation(build_scene(deck_from(deck)))
     with pytest.raises(InstabilityError, match="energy"):
         sim.run()
-    strain = -sim.state.rigid_disp[0, 1] / H
+    strain = -sim.state.rigid.disp[0, 1] / H
     assert 0.08 < strain < 0.2

@@ -1,55 +1,10 @@
-"""Global sums over particles: volume-integrated stress, volume, energies, momentum."""
+"""Velocity noise of the particles: how much of their velocity field the grid cannot carry
+(history columns velocity_noise and null_space_noise; history times only)."""
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
-
-from .gridops import chunk_range
-from .materials.kernels import det3, energy_density
-
-# slots of the particle_sums result
-STRESS, VOLUME, KINETIC, STRAIN, MOMENTUM, INTERNAL = slice(0, 6), 6, 7, 8, slice(9, 12), 12
-NSUMS = 13
-
-
-@njit(parallel=True, cache=True)
-def global_sums(stress, vol, v, mass, F, mat, code, props, energy, U, nchunk, out):
-    """Per chunk: [vol*stress (6), vol, kinetic, strain energy, momentum (3), internal energy]."""
-    n, dim = v.shape
-    for c in prange(nchunk):
-        start, stop = chunk_range(c, nchunk, n)
-        F3 = np.zeros((3, 3))
-        acc = np.zeros(NSUMS)
-        for p in range(start, stop):
-            vp = vol[p]
-            for a in range(6):
-                acc[a] += vp * stress[p, a]
-            acc[6] += vp
-            v2 = 0.0
-            for d in range(dim):
-                v2 += v[p, d] * v[p, d]
-                acc[9 + d] += mass[p] * v[p, d]
-            acc[7] += 0.5 * mass[p] * v2
-            for a in range(3):
-                for b in range(3):
-                    F3[a, b] = F[p, a, b] if (a < dim and b < dim) else (1.0 if a == b else 0.0)
-            J = det3(F3)
-            mt = mat[p]
-            acc[8] += vp * energy_density(code[mt], props[mt], F3, stress[p], J)
-            if energy[mt]:
-                acc[12] += mass[p] * U[p]
-        for a in range(NSUMS):
-            out[c, a] = acc[a]
-
-
-def particle_sums(state) -> np.ndarray:
-    """[vol*stress (6), volume, kinetic energy, strain energy, momentum (3), internal energy]
-    summed over particles."""
-    P, m = state.particles, state.materials
-    out = np.zeros((state.nchunk, NSUMS))
-    global_sums(P.stress, P.vol, P.v, P.mass, P.F, P.mat, m.type_code, m.props, m.energy, P.U, state.nchunk, out)
-    return out.sum(axis=0)
+from numba import njit
 
 
 @njit(cache=True)
@@ -90,14 +45,14 @@ def _current_shape_data(state):
     from .shapes import ShapeData
 
     P = state.particles
-    scratch = state._noise_scratch
+    scratch = state.noise_scratch
     if scratch is None:
         K = state.sd.S.shape[1]
         scratch = (ShapeData.empty(P.n, K, state.dim), np.zeros(state.grid.n_nodes),
                    np.zeros((state.grid.n_nodes, state.dim)))
-        state._noise_scratch = scratch
+        state.noise_scratch = scratch
     sd = scratch[0]
-    _, (bad, _) = state.shape.compute(P.x, P.F, state.scene.semi_size, state.grid, state.nchunk, sd)
+    _, (bad, _) = state.shape.compute(P.x, P.F, P.semi, state.grid, state.nchunk, sd)
     return None if bad >= 0 else sd
 
 
@@ -109,7 +64,7 @@ def velocity_noise(state) -> float:
     sd = _current_shape_data(state)
     if sd is None:
         return float("nan")
-    _, gm, gp = state._noise_scratch
+    _, gm, gp = state.noise_scratch
     P = state.particles
     return float(_noise_kernel(sd.nodes, sd.S, P.mass, P.v, gm, gp))
 

@@ -1,0 +1,86 @@
+"""Bodies: what each kind of body brings to a run.
+
+A scene is a list of bodies in deck order; each body is of one *kind*. All bodies of a kind
+share one struct-of-arrays set in the state (a `BodySet`), with a per-item body index, so
+kernels run over the whole set at once. A kind brings:
+
+- its state arrays (the dataclass fields of its set),
+- its sums for the history and the energy check (`sums`: totals over the set and one row per
+  body, in the `Sums` layout below),
+- its history columns beyond those sums (`history_columns` / `history_values`),
+- its part of the output time series (`vtu_pieces`: named point/cell sets; pieces of the same
+  part from several kinds are written as one file),
+- its own checks after a step (`check`: a stop message or None).
+
+Kinds today: deformable particles (`particles.Particles`) and rigid particles
+(`rigid.RigidParticles`). A new kind (an FEM mesh body, a rigid mesh) is a new `BodySet`
+subclass: the history, the output and the run loop ask every set in `state.bodies` the same
+questions and need no change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# layout of a sums row (totals of a set, or one body): volume-integrated Cauchy stress
+# [xx, yy, zz, xy, yz, xz], volume, kinetic, strain and internal energy, linear and angular
+# momentum (about the origin; with APIC's affine part), mass
+STRESS, VOLUME, KINETIC, STRAIN, MOMENTUM, INTERNAL = slice(0, 6), 6, 7, 8, slice(9, 12), 12
+ANGULAR, MASS = slice(13, 16), 16
+NSUMS = 17
+
+
+@dataclass(frozen=True)
+class BodyInfo:
+    """One deck body: its index in the deck's `bodies` list, its name, its kind."""
+
+    index: int
+    name: str
+    kind: str
+
+
+@dataclass
+class Sums:
+    """Totals over a body set and one row per body (same layout, `NSUMS` entries)."""
+
+    total: np.ndarray  # (NSUMS,)
+    per_body: np.ndarray  # (n_bodies, NSUMS), rows in the set's `bodies` order
+
+
+class BodySet:
+    """Base of every body kind's state. Subclasses are dataclasses of arrays."""
+
+    kind = "body"
+    has_mass = False  # whether `sums` returns sums (else None)
+
+    @property
+    def bodies(self) -> list[BodyInfo]:
+        """The deck bodies this set holds."""
+        return self.infos
+
+    def sums(self, state) -> Sums | None:
+        """Mass-carrying kinds return their sums; kinds without mass (prescribed rigid motion)
+        return None."""
+        return None
+
+    def history_columns(self, units, dim: int) -> list[tuple[str, str]]:
+        return []
+
+    def history_values(self, state) -> list[float]:
+        return []
+
+    def vtu_pieces(self, state) -> list[tuple[str, dict]]:
+        """[(part name, piece)]: a piece is {"points": (n, 3), "cells": [(type, array)] or None
+        for vertex cells, "point_data": {...}, "cell_data": {...}}."""
+        return []
+
+    def check(self, state, units) -> tuple[str, str] | None:
+        """(verb, what) if something of this set went bad this step, else None; the run stops
+        with "<verb> at <step and time>: <what>"."""
+        return None
+
+    def fastest(self, state, units) -> str | None:
+        """Where this set moves fastest (for an energy-growth stop message), or None."""
+        return None

@@ -1,0 +1,193 @@
+"""Deformable particle bodies: material points carrying mass, volume, F and stress.
+
+Every deformable particle body of the deck lives in one struct-of-arrays set; `body` holds
+each particle's deck body index and `local_body` its row among this set's bodies (for the
+per-body sums). Kernels over particles never branch on rigidity: rigid particles are a kind
+of their own (`rigid.py`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from ..faults import MESSAGES
+from ..gridops import chunk_range
+from ..materials.kernels import det3, energy_density
+from . import NSUMS, BodyInfo, BodySet, Sums
+
+
+@dataclass
+class Particles(BodySet):
+    x: np.ndarray  # (n, dim) position
+    v: np.ndarray  # (n, dim) velocity
+    mass: np.ndarray  # (n,)
+    vol0: np.ndarray  # (n,) initial volume
+    vol: np.ndarray  # (n,) current volume = vol0 * J
+    F: np.ndarray  # (n, dim, dim) deformation gradient (2D: F33 = 1)
+    stress: np.ndarray  # (n, 6) Cauchy stress, Voigt [xx, yy, zz, xy, yz, xz]
+    mat: np.ndarray  # (n,) deformable material index
+    body: np.ndarray  # (n,) deck body index
+    x0: np.ndarray  # (n, dim) initial position
+    B: np.ndarray  # (n, dim, dim) APIC affine matrix (a (1, dim, dim) placeholder otherwise)
+    C: np.ndarray  # (n, dim, dim) APIC B D^-1 for the current step (placeholder otherwise)
+    # with Mie–Grüneisen or artificial viscosity (else (1,) placeholders the kernels never read):
+    U: np.ndarray  # (n,) internal energy per unit mass
+    pressure: np.ndarray  # (n,) pressure (Mie–Grüneisen: the EOS pressure, without q)
+    q: np.ndarray  # (n,) artificial-viscosity pressure in the stress since the last update
+    xref: np.ndarray  # positions the shape functions were evaluated at (APIC: a copy kept
+    # after the particles move; otherwise x itself)
+    semi: np.ndarray  # (dim,) undeformed particle semi-lengths
+    local_body: np.ndarray  # (n,) row of the particle's body in `infos`
+    infos: list  # BodyInfo of each deformable particle body
+
+    kind = "particles"
+    has_mass = True
+
+    @property
+    def n(self) -> int:
+        return len(self.mass)
+
+    @property
+    def affine(self) -> bool:
+        """Particles carry an APIC affine velocity B."""
+        return len(self.B) == self.n and self.n > 0
+
+    @classmethod
+    def from_seed(cls, seed, density, semi, infos: list[BodyInfo], affine: bool, energy: bool) -> "Particles":
+        dim = seed.x.shape[1]
+        mass = seed.vol * density[seed.mat]
+        n = len(mass)
+        F = np.zeros((n, dim, dim))
+        for a in range(dim):
+            F[:, a, a] = 1.0
+        na = n if affine else 1
+        ne = n if energy else 1
+        x = seed.x.copy()
+        row = {b.index: r for r, b in enumerate(infos)}
+        local = np.array([row[int(b)] for b in seed.body], dtype=np.int64) if n else np.zeros(0, dtype=np.int64)
+        return cls(x, seed.v.copy(), mass, seed.vol.copy(), seed.vol.copy(), F, np.zeros((n, 6)), seed.mat.copy(),
+                   seed.body.copy(), seed.x.copy(), np.zeros((na, dim, dim)), np.zeros((na, dim, dim)), np.zeros(ne),
+                   np.zeros(ne), np.zeros(ne), x.copy() if affine else x, np.asarray(semi, float), local, infos)
+
+    def sums(self, state) -> Sums:
+        m = state.materials
+        nb = len(self.infos)
+        out = np.zeros((state.nchunk, NSUMS))
+        out_body = np.zeros((state.nchunk, max(nb, 1), NSUMS))
+        particle_sums(self.stress, self.vol, self.v, self.mass, self.F, self.mat, m.type_code, m.props, m.energy,
+                      self.U, self.x, self.B, self.affine, self.local_body, state.nchunk, out, out_body)
+        return Sums(out.sum(axis=0), out_body.sum(axis=0)[:nb])
+
+    def vtu_pieces(self, state) -> list[tuple[str, dict]]:
+        mats, dim, n = state.materials, state.dim, self.n
+        F9 = np.zeros((n, 3, 3))
+        F9[:, 2, 2] = 1.0
+        F9[:, :dim, :dim] = self.F
+        gid = np.array([mats.global_id(m) for m in mats.deformable], dtype=np.int32)
+        data = {
+            "velocity": pad3(self.v),
+            "displacement": pad3(self.x - self.x0),
+            "stress": self.stress,
+            "deformation_gradient": F9.reshape(-1, 9),
+            "J": np.linalg.det(F9),
+            "material": gid[self.mat],
+            "body": self.body.astype(np.int32),
+            "rigid": np.zeros(n, np.uint8),
+            "mass": self.mass,
+            "volume": self.vol,
+        }
+        if mats.tracks_energy:  # zero on particles of materials without internal energy
+            on = mats.energy[self.mat]
+            data["internal_energy"] = np.where(on, self.U, 0.0)
+            data["pressure"] = np.where(on, self.pressure, 0.0)
+        return [("particles", {"points": pad3(self.x), "point_data": data})]
+
+    def describe(self, state, p: int, units) -> str:
+        name = state.materials.deformable[int(self.mat[p])]
+        pos = ", ".join(f"{c:.6g}" for c in self.x[p])
+        return f"particle {p} (material '{name}', body {int(self.body[p])}) at ({pos}) {units.length}"
+
+    def check(self, state, units) -> tuple[str, str] | None:
+        fl = state.flags
+        if fl.bad_particle < 0:
+            return None
+        what = MESSAGES[fl.bad_code].format(value=fl.bad_value)
+        return "unstable", f"{self.describe(state, fl.bad_particle, units)}: {what}"
+
+    def fastest(self, state, units) -> str | None:
+        if self.n == 0:
+            return None
+        return self.describe(state, int(np.argmax(np.sum(self.v**2, axis=1))), units)
+
+
+def pad3(a: np.ndarray) -> np.ndarray:
+    out = np.zeros((a.shape[0], 3))
+    out[:, : a.shape[1]] = a
+    return out
+
+
+@njit(parallel=True, cache=True)
+def particle_sums(stress, vol, v, mass, F, mat, code, props, energy, U, x, B, affine, local_body, nchunk, out,
+                  out_body):
+    """Per chunk, in the `bodies.Sums` layout: totals (out) and per body (out_body). Angular
+    momentum about the origin includes APIC's affine part, eps_abc B_cb per unit mass."""
+    n, dim = v.shape
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        F3 = np.zeros((3, 3))
+        acc = np.zeros(NSUMS)
+        row = np.zeros(NSUMS)
+        for p in range(start, stop):
+            for a in range(NSUMS):
+                row[a] = 0.0
+            vp = vol[p]
+            for a in range(6):
+                acc[a] += vp * stress[p, a]
+                row[a] = vp * stress[p, a]
+            acc[6] += vp
+            row[6] = vp
+            v2 = 0.0
+            for d in range(dim):
+                v2 += v[p, d] * v[p, d]
+                acc[9 + d] += mass[p] * v[p, d]
+                row[9 + d] = mass[p] * v[p, d]
+            acc[7] += 0.5 * mass[p] * v2
+            row[7] = 0.5 * mass[p] * v2
+            for a in range(3):
+                for b in range(3):
+                    F3[a, b] = F[p, a, b] if (a < dim and b < dim) else (1.0 if a == b else 0.0)
+            J = det3(F3)
+            mt = mat[p]
+            e = vp * energy_density(code[mt], props[mt], F3, stress[p], J)
+            acc[8] += e
+            row[8] = e
+            if energy[mt]:
+                acc[12] += mass[p] * U[p]
+                row[12] = mass[p] * U[p]
+            row[16] = mass[p]
+            # angular momentum m x cross v (+ m eps_abc B_cb)
+            if dim == 2:
+                row[15] = mass[p] * (x[p, 0] * v[p, 1] - x[p, 1] * v[p, 0])
+                if affine:
+                    row[15] += mass[p] * (B[p, 1, 0] - B[p, 0, 1])
+            else:
+                row[13] = mass[p] * (x[p, 1] * v[p, 2] - x[p, 2] * v[p, 1])
+                row[14] = mass[p] * (x[p, 2] * v[p, 0] - x[p, 0] * v[p, 2])
+                row[15] = mass[p] * (x[p, 0] * v[p, 1] - x[p, 1] * v[p, 0])
+                if affine:
+                    row[13] += mass[p] * (B[p, 2, 1] - B[p, 1, 2])
+                    row[14] += mass[p] * (B[p, 0, 2] - B[p, 2, 0])
+                    row[15] += mass[p] * (B[p, 1, 0] - B[p, 0, 1])
+            for a in range(13, NSUMS):
+                acc[a] += row[a]
+            b = local_body[p]
+            for a in range(NSUMS):
+                out_body[c, b, a] += row[a]
+        for a in range(NSUMS):
+            out[c, a] = acc[a]
+
+
+

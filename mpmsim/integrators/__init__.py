@@ -1,0 +1,43 @@
+"""Integrators: how a step advances the state. The run loop (mpmsim/solver.py) talks to every
+integrator through this small interface and knows nothing else of the method:
+
+    stable_dt(state) -> float     the step the method allows now (the loop cuts it at time.end)
+    advance(state, dt) -> float   take one step of at most dt; return the step taken
+    timers -> {name: seconds}     where the stepping time went (the run's timing table)
+    plan -> [(name, why)], skipped -> [(name, why not)]   what a step does (`mpmsim check`)
+
+Before `advance` the loop has set `state.dt` (= dt) and `state.dt_rule` (the uncut stable
+step) and cleared `state.flags`; after it, the loop checks stability, advances the clock and
+writes history and output. An integrator may read and change any state array; it must
+leave the state consistent at the end of `advance` (positions, velocities and stresses at
+t + dt).
+
+Integrators: `explicit` (explicit MPM, the step as a task list; explicit.py). New methods
+(an FEM explicit step, an implicit incremental-potential solve) are new classes here and
+an entry in `make_integrator`.
+"""
+
+from __future__ import annotations
+
+
+class Integrator:
+    name = "integrator"
+
+    def __init__(self):
+        self.timers: dict[str, float] = {}
+        self.plan: list[tuple[str, str]] = []
+        self.skipped: list[tuple[str, str]] = []
+
+    def stable_dt(self, state) -> float:  # pragma: no cover - every integrator defines it
+        raise NotImplementedError
+
+    def advance(self, state, dt: float) -> float:  # pragma: no cover
+        raise NotImplementedError
+
+
+def make_integrator(scene) -> Integrator:
+    """The deck's integrator for this scene."""
+    from .explicit import ExplicitMPM
+
+    kinds = {"explicit": ExplicitMPM}
+    return kinds[scene.deck.integrator](scene)

@@ -1,0 +1,68 @@
+"""The run loop's check after every step: stop the run, with when/where/which body, when the
+state goes bad.
+
+Each body set reports its own faults (kernels flag the first bad particle they meet: NaN/Inf,
+J <= 0, left the grid; a rigid body leaving the grid). Every `stability.check_every` steps
+the total mechanical energy of all bodies (kinetic + strain + internal + energy stored in
+interfaces) is compared with the energy supplied (initial energy + work of walls, rigid
+bodies, gravity and loads); growth beyond `stability.energy_tolerance` stops the run.
+"""
+
+from __future__ import annotations
+
+from .bodies import INTERNAL, KINETIC, STRAIN
+from .deck.units import unit_system
+from .errors import InstabilityError
+
+REMEDY = ("try a smaller time.cfl, update.scheme: pic, or update.stress: usavg; raise "
+          "stability.energy_tolerance to accept the drift")
+
+
+def excess_text(excess: float, supplied: float) -> str:
+    return f"{100 * excess / supplied:.1f}%" if supplied > 0.0 else f"{excess:.4g}"
+
+
+def total_sums(state):
+    """Sums over every body set that carries mass (bodies.Sums layout), or None."""
+    total = None
+    for body in state.bodies:
+        s = body.sums(state)
+        if s is None:
+            continue
+        total = s.total if total is None else total + s.total
+    return total
+
+
+class StabilityCheck:
+    def __init__(self, scene):
+        stab = scene.deck.stability
+        self.tolerance = stab.energy_tolerance
+        self.every = stab.check_every
+        self.units = unit_system(scene.deck.units)
+
+    def where(self, state) -> str:
+        """The failing step: its number (1-based) and its end time."""
+        return f"step {state.step + 1}, t = {state.t + state.dt:.6g} {self.units.time}"
+
+    def __call__(self, state) -> None:
+        for body in state.bodies:
+            fault = body.check(state, self.units)
+            if fault is not None:
+                verb, what = fault
+                raise InstabilityError(f"{verb} at {self.where(state)}: {what}", state.t, state.step)
+        if (state.step + 1) % self.every:
+            return
+        sums = total_sums(state)
+        if sums is None:
+            return
+        total = sums[KINETIC] + sums[STRAIN] + sums[INTERNAL] + state.interface_energy  # interfaces store energy
+        supplied = state.energy0 + state.work_in
+        excess = total - supplied
+        if excess > self.tolerance * (state.energy0 + abs(state.work_in)) + state.energy_floor:
+            fastest = "; ".join(f for f in (b.fastest(state, self.units) for b in state.bodies) if f)
+            stored = f" + {state.interface_energy:.4g} (interfaces)" if state.interface_energy else ""
+            raise InstabilityError(
+                f"unstable at {self.where(state)}: energy grew without a source: kinetic + strain + internal = "
+                f"{sums[KINETIC]:.4g} + {sums[STRAIN]:.4g} + {sums[INTERNAL]:.4g}{stored} exceeds the energy supplied "
+                f"({supplied:.4g}) by {excess_text(excess, supplied)}; fastest is {fastest}; {REMEDY}",
+                state.t, state.step)
