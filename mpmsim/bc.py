@@ -24,9 +24,12 @@ NO_BC = -1
 RIGID_OWNER = 6  # owners 0..5 are faces in FACES order
 
 
-@njit(cache=True, inline="always")
-def node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel):
-    """(owner, imposed velocity) for component d of a node; owner NO_BC if free."""
+@njit(cache=True)
+def node_bc(node, i, j, k, d, dim, grid, rigid):
+    """(owner, imposed velocity) for component d of a node (i, j, k); owner NO_BC if free.
+    grid: views.GridView; rigid: views.RigidHold."""
+    constrain, rigid_vol, rig_vel = rigid.constrain, rigid.volume, rigid.velocity
+    face_type, wall_index = grid.face_type, grid.wall_index
     wsum = 0.0
     vsum = 0.0
     for r in range(constrain.shape[0]):
@@ -49,10 +52,11 @@ def node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, 
     return NO_BC, 0.0
 
 
-@njit(cache=True, inline="always")
-def ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape):
+@njit(cache=True)
+def ghost_mirror(i, j, k, d, dim, grid):
     """(mirror node or -2 for 'zero', face) if component d of node (i, j, k) is a constrained
     ghost value of a face; (-1, -1) otherwise."""
+    face_type, wall_index, shape = grid.face_type, grid.wall_index, grid.shape
     for f in range(2 * dim):
         t = face_type[f]
         if t == 0:
@@ -85,18 +89,20 @@ def ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape):
     return -1, -1
 
 
-@njit(cache=True, inline="always")
-def rigid_holds(node, d, rigid_vol, constrain):
+@njit(cache=True)
+def rigid_holds(node, d, rigid):
+    constrain, rigid_vol = rigid.constrain, rigid.volume
     for r in range(constrain.shape[0]):
         if constrain[r, d] and rigid_vol[node, r] > 0.0:
             return True
     return False
 
 
-@njit(cache=True, inline="always")
-def add_reaction(chunk_reaction, ch, owner, node, d, amount, rigid_vol, constrain):
+@njit(cache=True)
+def add_reaction(chunk_reaction, ch, owner, node, d, amount, rigid):
     """Credit a constrained component's reaction to its owner: a face, or the rigid materials
     holding the node, shared by their volumes there."""
+    constrain, rigid_vol = rigid.constrain, rigid.volume
     if owner != RIGID_OWNER:
         chunk_reaction[ch, owner, d] += amount
         return

@@ -10,7 +10,12 @@ Scatter kernels (particle -> grid) must not let two threads add into one node at
 Particles are binned into slabs along one axis by their lowest node index; a slab is at
 least as wide as any particle's node span, so slabs two apart never share a node. All
 even slabs run in parallel, then all odd slabs. With one thread there is a single slab
-and no binning cost.
+and no binning cost. Every scatter kernel walks the slabs the same way:
+
+    for color in range(2):
+        for s in prange((sc.ptr.size - color) // 2):
+            for p in slab(sc, color, s):
+                ...
 """
 
 from __future__ import annotations
@@ -18,6 +23,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 from numba import njit, prange
+
+from .views import ActiveFields, Scatter
 
 
 def n_threads() -> int:
@@ -36,6 +43,13 @@ def chunk_range(c, nchunk, n):
 def node_ijk(node, shape):
     """(i, j, k) of a flat node index."""
     return node % shape[0], (node // shape[0]) % shape[1], node // (shape[0] * shape[1])
+
+
+@njit(cache=True)
+def slab(sc, color, s):
+    """The particles of slab color + 2 s of a views.Scatter, in order."""
+    k = color + 2 * s
+    return sc.order[sc.ptr[k]:sc.ptr[k + 1]]
 
 
 @njit(cache=True)
@@ -94,6 +108,13 @@ class ActiveBox:
         self.fnodes = self.fields
         self.skip = np.zeros(0, dtype=np.bool_)
         self.n_box = 0  # the first n_box fields are the box's nodes
+
+    def active(self) -> ActiveFields:
+        return ActiveFields(self.fields, self.fnodes, self.skip)
+
+    def scatter(self, fidx: np.ndarray, S: np.ndarray) -> Scatter:
+        """Particle entries (fields fidx, weights S) in this step's slab order."""
+        return Scatter(self.order, self.ptr, fidx, S)
 
     def update(self, boxes, lowest: np.ndarray, span: int, threads: int) -> None:
         """Set the box to the union of (lo, hi) node boxes; bin particles with `lowest` into slabs."""

@@ -123,6 +123,11 @@ class State:
         return self.sd.nodes if self.contact is None else self.contact.fidx
 
     @property
+    def entries(self) -> ShapeData:
+        """The deformable particles' shape data with fields in place of nodes (field_index)."""
+        return self.sd if self.contact is None else self.sd._replace(nodes=self.contact.fidx)
+
+    @property
     def n_rigid_materials(self) -> int:
         return len(self.materials.rigid)
 

@@ -16,6 +16,7 @@ from numba import njit, prange
 from ..faults import MESSAGES
 from ..gridops import chunk_range
 from ..materials.kernels import det3, energy_density
+from ..views import ParticleView
 from . import NSUMS, BodyInfo, BodySet, Sums
 
 
@@ -50,6 +51,10 @@ class Particles(BodySet):
     def n(self) -> int:
         return len(self.mass)
 
+    def view(self) -> ParticleView:
+        return ParticleView(self.x, self.v, self.mass, self.vol, self.vol0, self.F, self.stress, self.mat, self.x0,
+                            self.B, self.C, self.U, self.pressure, self.q, self.xref)
+
     @property
     def affine(self) -> bool:
         """Particles carry an APIC affine velocity B."""
@@ -77,8 +82,7 @@ class Particles(BodySet):
         nb = len(self.infos)
         out = np.zeros((state.nchunk, NSUMS))
         out_body = np.zeros((state.nchunk, max(nb, 1), NSUMS))
-        particle_sums(self.stress, self.vol, self.v, self.mass, self.F, self.mat, m.type_code, m.props, m.energy,
-                      self.U, self.x, self.B, self.affine, self.local_body, state.nchunk, out, out_body)
+        particle_sums(self.view(), m.view(), self.affine, self.local_body, state.nchunk, out, out_body)
         return Sums(out.sum(axis=0), out_body.sum(axis=0)[:nb])
 
     def vtu_pieces(self, state) -> list[tuple[str, dict]]:
@@ -130,10 +134,12 @@ def pad3(a: np.ndarray) -> np.ndarray:
 
 
 @njit(parallel=True, cache=True)
-def particle_sums(stress, vol, v, mass, F, mat, code, props, energy, U, x, B, affine, local_body, nchunk, out,
-                  out_body):
-    """Per chunk, in the `bodies.Sums` layout: totals (out) and per body (out_body). Angular
-    momentum about the origin includes APIC's affine part, eps_abc B_cb per unit mass."""
+def particle_sums(P, M, affine, local_body, nchunk, out, out_body):
+    """Per chunk, in the `bodies.Sums` layout: totals (out) and per body (out_body) of
+    particles P (views.ParticleView) of materials M. Angular momentum about the origin
+    includes APIC's affine part, eps_abc B_cb per unit mass."""
+    stress, vol, v, mass, F, mat, U, x, B = P.stress, P.vol, P.v, P.mass, P.F, P.mat, P.U, P.x, P.B
+    code, props, energy = M.code, M.props, M.energy
     n, dim = v.shape
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..views import RigidView
 from . import BodyInfo, BodySet
 from .particles import pad3
 
@@ -37,6 +38,9 @@ class RigidParticles(BodySet):
     @property
     def n(self) -> int:
         return len(self.vol)
+
+    def view(self) -> RigidView:
+        return RigidView(self.x, self.v, self.vol, self.x0)
 
     @classmethod
     def from_seed(cls, seed, materials, infos: list[BodyInfo], dim: int) -> "RigidParticles":

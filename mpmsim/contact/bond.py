@@ -46,34 +46,37 @@ MAX_SWEEPS = 100
 ALIGNED = 1.0 - 1e-6  # |n_d| of a grid-aligned normal
 
 
-@njit(cache=True, inline="always")
-def _candidate(c, cn_ptr, slot_group, n_def_groups, role, partner, slot_law, bonded):
+@njit(cache=True)
+def _candidate(c, nodes, geo):
     """The target slot a of contact node c if its normal may join the constraints, else -1."""
-    for a in range(cn_ptr[c], cn_ptr[c + 1]):
-        if role[a] == 0:
+    for a in range(nodes.cn_ptr[c], nodes.cn_ptr[c + 1]):
+        if geo.role[a] == 0:
             continue
-        b = partner[a]
-        if b < 0 or slot_group[b] >= n_def_groups or slot_law[a] != INTERFACE:
+        b = geo.partner[a]
+        if b < 0 or nodes.slot_group[b] >= nodes.n_def or geo.law[a] != INTERFACE:
             return -1
-        return a if (bonded[a] & 3) == NORMAL_BONDED else -1
+        return a if (geo.bonded[a] & 3) == NORMAL_BONDED else -1
     return -1
 
 
 @njit(cache=True)
-def bond_points(n_cn, cn_nodes, cn_ptr, node_cn, shape, origin, h, slot_group, n_def_groups, role, partner, slot_law,
-                geo_level, geo_n, face_type, wall_index, rigid_vol, constrain, rig_vel, dim, bonded, con_ptr, ent_a,
-                ent_b, ent_w):
+def bond_points(nodes, node_cn, grid, held_bc, geo, dim, bonds):
     """One constraint per candidate node on material a's side of the interface, at its
     projection on the interface, over the nodes of the cell it falls in (weights: their linear
     shape functions there; nodes that are not candidates drop out). The slots of every node
     in a constraint lose the node-wise normal bond (bit 1) and get bit 4. Returns the number
-    of constraints; con_ptr indexes their entries (at most 2^dim each)."""
+    of constraints; bonds.con_ptr indexes their entries (at most 2^dim each) in
+    bonds.ent_a/ent_b/ent_w. held_bc: the velocity conditions (nodes they hold keep the
+    node-wise bond)."""
+    n_cn, cn_nodes, slot_group, partner = nodes.n_cn, nodes.cn_nodes, nodes.slot_group, geo.partner
+    shape, h, geo_level, geo_n, bonded = grid.shape, grid.h, geo.level, geo.normal, geo.bonded
+    con_ptr, ent_a, ent_b, ent_w = bonds.con_ptr, bonds.ent_a, bonds.ent_b, bonds.ent_w
     held = np.zeros(n_cn, dtype=np.bool_)
     for c in range(n_cn):
         node = cn_nodes[c]
         i, j, k = node_ijk(node, shape)
         for d in range(dim):
-            owner, v = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+            owner, v = node_bc(node, i, j, k, d, dim, grid, held_bc)
             if owner != NO_BC:
                 held[c] = True
     base = np.zeros(3, dtype=np.int64)
@@ -82,7 +85,7 @@ def bond_points(n_cn, cn_nodes, cn_ptr, node_cn, shape, origin, h, slot_group, n
     q = 0
     con_ptr[0] = 0
     for c in range(n_cn):
-        a1 = _candidate(c, cn_ptr, slot_group, n_def_groups, role, partner, slot_law, bonded)
+        a1 = _candidate(c, nodes, geo)
         if a1 < 0 or held[c] or geo_level[a1] > 0.0:
             continue
         along = 0.0
@@ -111,7 +114,7 @@ def bond_points(n_cn, cn_nodes, cn_ptr, node_cn, shape, origin, h, slot_group, n
             c2 = node_cn[node]
             if c2 < 0 or c2 >= n_cn or cn_nodes[c2] != node or held[c2]:  # (node_cn is stale outside the box)
                 continue
-            a2 = _candidate(c2, cn_ptr, slot_group, n_def_groups, role, partner, slot_law, bonded)
+            a2 = _candidate(c2, nodes, geo)
             if a2 < 0 or slot_group[a2] != slot_group[a1] or slot_group[partner[a2]] != slot_group[partner[a1]]:
                 continue
             ent_a[q] = a2
@@ -131,10 +134,11 @@ def bond_points(n_cn, cn_nodes, cn_ptr, node_cn, shape, origin, h, slot_group, n
 
 
 @njit(cache=True)
-def point_bond(n_con, con_ptr, ent_a, ent_b, ent_w, nn, mass, arr, is_momentum, acc, dt, geo_n, dim):
-    """Impose the constraints on nodal momenta (is_momentum) or velocities (with acc, when
-    acc.shape[0] > 1, the matching force per mass is added: pass 2). Returns the number of
-    Gauss-Seidel sweeps."""
+def point_bond(bonds, nn, mass, arr, is_momentum, acc, dt, geo_n, dim):
+    """Impose the constraints (bonds: contact.workspace.Bonds) on nodal momenta (is_momentum)
+    or velocities (with acc, when acc.shape[0] > 1, the matching force per mass is added:
+    pass 2). Returns the number of Gauss-Seidel sweeps."""
+    n_con, con_ptr, ent_a, ent_b, ent_w = bonds.n_con, bonds.con_ptr, bonds.ent_a, bonds.ent_b, bonds.ent_w
     if n_con == 0:
         return 0
     tol = 0.0

@@ -15,21 +15,22 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..gridops import node_ijk
+from ..gridops import node_ijk, slab
 from ..materials.kernels import inv3
 
 ONE = np.uint64(1)
 
 
 @njit(parallel=True, cache=True)
-def scatter_group_masks(order, ptr, nodes, S, group, mask):
-    n_slab = ptr.size - 1
+def scatter_group_masks(sc, group, mask):
+    """mask[node] |= bit of each particle's group at the nodes it weighs (sc: views.Scatter
+    with grid nodes as fields)."""
+    nodes, S = sc.fidx, sc.S
     K = S.shape[1]
     for color in range(2):
-        for s in prange((n_slab - color + 1) // 2):
-            slab = color + 2 * s
-            for q in range(ptr[slab], ptr[slab + 1]):
-                p = order[q]
+        n_pairs = (sc.ptr.size - color) // 2
+        for s in prange(n_pairs):
+            for p in slab(sc, color, s):
                 bit = ONE << np.uint64(group[p])
                 for k in range(K):
                     if S[p, k] > 0.0:
@@ -117,11 +118,15 @@ def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_no
 
 
 @njit(cache=True)
-def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, shape_weights, ptr, idx, wts, fill):
-    """CSR of the particles touching each contact node, with each one's regression weight
-    (its shape function at the node, or 1). With fill=False only counts (ptr[c + 1] = count);
-    call again with fill=True after the prefix sum."""
+def build_clouds(sd, rsd, rgroup, node_cn, n_cn, shape_weights, ptr, idx, wts, fill):
+    """CSR of the particles touching each contact node (sd, rsd: shapes.ShapeData of the
+    deformable and rigid particles), with each one's regression weight (its shape function at
+    the node, or 1); rigid contact particles are numbered after the deformable ones. With
+    fill=False only counts (ptr[c + 1] = count); call again with fill=True after the prefix
+    sum."""
+    nodes, S, rnodes, rS = sd.nodes, sd.S, rsd.nodes, rsd.S
     n, K = S.shape
+    n_def = n
     if not fill:
         for c in range(n_cn + 1):
             ptr[c] = 0
@@ -157,25 +162,27 @@ def build_clouds(nodes, S, rnodes, rS, rgroup, node_cn, n_cn, n_def, shape_weigh
 
 
 @njit(parallel=True, cache=True)
-def scatter_slot_extras(order, ptr, fidx, S, G, pmass, pvol, x, x0, F, n_nodes, slot_node, shape, origin, h, want_disp,
-                        want_pos, want_grad, want_open, carry, vol, disp, pos, grad, udisp, ugrad):
-    """Per-slot contact volume sum S V, and when asked mass-weighted displacement and position
-    and the volume gradient sum G V (deformable particles; slab-parallel).
+def scatter_slot_extras(sc, G, P, grid, n_nodes, slot_node, wants, sums):
+    """Per-slot contact volume sum S V, and when asked (wants) mass-weighted displacement and
+    position and the volume gradient sum G V (deformable particles P; slab-parallel over sc).
     want_open (interfaces): each particle's displacement carried to the node along its own
     displacement gradient H = I - F^-1, udisp = sum S m (u + H (x_i - x)), and ugrad = sum S m H,
     so that a side's displacement can be evaluated at the interface point (its opening then
     excludes the strain between the particles and the interface). Without carry (the reference
     code's opening at the node) udisp = sum S m u and ugrad stays zero."""
-    n_slab = ptr.size - 1
+    fidx, S = sc.fidx, sc.S
+    pmass, pvol, x, x0, F = P.mass, P.vol, P.x, P.x0, P.F
+    shape, origin, h = grid.shape, grid.origin, grid.h
+    want_disp, want_pos, want_grad, want_open, carry = wants.disp, wants.pos, wants.grad, wants.open, wants.carry
+    vol, disp, pos, grad, udisp, ugrad = sums.vol, sums.disp, sums.pos, sums.grad, sums.udisp, sums.ugrad
     K = S.shape[1]
     dim = x.shape[1]
     for color in range(2):
-        for s in prange((n_slab - color + 1) // 2):
-            slab = color + 2 * s
+        n_pairs = (sc.ptr.size - color) // 2
+        for s in prange(n_pairs):
             H = np.zeros((3, 3))
             Finv = np.zeros((3, 3))
-            for q in range(ptr[slab], ptr[slab + 1]):
-                p = order[q]
+            for p in slab(sc, color, s):
                 have_h = False
                 for k in range(K):
                     f = fidx[p, k]
@@ -227,11 +234,14 @@ def displacement_gradient(Fp, dim, Finv, H):
 
 
 @njit(cache=True)
-def scatter_rigid_slots(fidx, S, G, rvol, rv, rx, rx0, n_nodes, with_mass, want_disp, want_pos, want_grad, want_open,
-                        mass, mom, vol, disp, pos, grad, udisp):
-    """Rigid contact particles fill their slots with volume-weighted quantities: the slot's
-    'mass' is sum S V and its momentum sum S V v, so p/m is the rigid velocity (notes §0).
-    Without with_mass (re-extrapolation) only the momentum is added."""
+def scatter_rigid_slots(fidx, rsd, R, n_nodes, with_mass, wants, mass, mom, sums):
+    """Rigid contact particles R (RigidView; fields fidx, shape data rsd) fill their slots
+    with volume-weighted quantities: the slot's 'mass' is sum S V and its momentum sum S V v,
+    so p/m is the rigid velocity (notes §0). Without with_mass (re-extrapolation) only the
+    momentum is added."""
+    S, G, rvol, rv, rx, rx0 = rsd.S, rsd.G, R.vol, R.v, R.x, R.x0
+    want_disp, want_pos, want_grad, want_open = wants.disp, wants.pos, wants.grad, wants.open
+    vol, disp, pos, grad, udisp = sums.vol, sums.disp, sums.pos, sums.grad, sums.udisp
     n, K = S.shape
     dim = rx.shape[1]
     for p in range(n):

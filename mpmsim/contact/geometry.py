@@ -25,6 +25,8 @@ to the particle's deformed inscribed ellipse along n: 1/R_p = |diag(1/a) F^-1 n|
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -69,17 +71,46 @@ def solve_small(A, b, n, x):
     return True
 
 
-@njit(cache=True, inline="always")
-def particle_position(idx, n_def, x, rx, d):
-    return x[idx, d] if idx < n_def else rx[idx - n_def, d]
+class Regression(NamedTuple):
+    """Scratch of one regression: the gathered cloud (points, weights, labels) and the small
+    systems' arrays."""
+
+    pts: np.ndarray  # (max_cloud, 3)
+    w: np.ndarray  # (max_cloud,)
+    lab: np.ndarray  # (max_cloud,)
+    labels: np.ndarray  # (max_cloud,) int64: labels of a node's cloud entries (-1 a, +1 b, 0 other)
+    A: np.ndarray  # (4, 4)
+    b: np.ndarray  # (4,)
+    phi: np.ndarray  # (4,)
+    dphi: np.ndarray  # (4,)
+    xt: np.ndarray  # (4,)
+    phi0: np.ndarray  # (4,) warm start
+    cov: np.ndarray  # (3, 3)
+    pen: np.ndarray  # (3, 3)
 
 
 @njit(cache=True)
-def gather_cloud(cloud, weight, balance, labels, start, stop, n_def, x, rx, dim, pts, w, lab):
-    """Copy the labelled points of cloud[start:stop] into pts/w/lab, positions relative to
-    their weighted centroid. With `balance`, each class's weights are scaled to sum to half
-    the point count, so a class of barely-touching particles still defines its side.
-    Returns (count, total weight); count 0 if either class is empty."""
+def regression_scratch(max_cloud):
+    m = max(max_cloud, 1)
+    return Regression(np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros(m, dtype=np.int64), np.zeros((4, 4)),
+                      np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4), np.zeros((3, 3)),
+                      np.zeros((3, 3)))
+
+
+@njit(cache=True)
+def particle_position(idx, clouds, d):
+    return clouds.x[idx, d] if idx < clouds.n_def else clouds.rx[idx - clouds.n_def, d]
+
+
+@njit(cache=True)
+def gather_cloud(clouds, start, stop, dim, R):
+    """Copy the labelled points of cloud entries start:stop (labels in R.labels) into
+    R.pts/w/lab, positions relative to their weighted centroid. With `clouds.balance`, each
+    class's weights are scaled to sum to half the point count, so a class of barely-touching
+    particles still defines its side. Returns (count, total weight); count 0 if either class
+    is empty."""
+    cloud, weight, balance, labels = clouds.idx, clouds.w, clouds.balance, R.labels
+    pts, w, lab = R.pts, R.w, R.lab
     wa = 0.0
     wb = 0.0
     m = 0
@@ -94,7 +125,7 @@ def gather_cloud(cloud, weight, balance, labels, start, stop, n_def, x, rx, dim,
         lab[m] = c
         w[m] = weight[q]
         for d in range(dim):
-            pts[m, d] = particle_position(cloud[q], n_def, x, rx, d)
+            pts[m, d] = particle_position(cloud[q], clouds, d)
         m += 1
     if not (wa > 0.0 and wb > 0.0):
         return 0, 0.0
@@ -186,10 +217,12 @@ def logistic_system(pts, w, lab, m, phi, dim, A, b):
 
 
 @njit(cache=True)
-def regression_normal(pts, w, lab, m, wsum, dim, h_min, logistic, phi0, A, b, phi, dphi, xt, cov, pen, out_n):
-    """Normal (class -1 -> class +1) of the gathered cloud pts[:m] (centroid-relative, weights
-    w, labels lab). `phi0` (length dim+1, zeros if none) warm-starts the logistic iterations.
-    Returns the number of logistic iterations (0 for linear), -1 if the fit failed."""
+def regression_normal(R, m, wsum, dim, h_min, logistic, out_n):
+    """Normal (class -1 -> class +1) of the gathered cloud R.pts[:m] (centroid-relative,
+    weights R.w, labels R.lab). `R.phi0` (length dim+1, zeros if none) warm-starts the
+    logistic iterations. Returns the number of logistic iterations (0 for linear), -1 if the
+    fit failed; the fit is left in R.phi."""
+    pts, w, lab, phi0, A, b, phi, dphi, xt, cov, pen = R.pts, R.w, R.lab, R.phi0, R.A, R.b, R.phi, R.dphi, R.xt, R.cov, R.pen
     nu = dim + 1
     lam = LR_PENALTY * h_min * h_min
     # covariance of the points -> extra penalty on unresolved directions (module doc)
@@ -279,9 +312,10 @@ def regression_normal(pts, w, lab, m, wsum, dim, h_min, logistic, phi0, A, b, ph
 
 
 @njit(cache=True)
-def cloud_direction(cloud, labels, start, stop, n_def, x, rx, dim, out_n):
+def cloud_direction(clouds, labels, start, stop, dim, out_n):
     """Fallback normal when the regression fails: from material a's centroid to the other
     side's. False if either side is empty or they coincide."""
+    cloud = clouds.idx
     ca = np.zeros(3)
     cb = np.zeros(3)
     na = 0
@@ -292,9 +326,9 @@ def cloud_direction(cloud, labels, start, stop, n_def, x, rx, dim, out_n):
             continue
         for d in range(dim):
             if lab < 0:
-                ca[d] += particle_position(cloud[q], n_def, x, rx, d)
+                ca[d] += particle_position(cloud[q], clouds, d)
             else:
-                cb[d] += particle_position(cloud[q], n_def, x, rx, d)
+                cb[d] += particle_position(cloud[q], clouds, d)
         if lab < 0:
             na += 1
         else:
@@ -313,11 +347,12 @@ def cloud_direction(cloud, labels, start, stop, n_def, x, rx, dim, out_n):
     return True
 
 
-@njit(cache=True, inline="always")
-def deformed_radius(idx, n_def, F, semi, n, dim):
+@njit(cache=True)
+def deformed_radius(idx, clouds, n, dim):
     """Distance from the particle centre to its deformed inscribed ellipse along n (Eq. 25);
     rigid particles are undeformed."""
-    if idx >= n_def:
+    F, semi = clouds.F, clouds.semi
+    if idx >= clouds.n_def:
         s = 0.0
         for d in range(dim):
             s += (n[d] / semi[d]) ** 2
@@ -349,9 +384,10 @@ def deformed_radius(idx, n_def, F, semi, n, dim):
 
 
 @njit(cache=True)
-def cloud_separation(cloud, labels, start, stop, n_def, x, rx, F, semi, n, xnode, dim):
+def cloud_separation(clouds, labels, start, stop, n, xnode, dim):
     """(d_LR, d_a, d_b): the gap between the two materials' deformed edges along n, and each
     edge's signed distance from the node (for the contact area)."""
+    cloud = clouds.idx
     sup_a = -1e300
     sup_b = 1e300
     for q in range(start, stop):
@@ -361,8 +397,8 @@ def cloud_separation(cloud, labels, start, stop, n_def, x, rx, F, semi, n, xnode
         idx = cloud[q]
         xn = 0.0
         for d in range(dim):
-            xn += particle_position(idx, n_def, x, rx, d) * n[d]
-        R = deformed_radius(idx, n_def, F, semi, n, dim)
+            xn += particle_position(idx, clouds, d) * n[d]
+        R = deformed_radius(idx, clouds, n, dim)
         if lab < 0:
             sup_a = max(sup_a, xn + R)
         else:

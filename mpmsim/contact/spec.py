@@ -9,6 +9,7 @@ own. Contact work happens only where two or more groups meet.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,6 +30,46 @@ SEP_LR, SEP_DISPLACEMENT, SEP_CUTOFF, SEP_FIT, SEP_VELOCITY = range(5)
 SEPARATION_CODES = {"logistic_regression": SEP_LR, "displacement": SEP_DISPLACEMENT, "cutoff": SEP_CUTOFF,
                     "fit": SEP_FIT, "velocity": SEP_VELOCITY}
 MAX_GROUPS = 64  # node group sets are 64-bit masks
+
+
+class PairLaws(NamedTuple):
+    """Group-by-group tables of the contact laws."""
+
+    law: np.ndarray  # (G, G) law code
+    mu: np.ndarray  # (G, G) kinetic friction
+    mus: np.ndarray  # (G, G) static friction, -1 when not given
+    stiffness: np.ndarray  # (G, G, 3) interface [Dn tension, Dn compression, Dt], PERFECT = -1
+
+
+class Wants(NamedTuple):
+    """Which per-slot sums the scene's contact methods read (fields.scatter_slot_extras)."""
+
+    disp: bool  # mass-weighted displacement (displacement separation)
+    pos: bool  # mass-weighted position (CP cutoff, DF fit)
+    grad: bool  # volume gradient (gradient normals)
+    open: bool  # interface openings
+    carry: bool  # openings carried to the interface point (else at the node)
+
+
+class Method(NamedTuple):
+    """How the geometry and the passes work, as kernel parameters."""
+
+    normal: int  # normal method code
+    separation: int  # separation method code
+    normal_vec: np.ndarray  # (3,) specified normal
+    radial: bool  # specified normal radial from `centre`
+    centre: np.ndarray  # (3,)
+    rigid_bias: float
+    cutoff: float  # CP cutoff, cells
+    fit_r: float  # DF fit exponent
+    spline: bool  # B-spline grid functions weight the contact area with the spline
+    warm: bool  # logistic regression warm-started from the last fit
+    integration: int  # interface integrator code
+    area_correction: bool
+    use_h_perp: bool
+    screen: float  # edge-screening volume (0: off)
+    touch: float  # touching tolerance, a length
+    h_min: float  # smallest cell edge
 
 
 @dataclass
@@ -62,6 +103,20 @@ class ContactSpec:
     edge_screening: float  # fraction of a cell's volume; 0: off
     consistent_bond: bool  # bonded normals held where the interface crosses grid edges (contact.bond)
     opening_at_interface: bool  # interface openings carried to the interface point (else: at the node)
+
+    def laws(self) -> PairLaws:
+        return PairLaws(self.law, self.mu, self.mu_static, self.stiffness)
+
+    def method(self, h_min: float, spline: bool, screen: float) -> Method:
+        """The kernels' parameters for a grid of smallest cell edge h_min."""
+        return Method(self.normal, self.separation, self.normal_vector, self.radial, self.normal_center,
+                      self.rigid_bias, self.cutoff, self.fit_exponent, spline, self.warm_start,
+                      self.interface_integration, self.area_correction, self.use_h_perp, screen, self.touch * h_min,
+                      h_min)
+
+    def wants(self) -> Wants:
+        return Wants(self.needs_displacement, self.needs_position, self.needs_gradients, self.has_interface,
+                     self.opening_at_interface)
 
     @property
     def has_interface(self) -> bool:

@@ -4,10 +4,104 @@ compute at them (plain arrays, grown by doubling as a run needs more)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from .spec import ContactSpec
+
+
+class ContactNodes(NamedTuple):
+    """This step's contact nodes: node c has slots cn_ptr[c]:cn_ptr[c+1], one per group there
+    (slot s is field n_nodes + s)."""
+
+    n_cn: int
+    cn_nodes: np.ndarray  # (n_cn,) grid node
+    cn_ptr: np.ndarray  # (n_cn + 1,)
+    slot_group: np.ndarray  # (n_slots,) group of each slot
+    n_def: int  # deformable groups are 0..n_def-1, rigid contact groups follow
+    nn: int  # grid nodes (slot s is field nn + s)
+
+
+class SlotMap(NamedTuple):
+    """Which field a group has at a node (boundary.mirror_field)."""
+
+    node_cn: np.ndarray  # (n_nodes,) contact node or -1
+    cn_ptr: np.ndarray
+    slot_group: np.ndarray
+    mask: np.ndarray  # (n_nodes,) uint64 groups present
+    n_def: int
+
+
+class SlotSums(NamedTuple):
+    """Extrapolated per-slot quantities the contact methods need (fields.scatter_slot_extras)."""
+
+    vol: np.ndarray  # sum S V
+    disp: np.ndarray  # sum S m u (displacement separation)
+    pos: np.ndarray  # sum S m x (cutoff and fit separations)
+    grad: np.ndarray  # sum G V (gradient normals)
+    udisp: np.ndarray  # interfaces: sum S m u carried to the node
+    ugrad: np.ndarray  # interfaces: sum S m H
+
+
+class Clouds(NamedTuple):
+    """Particles touching each contact node (CSR) for the point-cloud methods; rigid contact
+    particles are numbered after the n_def deformable ones."""
+
+    ptr: np.ndarray
+    idx: np.ndarray
+    w: np.ndarray  # regression weight of each entry
+    group: np.ndarray  # (n,) group of each deformable particle
+    rgroup: np.ndarray  # (n_rigid,) group of each rigid particle
+    n_def: int  # deformable particles
+    x: np.ndarray  # deformable positions
+    rx: np.ndarray  # rigid positions
+    F: np.ndarray  # deformable deformation gradients
+    semi: np.ndarray  # undeformed particle semi-lengths
+    balance: bool  # scale each class's weights to half the points (shape-function weights)
+
+
+class Targets(NamedTuple):
+    """What the geometry plans per slot: role (0: not a target), partner (-1: the lumped
+    rest), normal a -> b, separation, area, tangential opening and bonded directions
+    (interfaces), law and friction, interface stiffness, and the node's signed distance to
+    the interface along n."""
+
+    role: np.ndarray
+    partner: np.ndarray
+    normal: np.ndarray
+    delta: np.ndarray
+    area: np.ndarray
+    open: np.ndarray
+    bonded: np.ndarray
+    law: np.ndarray
+    mu: np.ndarray
+    mus: np.ndarray
+    stiff: np.ndarray
+    level: np.ndarray
+
+
+class Decisions(NamedTuple):
+    """Pass 2's outcome per target, for the XPIC increments: stick and applied impulses,
+    end-of-step separation, contact flag; and the running totals of the increments."""
+
+    stick2: np.ndarray
+    applied2: np.ndarray
+    delta2: np.ndarray
+    contact2: np.ndarray
+    stick_total: np.ndarray
+    applied_total: np.ndarray
+
+
+class Bonds(NamedTuple):
+    """Consistent-bond constraints (contact.bond): constraint q has entries
+    con_ptr[q]:con_ptr[q+1], each a pair of slots (a, b) with a weight."""
+
+    n_con: int
+    con_ptr: np.ndarray
+    ent_a: np.ndarray
+    ent_b: np.ndarray
+    ent_w: np.ndarray
 
 
 @dataclass
@@ -70,3 +164,45 @@ class ContactWorkspace:
         cs.cn_nodes = np.zeros(0, dtype=np.int64)
         cs.ensure(1, 1, dim)
         return cs
+
+    def nodes(self, nn: int) -> ContactNodes:
+        return ContactNodes(self.n_cn, self.cn_nodes, self.cn_ptr, self.slot_group, self.spec.n_def_groups, nn)
+
+    def slot_map(self) -> SlotMap:
+        return SlotMap(self.node_cn, self.cn_ptr, self.slot_group, self.mask, self.spec.n_def_groups)
+
+    def sums(self) -> SlotSums:
+        return SlotSums(self.vol, self.disp, self.pos, self.grad, self.udisp, self.ugrad)
+
+    def clouds(self, P, R) -> Clouds:
+        return Clouds(self.cloud_ptr, self.cloud_idx, self.cloud_w, self.group, self.rgroup, P.n, P.x, R.x, P.F,
+                      P.semi, self.spec.shape_weights)
+
+    def targets(self) -> Targets:
+        return Targets(self.role, self.partner, self.normal, self.delta, self.area, self.open, self.bonded, self.law,
+                       self.mu, self.mus, self.stiff, self.level)
+
+    def decisions(self) -> Decisions:
+        return Decisions(self.stick2, self.applied2, self.delta2, self.contact2, self.stick_total, self.applied_total)
+
+    def bonds(self) -> Bonds:
+        return Bonds(self.n_con, self.con_ptr, self.ent_a, self.ent_b, self.ent_w)
+
+
+class NoContact(NamedTuple):
+    nodes: ContactNodes
+    geo: Targets
+    dec: Decisions
+    bonds: Bonds
+    slots: SlotMap
+
+
+def no_contact(dim: int) -> NoContact:
+    """Bundles of the same types as a workspace's, for kernels that loop over zero contact
+    nodes (one compiled kernel serves scenes with and without contact)."""
+    i1, f1, f2, f3 = np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros((1, dim)), np.zeros((1, 3))
+    nodes = ContactNodes(0, i1, i1, i1, 0, 0)
+    geo = Targets(i1, i1, f2, f1, f1, f2, i1, i1, f1, f1, f3, f1)
+    dec = Decisions(f2, f2, f1, i1, f2, f2)
+    return NoContact(nodes, geo, dec, Bonds(0, i1, i1, i1, f1), SlotMap(np.full(1, -1, dtype=np.int64), i1, i1,
+                                                                         np.zeros(1, dtype=np.uint64), 0))

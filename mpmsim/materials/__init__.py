@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..views import MaterialView
 from ..deck.schema import Deck, LinearElastic, MieGruneisen, NeoHookean, Rigid, TransverselyIsotropic, VelocityTable
 
 LINEAR_ELASTIC = 0
@@ -87,6 +88,10 @@ class MaterialTable:
     constrain: np.ndarray = None  # (n_rigid, dim) bool: components each rigid material imposes
     av: np.ndarray = None  # (n_deformable, 2) artificial viscosity [A1, A2], zeros where off
     energy: np.ndarray = None  # (n_deformable,) bool: particles carry internal energy U and pressure
+
+    def view(self) -> MaterialView:
+        """The deformable materials as the kernels take them."""
+        return MaterialView(self.type_code, self.props, self.density, self.energy, self.av)
 
     @property
     def tracks_energy(self) -> bool:

@@ -9,8 +9,11 @@ nodes. Node (i, j, k) sits at origin + (i, j, k) * h; flat index i + nx * (j + n
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+
+from ..views import GridView
 
 FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
 FREE, FIXED, ROLLER = 0, 1, 2
@@ -28,6 +31,11 @@ class GridSpec:
     domain_hi: np.ndarray
     face_type: np.ndarray  # (6,) FREE / FIXED / ROLLER per face in FACES order
     wall_index: np.ndarray  # (6,) node index of each face's grid line along its axis
+
+    @cached_property
+    def view(self) -> GridView:
+        """The grid as kernels take it."""
+        return GridView(self.shape, self.origin, self.h, self.face_type, self.wall_index)
 
     @property
     def n_nodes(self) -> int:

@@ -20,6 +20,7 @@ scatter slabs.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -33,6 +34,24 @@ SHAPE_BAD_MESSAGES = {
               "or use more particles per cell",
     BAD_DOMAIN: "its CPDI domain inverted (det F <= 0)",
 }
+
+
+class ShapeKind(NamedTuple):
+    """A shape function as its kernels take it."""
+
+    grid_kind: int  # grid function (grid_functions kinds)
+    per_axis: int  # nodes per axis of a sample point (tensor) or of the CPDI node box
+    npc: int  # nodes per axis of the grid function alone
+    cpdi_scheme: int  # -1 for tensor-product functions, else CORNERS / NINE_POINT
+
+
+class ChunkBoxes(NamedTuple):
+    """Per particle chunk: the node box touched (lo, hi) and the first flagged particle and why."""
+
+    lo: np.ndarray  # (nchunk, 3) int64
+    hi: np.ndarray  # (nchunk, 3) int64
+    bad: np.ndarray  # (nchunk,) int64
+    code: np.ndarray  # (nchunk,) int64
 
 
 @dataclass(frozen=True)
@@ -65,26 +84,26 @@ class ShapeFunction:
     def uses_deformation(self) -> bool:
         return self.cpdi_scheme >= 0
 
+    @property
+    def kind(self) -> ShapeKind:
+        return ShapeKind(self.grid_kind, self.per_axis, NODES[self.grid_kind], self.cpdi_scheme)
+
     def compute(self, x, F, semi, grid, nchunk, sd: "ShapeData"):
         """Fill `sd` for particles at x (F: deformation gradients, or None for rigid particles).
         Returns ((lo, hi) node box, (first bad particle or -1, code))."""
-        lo = np.empty((nchunk, 3), dtype=np.int64)
-        hi = np.empty((nchunk, 3), dtype=np.int64)
-        bad = np.full(nchunk, -1, dtype=np.int64)
+        boxes = ChunkBoxes(np.empty((nchunk, 3), dtype=np.int64), np.empty((nchunk, 3), dtype=np.int64),
+                           np.full(nchunk, -1, dtype=np.int64),
+                           np.full(nchunk, BAD_SUPPORT if self.cpdi_scheme < 0 else 0, dtype=np.int64))
         if self.cpdi_scheme < 0:
-            tensor_shape_functions(x, grid.origin, grid.h, semi, self.grid_kind, self.per_axis, grid.shape,
-                                   nchunk, sd.nodes, sd.S, sd.G, sd.lowest, lo, hi, bad)
-            code = np.full(nchunk, BAD_SUPPORT, dtype=np.int64)
+            tensor_shape_functions(x, grid.view, semi, self.kind, nchunk, sd, boxes)
         else:
             if F is None:
                 F = np.broadcast_to(np.eye(x.shape[1]), (len(x), x.shape[1], x.shape[1]))
-            code = np.zeros(nchunk, dtype=np.int64)
-            cpdi_shape_functions(x, F, grid.origin, grid.h, semi, self.grid_kind, NODES[self.grid_kind],
-                                 self.cpdi_scheme, self.per_axis, grid.shape, nchunk, sd.nodes, sd.S, sd.G,
-                                 sd.lowest, lo, hi, bad, code)
+            cpdi_shape_functions(x, F, grid.view, semi, self.kind, nchunk, sd, boxes)
+        bad, code = boxes.bad, boxes.code
         hits = np.nonzero(bad >= 0)[0]
         first = (int(bad[hits[0]]), int(code[hits[0]])) if len(hits) else (-1, 0)
-        return (lo.min(axis=0), hi.max(axis=0)), first
+        return (boxes.lo.min(axis=0), boxes.hi.max(axis=0)), first
 
 
 SHAPE_FUNCTIONS = {
@@ -102,9 +121,9 @@ def shape_function(name: str) -> ShapeFunction:
     return SHAPE_FUNCTIONS[name]
 
 
-@dataclass
-class ShapeData:
-    """Per-particle node lists and weights for one particle set, refreshed every step."""
+class ShapeData(NamedTuple):
+    """Per-particle node lists and weights for one particle set, refreshed every step (a
+    bundle kernels take as is)."""
 
     nodes: np.ndarray  # (n, K) flat node index
     S: np.ndarray  # (n, K)

@@ -26,7 +26,7 @@ from numba import njit, prange
 from ..gridops import chunk_range
 from ..materials.kernels import inv3
 from .grid_functions import weights_1d
-from .tensor import BAD_SUPPORT
+from .tensor import BAD_SUPPORT, clear_entries
 
 CORNERS = 0
 NINE_POINT = 1
@@ -60,14 +60,20 @@ def sample_points(scheme, dim, s, ws, coef):
 
 
 @njit(parallel=True, cache=True)
-def cpdi_shape_functions(x, F, origin, h, semi, grid_kind, npc, scheme, cap, shape, nchunk, nodes, S, G,
-                         lowest, chunk_lo, chunk_hi, chunk_bad, chunk_code):
+def cpdi_shape_functions(x, F, grid, semi, sk, nchunk, sd, boxes):
+    """As tensor_shape_functions, for CPDI: sample points of each particle's deformed domain
+    (corners, or nine points for qCPDI) weighted by the grid function; boxes.code says why a
+    particle was flagged."""
+    origin, h, shape = grid.origin, grid.h, grid.shape
+    grid_kind, npc, scheme, cap = sk.grid_kind, sk.npc, sk.cpdi_scheme, sk.per_axis
+    nodes, S, G, lowest = sd.nodes, sd.S, sd.G, sd.lowest
+    chunk_lo, chunk_hi, chunk_bad, chunk_code = boxes.lo, boxes.hi, boxes.bad, boxes.code
     n, dim = x.shape
     K = S.shape[1]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
-        J = np.zeros((3, 3))
-        Ji = np.zeros((3, 3))
+        jac = np.zeros((2, 3, 3))  # the domain's Jacobian and its inverse
+        J, Ji = jac[0], jac[1]
         s = np.zeros((9, 3))
         ws = np.zeros(9)
         coef = np.zeros(9)
@@ -122,11 +128,7 @@ def cpdi_shape_functions(x, F, origin, h, semi, grid_kind, npc, scheme, cap, sha
                 if bad == 0 and (hi0 - box[0] >= cap or hi1 - box[1] >= cap or (dim == 3 and hi2 - box[2] >= cap)):
                     bad = BAD_SPAN
             if bad != 0:
-                for k in range(K):
-                    nodes[p, k] = 0
-                    S[p, k] = 0.0
-                    for d in range(dim):
-                        G[p, k, d] = 0.0
+                clear_entries(p, nodes, S, G)
                 if chunk_bad[c] < 0:
                     chunk_bad[c] = p
                     chunk_code[c] = bad

@@ -12,12 +12,27 @@ from .grid_functions import weights_1d
 BAD_SUPPORT = 5  # a particle's support (or a CPDI sample point's) left the grid
 
 
+@njit(cache=True, inline="always")
+def clear_entries(p, nodes, S, G):
+    """A flagged particle weighs nothing: every entry on node 0 with zero weight."""
+    for k in range(S.shape[1]):
+        nodes[p, k] = 0
+        S[p, k] = 0.0
+        for d in range(G.shape[2]):
+            G[p, k, d] = 0.0
+
+
 @njit(parallel=True, cache=True)
-def tensor_shape_functions(x, origin, h, semi, kind, per_axis, shape, nchunk, nodes, S, G, lowest,
-                           chunk_lo, chunk_hi, chunk_bad):
-    """Fill nodes/S/G; `lowest[p]` is the particle's lowest node (i, j, k) and chunk_lo/hi the
-    node box each particle chunk touches (active box and scatter slabs). A particle whose
-    nodes would fall outside the grid gets zero weights on node 0 and is flagged."""
+def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
+    """Fill sd (shapes.ShapeData) for particles at x on grid (views.GridView) with the shape
+    function sk (shapes.ShapeKind); `sd.lowest[p]` is the particle's lowest node (i, j, k) and
+    boxes.lo/hi the node box each particle chunk touches (active box and scatter slabs). A
+    particle whose nodes would fall outside the grid gets zero weights on node 0 and is
+    flagged in boxes.bad."""
+    origin, h, shape = grid.origin, grid.h, grid.shape
+    kind, per_axis = sk.grid_kind, sk.per_axis
+    nodes, S, G, lowest = sd.nodes, sd.S, sd.G, sd.lowest
+    chunk_lo, chunk_hi, chunk_bad = boxes.lo, boxes.hi, boxes.bad
     n, dim = x.shape
     K = S.shape[1]
     for c in prange(nchunk):
@@ -40,11 +55,7 @@ def tensor_shape_functions(x, origin, h, semi, kind, per_axis, shape, nchunk, no
                 if base[d] < 0 or base[d] + per_axis > shape[d]:
                     inside = False
             if not inside:
-                for k in range(K):
-                    nodes[p, k] = 0
-                    S[p, k] = 0.0
-                    for d in range(dim):
-                        G[p, k, d] = 0.0
+                clear_entries(p, nodes, S, G)
                 if chunk_bad[c] < 0:
                     chunk_bad[c] = p
                 continue

@@ -13,8 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..contact import (contact_geometry, contact_pass_1, contact_pass_2, contact_pass_3, material_fields,
-                       screen_volume)
+from ..contact import ContactTasks, material_fields
 from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
 from .grid_update import grid_update
@@ -22,6 +21,7 @@ from .particle_update import move_rigid, particle_update
 from .setup import compute_shape_functions, prescribed_motion
 from .stress import update_stress_first, update_stress_last
 from .xpic import xpic
+from ..shapes import shape_function
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,7 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     ]
     contact = scene.contact
     if contact is not None:
+        ct = ContactTasks(contact, scene.grid, shape_function(deck.shape_function).grid_kind >= 2, scene.thickness)
         tasks.append(Task("material fields", material_fields,
                           f"{contact.n_groups} material groups: own velocity fields where they meet"))
     else:
@@ -65,10 +66,10 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     tasks.append(Task("extrapolate", extrapolate,
                       "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")))
     if contact is not None:
-        tasks.append(Task("contact geometry", contact_geometry(screen_volume(contact, scene.grid, scene.thickness)),
+        tasks.append(Task("contact geometry", ct.geometry,
                           f"{deck.contact.normal} normals, {describe_separation(deck)}, contact areas"))
     if contact is not None and contact.passes == 2:
-        tasks.append(Task("contact pass 1", contact_pass_1, "contact laws on the extrapolated momenta"))
+        tasks.append(Task("contact pass 1", ct.pass_1, "contact laws on the extrapolated momenta"))
     elif contact is not None:
         skipped.append(("contact pass 1", "contact.passes: 1"))
     energy = "; internal energy" + (", artificial viscosity" if deck.artificial_viscosity else "") \
@@ -88,11 +89,11 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     bc = ", ".join(faces + [f"rigid '{r}'" for r in bc_rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
     if contact is not None:
-        tasks.append(Task("contact pass 2", contact_pass_2, "contact laws on the updated momenta: contact forces"
+        tasks.append(Task("contact pass 2", ct.pass_2, "contact laws on the updated momenta: contact forces"
                           + ("; interface forces and energy" if contact.has_interface else "")))
     if upd.scheme in ("xpic", "fmpm"):
         what = "start-of-step" if upd.scheme == "xpic" else "updated"
-        tasks.append(Task("xpic", xpic(upd.scheme, upd.order), f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
+        tasks.append(Task("xpic", xpic(upd.scheme, upd.order, contact), f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
                                         f"{upd.order - 1} extra grid passes"))
     else:
         skipped.append(("xpic", f"{upd.scheme} update needs no grid filter"))
@@ -105,7 +106,7 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     if upd.stress in ("usl", "usavg") and upd.reextrapolate:
         tasks.append(Task("re-extrapolate", reextrapolate, "momenta from the updated particles (usl+/usavg+)"))
         if contact is not None:
-            tasks.append(Task("contact pass 3", contact_pass_3, "contact laws on the re-extrapolated momenta"))
+            tasks.append(Task("contact pass 3", ct.pass_3, "contact laws on the re-extrapolated momenta"))
     if upd.stress in ("usl", "usavg"):
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
         tasks.append(Task("update stress last", update_stress_last(fraction, upd.reextrapolate),

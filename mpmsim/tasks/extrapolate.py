@@ -13,7 +13,7 @@ import numpy as np  # noqa: F401  (numba kernels use np)
 from numba import njit, prange
 
 from ..contact import extrapolate_contact
-from ..gridops import chunk_range, zero_fields
+from ..gridops import chunk_range, slab, zero_fields
 from ..materials.kernels import inv3
 
 # a rigid particle constrains a node only where its weight is clearly non-zero
@@ -21,17 +21,18 @@ RIGID_MIN_WEIGHT = 1e-12
 
 
 @njit(parallel=True, cache=True)
-def p2g_momentum(order, ptr, nodes, S, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, offs, origin, h,
-                 xref):
-    n_slab = ptr.size - 1
+def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, offs, grid, xref):
+    """Scatter m and m (v + C (x_i - x_p)) of the particles to their fields (sc: views.Scatter;
+    the affine term only with `affine`; masses only `with_mass`)."""
+    nodes, S = sc.fidx, sc.S
+    origin, h = grid.origin, grid.h
     K = S.shape[1]
     dim = pvel.shape[1]
     for color in range(2):
-        for s in prange((n_slab - color + 1) // 2):
-            slab = color + 2 * s
+        n_pairs = (sc.ptr.size - color) // 2
+        for s in prange(n_pairs):
             r = np.zeros(3)
-            for q in range(ptr[slab], ptr[slab + 1]):
-                p = order[q]
+            for p in slab(sc, color, s):
                 mp = pmass[p]
                 for k in range(K):
                     w = S[p, k]
@@ -55,14 +56,16 @@ def p2g_momentum(order, ptr, nodes, S, pmass, pvel, with_mass, gmass, gmom, affi
 
 
 @njit(parallel=True, cache=True)
-def apic_affine(nodes, S, lowest, offs, origin, h, x, B, nchunk, C):
-    """C_p = B_p D_p^-1 with D_p = sum_i S_ip (x_i - x_p)(x_i - x_p)^T."""
+def apic_affine(sd, offs, grid, x, B, nchunk, C):
+    """C_p = B_p D_p^-1 with D_p = sum_i S_ip (x_i - x_p)(x_i - x_p)^T (sd: the particles'
+    shapes.ShapeData)."""
+    S, lowest, origin, h = sd.S, sd.lowest, grid.origin, grid.h
     n, K = S.shape
     dim = x.shape[1]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
-        D = np.zeros((3, 3))
-        Di = np.zeros((3, 3))
+        inertia = np.zeros((2, 3, 3))  # D_p and its inverse
+        D, Di = inertia[0], inertia[1]
         r = np.zeros(3)
         for p in range(start, stop):
             for a in range(3):
@@ -100,10 +103,9 @@ def _scatter_momentum(state, with_mass: bool) -> None:
     f, box, P, sd, g = state.fields, state.box, state.particles, state.sd, state.grid
     affine = P.affine
     if affine:
-        apic_affine(sd.nodes, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, P.xref, P.B, state.nchunk,
-                    P.C)
-    p2g_momentum(box.order, box.ptr, state.field_index, sd.S, P.mass, P.v, with_mass, f.mass, f.mom, affine, P.C,
-                 sd.lowest, state.entry_offsets, g.origin, g.h, P.xref)
+        apic_affine(sd, state.entry_offsets, g.view, P.xref, P.B, state.nchunk, P.C)
+    p2g_momentum(box.scatter(state.field_index, sd.S), P.mass, P.v, with_mass, f.mass, f.mom, affine, P.C, sd.lowest,
+                 state.entry_offsets, g.view, P.xref)
 
 
 def extrapolate(state) -> None:

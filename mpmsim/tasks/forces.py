@@ -5,22 +5,22 @@ from __future__ import annotations
 
 from numba import njit, prange
 
-from ..gridops import zero_fields
+from ..gridops import slab, zero_fields
 from ..loads import damp_grid, p2g_loads
 from ..materials.kernels import VOIGT
-from .boundary import fold_ghost_forces, has_walls, slot_info
+from .boundary import fold_ghost_forces, has_walls, held_by, slot_info
 
 
 @njit(parallel=True, cache=True)
-def p2g_forces(order, ptr, nodes, S, G, vol, stress, pmass, gravity, has_gravity, gforce):
-    n_slab = ptr.size - 1
+def p2g_forces(sc, G, P, gravity, has_gravity, gforce):
+    """Internal forces (and gravity) of particles P scattered to their fields (sc: views.Scatter)."""
+    nodes, S, vol, stress, pmass = sc.fidx, sc.S, P.vol, P.stress, P.mass
     K = S.shape[1]
     dim = G.shape[2]
     for color in range(2):
-        for s in prange((n_slab - color + 1) // 2):
-            slab = color + 2 * s
-            for q in range(ptr[slab], ptr[slab + 1]):
-                p = order[q]
+        n_pairs = (sc.ptr.size - color) // 2
+        for s in prange(n_pairs):
+            for p in slab(sc, color, s):
                 vp = vol[p]
                 for k in range(K):
                     w = S[p, k]
@@ -39,15 +39,13 @@ def forces(state) -> None:
     f, box, P, sd = state.fields, state.box, state.particles, state.sd
     zero_fields(box.fields, f.force)
     has_g = bool(state.gravity.any())
-    p2g_forces(box.order, box.ptr, state.field_index, sd.S, sd.G, P.vol, P.stress, P.mass, state.gravity, has_g, f.force)
+    p2g_forces(box.scatter(state.field_index, sd.S), sd.G, P.view(), state.gravity, has_g, f.force)
     loads = state.loads
     if loads is not None:  # their work is booked by the particle update, over the step's displacement
         p2g_loads(loads.particle, loads.start_step(P.x, state.t + 0.5 * state.dt), state.field_index, sd.S, f.force)
     # only B-splines: with linear hats the ghosts carry only the force of a CPDI corner pushed
     # past the wall, and folding that back flings the particle out (Fig. 6 ellipses, 75% strain)
     if state.shape.reaches_ghosts and has_walls(state):
-        g = state.grid
-        fold_ghost_forces(box.fields, box.fnodes, box.shape, g.face_type, g.wall_index, f.rigid_vol,
-                          state.materials.constrain, slot_info(state), f.force)
+        fold_ghost_forces(box.active(), state.grid.view, held_by(state, state.rigid.v_end), slot_info(state), f.force)
     if state.damping > 0.0:
         damp_grid(box.fields, f.mom, state.damping, f.force)

@@ -10,20 +10,35 @@ wall do not creep through it with the unconstrained p/m of the wall nodes.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
+from ..bc import NO_BC, add_reaction, node_bc
 from ..gridops import chunk_range, node_ijk
-from ..bc import NO_BC, add_reaction, ghost_mirror, node_bc, rigid_holds
-from .boundary import has_walls, mirror_field, slot_info
+from .boundary import ghost_source, has_walls, held_by, slot_info
+
+
+class UpdateFields(NamedTuple):
+    mass: np.ndarray
+    mom: np.ndarray  # p (extrapolated)
+    force: np.ndarray  # f
+    vnew: np.ndarray  # out: v+ = (p + f dt) / m
+    acc: np.ndarray  # out: a = f / m (condition forces included)
+    vstart: np.ndarray  # out: start velocity with conditions imposed
 
 
 @njit(parallel=True, cache=True)
-def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_type, wall_index, rigid_vol,
-                       constrain, rig_vel_start, rig_vel, nchunk, vnew, acc, vstart, chunk_reaction, chunk_work):
-    dim = mom.shape[1]
+def grid_update_kernel(active, grid, held_start, held_end, f, dt, nchunk, chunk_reaction, chunk_work):
+    """v+ and a on every active field; a component held by a velocity condition (at the step's
+    end: held_end; its start value, held_start, seeds vstart) gets the force that lands it on
+    the imposed velocity, and the difference is that condition's reaction and work."""
+    dim = f.mom.shape[1]
+    fields, fnodes, skip, shape = active.fields, active.fnodes, active.skip, grid.shape
+    mass, mom, force, vnew, acc, vstart = f.mass, f.mom, f.force, f.vnew, f.acc, f.vstart
     nq = fields.size
-    for c in prange(nchunk):
+    for c in prange(nchunk):  # (numba's parallel loops read bundle members through locals only)
         start, stop = chunk_range(c, nchunk, nq)
         for a in range(chunk_reaction.shape[1]):
             for d in range(dim):
@@ -42,10 +57,9 @@ def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_t
                 continue
             for d in range(dim):
                 fd = force[fid, d]
-                owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+                owner, vbc = node_bc(node, i, j, k, d, dim, grid, held_end)
                 if owner != NO_BC:
-                    owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
-                                           rig_vel_start)
+                    owner0, vbc0 = node_bc(node, i, j, k, d, dim, grid, held_start)
                     vstart[fid, d] = vbc0
                 else:
                     vstart[fid, d] = mom[fid, d] / m
@@ -53,7 +67,7 @@ def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_t
                     f_bc = (m * vbc - mom[fid, d]) / dt
                     dfc = f_bc - fd
                     work += dfc * vbc * dt  # signed work done on the material
-                    add_reaction(chunk_reaction, c, owner, node, d, dfc, rigid_vol, constrain)
+                    add_reaction(chunk_reaction, c, owner, node, d, dfc, held_end)
                     fd = f_bc
                 acc[fid, d] = fd / m
                 vnew[fid, d] = (mom[fid, d] + fd * dt) / m
@@ -61,13 +75,12 @@ def grid_update_kernel(fields, fnodes, skip, shape, dt, mass, mom, force, face_t
 
 
 @njit(parallel=True, cache=True)
-def mirror_update(fields, fnodes, shape, dt, mass, mom, face_type, wall_index, rigid_vol, constrain, slots, nchunk,
-                  vnew, acc, vstart, chunk_reaction):
+def mirror_update(active, grid, held, slots, f, dt, nchunk, chunk_reaction):
     """Second pass of the update: constrained ghost components of the box nodes take minus
     their mirror's new velocity (boundary.py); the extra force is added to that face's reaction."""
-    dim = mom.shape[1]
+    dim = f.mom.shape[1]
+    fields, fnodes, mass, mom, vnew, acc, vstart = active.fields, active.fnodes, f.mass, f.mom, f.vnew, f.acc, f.vstart
     nq = fields.size
-    nn = shape[0] * shape[1] * shape[2]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, nq)
         for a in range(chunk_reaction.shape[1]):
@@ -75,16 +88,11 @@ def mirror_update(fields, fnodes, shape, dt, mass, mom, face_type, wall_index, r
                 chunk_reaction[c, a, d] = 0.0
         for q in range(start, stop):
             fid = fields[q]
-            node = fnodes[q]
-            i, j, k = node_ijk(node, shape)
             m = mass[fid]
             if m <= 0.0:
                 continue
             for d in range(dim):
-                mirror, face = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
-                if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
-                    continue
-                mf = mirror_field(fid, mirror, nn, slots)
+                mf, face = ghost_source(fid, fnodes[q], d, dim, grid, held, slots)
                 if mf == -1:
                     continue
                 v = -vnew[mf, d] if mf >= 0 else 0.0
@@ -95,17 +103,15 @@ def mirror_update(fields, fnodes, shape, dt, mass, mom, face_type, wall_index, r
 
 
 def grid_update(state) -> None:
-    g, f, box = state.grid, state.fields, state.box
+    g, f, box, R = state.grid, state.fields, state.box, state.rigid
     nc = state.nchunk
     reaction = np.zeros((nc,) + state.reaction.shape)
     work = np.zeros(nc)
-    grid_update_kernel(box.fields, box.fnodes, box.skip, box.shape, state.dt, f.mass, f.mom, f.force, g.face_type,
-                       g.wall_index,
-                       f.rigid_vol, state.materials.constrain, state.rigid.v_start, state.rigid.v_end, nc, f.vnew,
-                       f.acc, f.vstart, reaction, work)
+    uf = UpdateFields(f.mass, f.mom, f.force, f.vnew, f.acc, f.vstart)
+    held_end = held_by(state, R.v_end)
+    grid_update_kernel(box.active(), g.view, held_by(state, R.v_start), held_end, uf, state.dt, nc, reaction, work)
     state.reaction[:] = reaction.sum(axis=0)
     state.work_in += float(work.sum())
     if has_walls(state):
-        mirror_update(box.fields, box.fnodes, box.shape, state.dt, f.mass, f.mom, g.face_type, g.wall_index,
-                      f.rigid_vol, state.materials.constrain, slot_info(state), nc, f.vnew, f.acc, f.vstart, reaction)
+        mirror_update(box.active(), g.view, held_end, slot_info(state), uf, state.dt, nc, reaction)
         state.reaction += reaction.sum(axis=0)

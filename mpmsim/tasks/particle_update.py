@@ -19,19 +19,36 @@ prescribed velocity (trapezoidal in time).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range
 from ..faults import BAD_LEFT_GRID, BAD_NAN
+from ..views import Faults
 
 FLIP, PIC, XPIC, FMPM, APIC = 0, 1, 2, 3, 4
 SCHEMES = {"flip": FLIP, "pic": PIC, "xpic": XPIC, "fmpm": FMPM, "apic": APIC}
 
 
+class GridVelocities(NamedTuple):
+    vnew: np.ndarray  # v+
+    acc: np.ndarray  # a = f/m
+    vstart: np.ndarray  # v (start, velocity conditions imposed)
+    vstar: np.ndarray  # XPIC/FMPM filtered
+
+
 @njit(parallel=True, cache=True)
-def particle_update_kernel(nodes, S, lowest, offs, origin, h, vnew, acc, vstart, vstar, dt, scheme, x, v, B, pmass,
-                           gravity, lo, hi, nchunk, chunk_gwork, chunk_bad, chunk_code):
+def particle_update_kernel(entries, offs, grid, gv, dt, scheme, P, gravity, lo, hi, nchunk, chunk_gwork, faults):
+    """Velocities and positions of particles P from the grid velocities gv (entries:
+    shapes.ShapeData whose nodes are the particles' fields); per chunk the work of gravity
+    and the first particle that went non-finite or left [lo, hi]."""
+    nodes, S, lowest = entries.nodes, entries.S, entries.lowest
+    origin, h = grid.origin, grid.h
+    vnew, acc, vstart, vstar = gv.vnew, gv.acc, gv.vstart, gv.vstar
+    x, v, B, pmass = P.x, P.v, P.B, P.mass
+    chunk_bad, chunk_code = faults.bad, faults.code
     n, K = S.shape
     dim = x.shape[1]
     for c in prange(nchunk):
@@ -119,20 +136,19 @@ def particle_update(scheme: str):
     code_of_scheme = SCHEMES[scheme]
 
     def run(state) -> None:
-        P, f, sd, g = state.particles, state.fields, state.sd, state.grid
+        P, f = state.particles, state.fields
         nc = state.nchunk
         gwork = np.zeros(nc)
-        bad = np.full(nc, -1, dtype=np.int64)
-        code = np.zeros(nc, dtype=np.int64)
-        particle_update_kernel(state.field_index, sd.S, sd.lowest, state.entry_offsets, g.origin, g.h, f.vnew, f.acc,
-                               f.vstart, f.vstar, state.dt, code_of_scheme, P.x, P.v, P.B, P.mass, state.gravity,
-                               *state.particle_bounds, nc, gwork, bad, code)
+        faults = Faults.empty(nc)
+        particle_update_kernel(state.entries, state.entry_offsets, state.grid.view,
+                               GridVelocities(f.vnew, f.acc, f.vstart, f.vstar), state.dt, code_of_scheme, P.view(),
+                               state.gravity, *state.particle_bounds, nc, gwork, faults)
         state.work_in += float(gwork.sum())
         if state.loads is not None:
             state.work_in += state.loads.work_of_step(P.x)
-        hits = np.nonzero(bad >= 0)[0]
-        if len(hits):
-            state.flags.set(int(bad[hits[0]]), int(code[hits[0]]), 0.0)
+        first = faults.first()
+        if first is not None:
+            state.flags.set(*first)
 
     return run
 

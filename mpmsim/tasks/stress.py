@@ -19,23 +19,25 @@ from ..gridops import chunk_range
 from ..materials import MIE_GRUNEISEN
 from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, bulk_wave_modulus,
                                  constitutive_update, det3)
+from ..views import Faults
 from .boundary import set_grid_velocity
 
 
 @njit(parallel=True, cache=True)
-def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, code, props, density,
-                         energy, av, dx, U, pressure, qv,
-                         nchunk, chunk_wave, chunk_bad, chunk_code, chunk_value):
+def update_stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
+    """Velocity gradient from the grid velocity gvel (entries: shapes.ShapeData whose nodes are
+    the particles' fields), F and volume, then the stress of each particle's material M
+    (views.MaterialView); per chunk the largest wave speed + |v| and the first bad particle."""
+    nodes, G = entries.nodes, entries.G
+    pvel, F, stress, vol, vol0, mat, U, pressure, qv = P.v, P.F, P.stress, P.vol, P.vol0, P.mat, P.U, P.pressure, P.q
+    code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
+    chunk_bad, chunk_code, chunk_value = faults.bad, faults.code, faults.value
     n, K = nodes.shape
     dim = F.shape[1]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
-        L = np.zeros((3, 3))
-        F3 = np.zeros((3, 3))
-        W = np.zeros((3, 3))
-        A = np.zeros((3, 3))
-        Ai = np.zeros((3, 3))
-        Q = np.zeros((3, 3))
+        work = np.zeros((6, 3, 3))  # velocity gradient, F, and the constitutive update's scratch
+        L, F3, W, A, Ai, Q = work[0], work[1], work[2], work[3], work[4], work[5]
         eos = np.zeros(EOS_N)
         wave = 0.0
         bad = -1
@@ -124,20 +126,15 @@ def update_stress_kernel(nodes, G, gvel, dt, pvel, F, stress, vol, vol0, mat, co
 
 
 def _update_stress(state, dt, gvel) -> None:
-    P, m, sd = state.particles, state.materials, state.sd
     nc = state.nchunk
     wave = np.zeros(nc)
-    bad = np.full(nc, -1, dtype=np.int64)
-    code = np.zeros(nc, dtype=np.int64)
-    value = np.zeros(nc)
-    update_stress_kernel(state.field_index, sd.G, gvel, dt, P.v, P.F, P.stress, P.vol, P.vol0, P.mat, m.type_code,
-                         m.props, m.density, m.energy, m.av, float(state.grid.h.min()), P.U, P.pressure, P.q,
-                         nc, wave, bad, code, value)
+    faults = Faults.empty(nc)
+    update_stress_kernel(state.entries, gvel, dt, state.particles.view(), state.materials.view(),
+                         float(state.grid.h.min()), nc, wave, faults)
     state.wave_max = float(wave.max())
-    hits = np.nonzero(bad >= 0)[0]
-    if len(hits):
-        c = hits[0]
-        state.flags.set(int(bad[c]), int(code[c]), float(value[c]))
+    first = faults.first()
+    if first is not None:
+        state.flags.set(*first)
 
 
 def update_stress_first(fraction: float):

@@ -36,54 +36,119 @@ re-imposed.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
-from ..gridops import chunk_range, node_ijk
 from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.bond import point_bond
-from ..contact.passes import MAX_SLOTS, increment_contact
-from .boundary import has_walls, mirror_ghosts, slot_info
+from ..contact.passes import increment_contact, node_scratch
+from ..contact.spec import SEP_VELOCITY
+from ..contact.workspace import no_contact
+from ..gridops import chunk_range, node_ijk, slab
+from ..views import RigidHold
+from .boundary import has_walls, mirror_ghosts
+
+
+class FilterFields(NamedTuple):
+    """The grid fields the filter reads and writes."""
+
+    mass: np.ndarray
+    vnew: np.ndarray  # v+ (updated velocity)
+    vstart: np.ndarray  # v_e (start velocity, velocity conditions imposed)
+    dv: np.ndarray  # the current increment
+    tmp: np.ndarray  # scratch: sum_p m_p S_ip (S dv)_p
+    vstar: np.ndarray  # the result
+
+
+class FilterOptions(NamedTuple):
+    order: int  # m: number of terms of the series
+    filter_updated: bool  # FMPM: filter v+ (else XPIC: the start velocity, plus the step's change)
+    seed_shift: np.ndarray  # per slot: -dv^a of pass 1 (uncorrected multimaterial XPIC), else (1, dim)
+    use_shift: bool
+    walls: bool  # ghost components mirror their interior node
+    sep_velocity: bool  # contact re-imposed on the increments: velocity-only detection
+    touch: float  # and its touching length
+
+
+class HeldSums(NamedTuple):
+    """Per chunk, what the velocity conditions take from the increments: impulse, work."""
+
+    impulse: np.ndarray  # (nchunk, 6 + n_rigid, dim)
+    work: np.ndarray  # (nchunk,)
+
+
+@njit(cache=True)
+def seed_filter(q, active, nn, f, opts, dim):
+    """First term of the series at active field q: v (XPIC) or v+ (FMPM); vstar starts as
+    v0 + (v+ - v_e) (XPIC) or v0 (FMPM)."""
+    fld = active.fields[q]
+    for d in range(dim):
+        if active.skip[q]:
+            f.dv[fld, d] = 0.0
+            f.vstar[fld, d] = 0.0
+            continue
+        # seed: v (XPIC) or v+ (FMPM); seed_shift holds -dv^a for the uncorrected variant
+        shift = opts.seed_shift[fld - nn, d] if (opts.use_shift and fld >= nn) else 0.0
+        f.dv[fld, d] = (f.vnew[fld, d] if opts.filter_updated else f.vstart[fld, d]) + shift
+        f.vstar[fld, d] = f.dv[fld, d] if opts.filter_updated else f.vnew[fld, d] + shift  # v0 + (v+ - v_e)
+
+
+@njit(cache=True)
+def hold_increment(q, active, grid, held, f, dim, ch, chunk_impulse, work):
+    """dv -= S+S dv at active field q, except components a velocity condition holds: those stay
+    at zero increment, and the momentum the increment would have put there goes to the wall
+    or rigid body (the free nodes' increments sum to minus it). Returns `work` plus that
+    part's work."""
+    fld = active.fields[q]
+    node = active.fnodes[q]
+    i, j, k = node_ijk(node, grid.shape)
+    m = f.mass[fld]
+    for d in range(dim):
+        owner = NO_BC
+        v_held = 0.0
+        if m > 0.0 and not active.skip[q]:
+            owner, v_held = node_bc(node, i, j, k, d, dim, grid, held)
+        if owner == NO_BC:
+            f.dv[fld, d] = f.dv[fld, d] - f.tmp[fld, d] / m if m > 0.0 and not active.skip[q] else 0.0
+            continue
+        held_p = f.tmp[fld, d] - m * f.dv[fld, d]
+        work += held_p * v_held
+        add_reaction(chunk_impulse, ch, owner, node, d, held_p, held)
+        f.dv[fld, d] = 0.0
+    return work
 
 
 @njit(parallel=True, cache=True)
-def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape, mass, vnew, vstart, seed_shift,
-                use_shift, filter_updated, m_order, face_type, wall_index, rigid_vol, constrain, rig_vel, walls, n_cn, cn_nodes,
-                cn_ptr, slot_group, n_def_groups, sep_method, role, partner, geo_n, delta2, slot_law, slot_mu, slot_mus,
-                bonded, touch, stick_total, applied_total, n_con, con_ptr, ent_a, ent_b, ent_w, slots, nchunk, dv, tmp,
-                vstar, chunk_impulse, chunk_work):
-    """`nodes` are the particles' field indices (material slots at contact nodes). The impulses
-    the velocity conditions exert on the increments (and their work) go to chunk_impulse and
-    chunk_work, so reactions and the energy check see the filter's share of the condition."""
-    dim = vnew.shape[1]
+def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, slots, nchunk, sums):
+    """The series v* = sum_j (I - S+S)^j v over the active fields (sc: the particles' entries
+    into their fields, material slots at contact nodes), with contact re-imposed on every
+    increment at the cnodes.n_cn contact nodes. The impulses the velocity conditions exert on
+    the increments (and their work) go to sums (HeldSums), so reactions and the energy check
+    see the filter's share of the condition."""
+    dim = f.vnew.shape[1]
+    chunk_work, chunk_impulse = sums.work, sums.impulse
     chunk_work[:] = 0.0
     chunk_impulse[:] = 0.0
+    fields = active.fields
     nq = fields.size
+    nn = grid.shape[0] * grid.shape[1] * grid.shape[2]
+    # (numba's parallel loops read bundle members through locals only)
+    nodes, S, dv, tmp, vstar, fmass, ptr = sc.fidx, sc.S, f.dv, f.tmp, f.vstar, f.mass, sc.ptr
+    n_cn, sep_velocity, touch = cnodes.n_cn, opts.sep_velocity, opts.touch
     K = S.shape[1]
-    n_slab = ptr.size - 1
-    nn = shape[0] * shape[1] * shape[2]
     for q in prange(nq):
-        f = fields[q]
-        for d in range(dim):
-            if skip[q]:
-                dv[f, d] = 0.0
-                vstar[f, d] = 0.0
-                continue
-            # seed: v (XPIC) or v+ (FMPM); seed_shift holds -dv^a for the uncorrected variant
-            shift = seed_shift[f - nn, d] if (use_shift and f >= nn) else 0.0
-            dv[f, d] = (vnew[f, d] if filter_updated else vstart[f, d]) + shift
-            vstar[f, d] = dv[f, d] if filter_updated else vnew[f, d] + shift  # v0 + (v+ - v_e)
-    for ell in range(2, m_order + 1):
+        seed_filter(q, active, nn, f, opts, dim)
+    for ell in range(2, opts.order + 1):
         for q in prange(nq):
-            f = fields[q]
+            fld = fields[q]
             for d in range(dim):
-                tmp[f, d] = 0.0
+                tmp[fld, d] = 0.0
         # tmp = sum_p m_p S_ip (S dv)_p: gather then scatter, slab by slab
         for color in range(2):
-            for s in prange((n_slab - color + 1) // 2):
-                slab = color + 2 * s
-                for qq in range(ptr[slab], ptr[slab + 1]):
-                    p = order_[qq]
+            for s in prange((ptr.size - color) // 2):
+                for p in slab(sc, color, s):
                     g0 = 0.0
                     g1 = 0.0
                     g2 = 0.0
@@ -108,102 +173,56 @@ def xpic_series(order_, ptr, nodes, S, pmass, fields, fnodes, skip, n_box, shape
             start, stop = chunk_range(ch, nchunk, nq)
             work_ch = 0.0
             for q in range(start, stop):
-                f = fields[q]
-                node = fnodes[q]
-                i, j, k = node_ijk(node, shape)
-                m = mass[f]
-                for d in range(dim):
-                    owner = NO_BC
-                    v_held = 0.0
-                    if m > 0.0 and not skip[q]:
-                        owner, v_held = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
-                                             rig_vel)
-                    if owner == NO_BC:
-                        dv[f, d] = dv[f, d] - tmp[f, d] / m if m > 0.0 and not skip[q] else 0.0
-                        continue
-                    # The condition holds this component at zero increment; the momentum the
-                    # increment would have put here, m dv - (S+S dv) m, is taken by the wall or
-                    # rigid body instead (the free nodes' increments sum to minus it).
-                    held = tmp[f, d] - m * dv[f, d]
-                    work_ch += held * v_held
-                    add_reaction(chunk_impulse, ch, owner, node, d, held, rigid_vol, constrain)
-                    dv[f, d] = 0.0
+                work_ch = hold_increment(q, active, grid, held, f, dim, ch, chunk_impulse, work_ch)
             chunk_work[ch] += work_ch
         for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
-            pbuf = np.zeros((MAX_SLOTS, 3))
-            dpb = np.zeros((MAX_SLOTS, 3))
-            imp = np.zeros(3)
-            out = np.zeros(3)
-            nvec = np.zeros(3)
-            increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def_groups, nn, shape, mass, dv, face_type,
-                              wall_index, rigid_vol, constrain, rig_vel, sep_method, role, partner, geo_n, delta2,
-                              slot_law, slot_mu, slot_mus, bonded, touch, stick_total, applied_total, pbuf, dpb, imp,
-                              out, nvec)
+            increment_contact(c, cnodes, grid, held, fmass, dv, geo, dec, sep_velocity, touch, node_scratch())
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
-            point_bond(n_con, con_ptr, ent_a, ent_b, ent_w, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
-        if walls:  # ghost components of the increment mirror their interior node
-            mirror_ghosts(fields, fnodes, shape, face_type, wall_index, rigid_vol, constrain, slots, dv)
+            point_bond(bonds, nn, f.mass, dv, False, f.vstar[:1], 0.0, geo.normal, dim)
+        if opts.walls:  # ghost components of the increment mirror their interior node
+            mirror_ghosts(active, grid, held, slots, dv)
         for q in prange(nq):
-            f = fields[q]
+            fld = fields[q]
             for d in range(dim):
-                vstar[f, d] += dv[f, d]
+                vstar[fld, d] += dv[fld, d]
 
 
-def xpic(scheme: str, order: int):
-    """XPIC(order) (scheme xpic) or FMPM(order) (scheme fmpm)."""
+def xpic(scheme: str, order: int, spec):
+    """XPIC(order) (scheme xpic) or FMPM(order) (scheme fmpm); spec: the scene's contact spec
+    or None."""
+    fmpm = scheme == "fmpm"
+    reimpose = spec is not None and not fmpm and spec.passes == 2
+    sep_velocity = spec is not None and spec.separation == SEP_VELOCITY
 
     def run(state) -> None:
-        _xpic(state, scheme == "fmpm", order)
+        f, g, box, sd, cs = state.fields, state.grid, state.box, state.sd, state.contact
+        dim, nn = state.dim, g.n_nodes
+        shift = _NO_SHIFT[dim]
+        empty = no_contact(dim)
+        cnodes, geo, dec, bonds, touch = empty.nodes, empty.geo, empty.dec, empty.bonds, 0.0
+        slots = cs.slot_map() if cs is not None else empty.slots
+        if reimpose:
+            ns = cs.n_slots
+            if spec.xpic_term:  # re-impose contact on the increments, from pass 2's totals
+                cs.stick_total[:ns] = cs.stick2[:ns]
+                cs.applied_total[:ns] = cs.applied2[:ns]
+                cnodes, geo, dec, bonds = cs.nodes(nn), cs.targets(), cs.decisions(), cs.bonds()
+                touch = spec.touch * float(g.h.min())
+            else:  # uncorrected: filter v - dv^a (the extrapolation without pass 1)
+                m = f.mass[nn:nn + ns, None]
+                shift = -cs.dp1[:ns] / np.where(m > 0.0, m, 1.0)
+        nc = state.nchunk
+        sums = HeldSums(np.zeros((nc,) + state.reaction.shape), np.zeros(nc))
+        held = RigidHold(f.rigid_vol, state.materials.constrain, state.rigid.v_end)
+        ff = FilterFields(f.mass, f.vnew, f.vstart, f.dv, f.tmp, f.vstar)
+        opts = FilterOptions(order, fmpm, shift, shift is not _NO_SHIFT[dim], has_walls(state),
+                             sep_velocity, touch)
+        xpic_series(box.scatter(state.field_index, sd.S), state.particles.mass, box.active(), g.view, held, ff, opts,
+                    cnodes, geo, dec, bonds, slots, nc, sums)
+        state.reaction += sums.impulse.sum(axis=0) / state.dt
+        state.work_in += float(sums.work.sum())
 
     return run
 
 
-def _xpic(state, fmpm: bool, order: int) -> None:
-    f, g, box, sd = state.fields, state.grid, state.box, state.sd
-    cs = state.contact
-    dim = state.dim
-    if cs is None or fmpm or cs.spec.passes == 1:
-        n_cn, shift, contact = 0, _NO_SHIFT[dim], None
-    else:
-        ns = cs.n_slots
-        if cs.spec.xpic_term:  # re-impose contact on the increments, from pass 2's totals
-            n_cn, shift = cs.n_cn, _NO_SHIFT[dim]
-            cs.stick_total[:ns] = cs.stick2[:ns]
-            cs.applied_total[:ns] = cs.applied2[:ns]
-        else:  # uncorrected: filter v - dv^a (the extrapolation without pass 1)
-            n_cn = 0
-            m = f.mass[g.n_nodes:g.n_nodes + ns, None]
-            shift = -cs.dp1[:ns] / np.where(m > 0.0, m, 1.0)
-        contact = cs
-    c = contact if contact is not None else _EMPTY
-    spec_groups = contact.spec.n_def_groups if contact is not None else 0
-    sep = contact.spec.separation if contact is not None else 0
-    touch = contact.spec.touch * float(g.h.min()) if contact is not None else 0.0
-    nc = state.nchunk
-    impulse = np.zeros((nc,) + state.reaction.shape)
-    work = np.zeros(nc)
-    xpic_series(box.order, box.ptr, state.field_index, sd.S, state.particles.mass, box.fields, box.fnodes, box.skip,
-                box.n_box, box.shape, f.mass, f.vnew, f.vstart, shift, shift is not _NO_SHIFT[dim], fmpm, order, g.face_type,
-                g.wall_index, f.rigid_vol, state.materials.constrain, state.rigid.v_end, has_walls(state), n_cn,
-                c.cn_nodes, c.cn_ptr, c.slot_group, spec_groups, sep, c.role, c.partner, c.normal, c.delta2, c.law,
-                c.mu, c.mus, c.bonded, touch, c.stick_total, c.applied_total, c.n_con if n_cn else 0, c.con_ptr,
-                c.ent_a, c.ent_b, c.ent_w, slot_info(state), nc, f.dv, f.tmp, f.vstar,
-                impulse, work)
-    state.reaction += impulse.sum(axis=0) / state.dt
-    state.work_in += float(work.sum())
-
-
-class _NoContact:
-    """Placeholder arrays for scenes without contact (the kernel loops over zero contact nodes)."""
-
-    def __init__(self):
-        i1, f1, f2 = np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros((1, 3))
-        self.cn_nodes = self.cn_ptr = self.slot_group = self.role = self.partner = self.law = self.bonded = i1
-        self.normal = self.stick_total = self.applied_total = f2
-        self.delta2 = self.mu = self.mus = self.ent_w = f1
-        self.con_ptr = self.ent_a = self.ent_b = i1
-        self.n_con = 0
-
-
-_EMPTY = _NoContact()
 _NO_SHIFT = {2: np.zeros((1, 2)), 3: np.zeros((1, 3))}

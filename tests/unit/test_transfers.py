@@ -24,8 +24,8 @@ def scatter(g, name, x, mass, vel, threads):
     gm = np.zeros(g.n_nodes)
     gp = np.zeros((g.n_nodes, dim))
     C = np.zeros((1, dim, dim))
-    p2g_momentum(box.order, box.ptr, sd.nodes, sd.S, mass, vel, True, gm, gp, False, C, sd.lowest,
-                 np.zeros((1, 3), dtype=np.int64), g.origin, g.h, x)
+    p2g_momentum(box.scatter(sd.nodes, sd.S), mass, vel, True, gm, gp, False, C, sd.lowest,
+                 np.zeros((1, 3), dtype=np.int64), g.view, x)
     return g, sd, box, gm, gp
 
 
