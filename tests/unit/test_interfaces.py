@@ -118,6 +118,7 @@ def test_point_bond_zeroes_the_interpolated_jump_and_conserves_momentum():
     momentum of each node (both materials) is unchanged; with unequal jumps the pair keeps
     their difference (the in-cell strain jump the node-wise bond would remove)."""
     from mpmsim.contact.bond import point_bond
+    from mpmsim.contact.workspace import Bonds
 
     nn = 1  # one grid node before the slots; slots 0..5 are fields 1..6
     mass = np.array([1.0, 2.0, 1.0, 3.0, 1.5, 2.0, 0.5])
@@ -129,7 +130,7 @@ def test_point_bond_zeroes_the_interpolated_jump_and_conserves_momentum():
     ent_a, ent_b, ent_w = np.array([0, 2, 4]), np.array([1, 3, 5]), np.array([0.5, 0.5, 1.0])
     mom = v * mass[:, None]
     before = mom.copy()
-    sweeps = point_bond(2, con_ptr, ent_a, ent_b, ent_w, nn, mass, mom, True, np.zeros((1, 3)), 0.0, n, 2)
+    sweeps = point_bond(Bonds(2, con_ptr, ent_a, ent_b, ent_w), nn, mass, mom, True, np.zeros((1, 3)), 0.0, n, 2)
     assert sweeps <= 2
     vel = mom / mass[:, None]
     jump = [vel[nn + b, 0] - vel[nn + a, 0] for a, b in zip(ent_a, ent_b)]
@@ -159,6 +160,7 @@ def interface_geometry(mid: bool, strain, offset):
     P.x[:] = P.x0 @ (np.eye(2) + E).T
     P.F[:] = np.eye(2) + E
     P.x[P.x0[:, 0] > (4.5 if mid else 4.0)] += offset
+    st.dt_rule = st.dt = sim.integrator.stable_dt(st)  # as the run loop does before a step
     for task in sim.integrator.tasks:
         task.run(st)
         if task.name == "contact geometry":
