@@ -63,6 +63,10 @@ class Simulation:
         """`out_dir=None` keeps the history in memory and writes no files (tests, sweeps).
         `integrator=None`: the deck's (make_integrator)."""
         self.scene = scene
+        deck = scene.deck
+        self.end = deck.time.end
+        self.vtu_interval = deck.output.vtu_interval or self.end / 20
+        self.history_interval = deck.output.history_interval or self.end / 200
         self.state = State.from_scene(scene, threads)
         self.integrator = integrator if integrator is not None else make_integrator(scene)
         self.check = StabilityCheck(scene)
@@ -92,7 +96,7 @@ class Simulation:
 
     def step(self) -> None:
         """One step of the integrator, then the stability check; advances the clock."""
-        st, end = self.state, self.scene.deck.time.end
+        st, end = self.state, self.end
         if st.t >= end * (1.0 - 1e-9):
             raise RuntimeError(f"the run has reached time.end = {end:g}; nothing left to step")
         rule = self.integrator.stable_dt(st)
@@ -115,10 +119,8 @@ class Simulation:
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
 
     def run(self, progress: Callable[[State], None] | None = None) -> RunResult:
-        st, deck = self.state, self.scene.deck
-        end = deck.time.end
-        vtu_dt = deck.output.vtu_interval or end / 20
-        hist_dt = deck.output.history_interval or end / 200
+        st, end = self.state, self.end
+        vtu_dt, hist_dt = self.vtu_interval, self.history_interval
         eps = 1e-9 * end
         start = wallclock.perf_counter()
         if st.step == 0:  # the energy balance starts from the state as the caller left it
