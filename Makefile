@@ -25,6 +25,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/column.py
+	$(BIN)/python bench/column.py --deck bench/two_blocks.yaml --matrix-steps 0
 
 # contact methods on the LR paper's problems: Fig. 5 errors, cost, charts in docs/figures/
 # (about 10 minutes on 2 cores; `python bench/contact.py ellipses` adds full-size Fig. 6)

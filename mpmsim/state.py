@@ -43,6 +43,8 @@ class GridFields:
     vstar: np.ndarray  # (nn, dim) XPIC/FMPM filtered velocity; dv, tmp its scratch
     dv: np.ndarray
     tmp: np.ndarray
+    ghost_src: np.ndarray = None  # (>= active fields, dim) the field each ghost component mirrors (tasks/boundary.py)
+    ghost_face: np.ndarray = None  # (>= active fields, dim) its face
 
     def ensure(self, n_fields: int) -> None:
         """Grow the field arrays (material slots come after the nodes) to hold n_fields."""
@@ -61,7 +63,8 @@ class GridFields:
         z = lambda *s: np.zeros(s)  # noqa: E731
         nf = nn if filtering else 1
         return cls(z(nn), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim), z(nn, dim),
-                   z(nn, max(n_rigid, 1)), z(nf, dim), z(nf, dim), z(nf, dim))
+                   z(nn, max(n_rigid, 1)), z(nf, dim), z(nf, dim), z(nf, dim), np.zeros((0, dim), dtype=np.int64),
+                   np.zeros((0, dim), dtype=np.int64))
 
 
 @dataclass

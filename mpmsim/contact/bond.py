@@ -46,7 +46,7 @@ MAX_SWEEPS = 100
 ALIGNED = 1.0 - 1e-6  # |n_d| of a grid-aligned normal
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _candidate(c, nodes, geo):
     """The target slot a of contact node c if its normal may join the constraints, else -1."""
     for a in range(nodes.cn_ptr[c], nodes.cn_ptr[c + 1]):
@@ -76,7 +76,8 @@ def bond_points(nodes, node_cn, grid, held_bc, geo, dim, bonds):
         node = cn_nodes[c]
         i, j, k = node_ijk(node, shape)
         for d in range(dim):
-            owner, v = node_bc(node, i, j, k, d, dim, grid, held_bc)
+            owner, v = node_bc(node, i, j, k, d, dim, grid.face_type, grid.wall_index, held_bc.volume,
+                               held_bc.constrain, held_bc.velocity)
             if owner != NO_BC:
                 held[c] = True
     base = np.zeros(3, dtype=np.int64)

@@ -97,7 +97,7 @@ def regression_scratch(max_cloud):
                       np.zeros((3, 3)))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def particle_position(idx, clouds, d):
     return clouds.x[idx, d] if idx < clouds.n_def else clouds.rx[idx - clouds.n_def, d]
 
@@ -347,7 +347,7 @@ def cloud_direction(clouds, labels, start, stop, dim, out_n):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def deformed_radius(idx, clouds, n, dim):
     """Distance from the particle centre to its deformed inscribed ellipse along n (Eq. 25);
     rigid particles are undeformed."""

@@ -125,7 +125,7 @@ def direction_force(D, area, mred, delta0, d, df, dt, mode):
     return force, 0.5 * k * end * end, False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def interface_impulse(geo, a, dp, df, n, mred, dt, mode, dim, out):
     """Pass 2 at interface target a (geo: contact.workspace.Targets): bonded directions take
     the stick impulse dp, the others the interface force times dt. dp: stick impulse on the

@@ -64,7 +64,7 @@ def node_scratch():
                        np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def stick_impulse(a, b, rigid_b, s0, s1, nodes, mass, pbuf, dim, out):
     """Impulse that moves a to the centre-of-mass velocity (or to the rigid velocity).
     b: partner slot (-1: the lumped rest). Returns the reduced mass."""
@@ -95,7 +95,7 @@ def stick_impulse(a, b, rigid_b, s0, s1, nodes, mass, pbuf, dim, out):
     return ma * (M - ma) / M
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def relative_force(a, b, rigid_b, s0, s1, nodes, mass, acc, dim, out):
     """df = (m_a/M) F - f_a over a and its partner side (f = m a of the update), or -f_a
     against a rigid material: the force that changes a's velocity relative to the rest."""
@@ -115,7 +115,7 @@ def relative_force(a, b, rigid_b, s0, s1, nodes, mass, acc, dim, out):
                 out[d] += ma / M * mass[nn + s] * acc[nn + s, d]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def target_stick(a, s0, s1, nodes, mass, geo, w, dim):
     """Target a's partner, whether that is rigid, and the reduced mass; its normal into w.n
     and its stick impulse on the momenta w.pbuf into w.imp."""
@@ -127,7 +127,7 @@ def target_stick(a, s0, s1, nodes, mass, geo, w, dim):
     return b, rigid_b, mred
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def share_change(a, b, rigid_b, value, d, dpb, s0):
     """Add `value` to target a's change and its opposite to a deformable partner's."""
     dpb[a - s0, d] += value
@@ -135,7 +135,7 @@ def share_change(a, b, rigid_b, value, d, dpb, s0):
         dpb[b - s0, d] -= value
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def exchange_momenta(s0, s1, nodes, mass, mom, geo, need_approach, dim, w):
     """The laws at one contact node on the momenta `mom`; the change of each slot in w.dpb.
     w.touching[a - s0]: target a's surfaces touch. A touching target is in contact if it
@@ -195,18 +195,20 @@ def exchange_pass(mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, nc
         exchange_nodes(start, stop, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, dp1)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def add_free_changes(node, s0, s1, nodes, grid, held, mass, dpb, arr, acc, dt, dim):
     """Add each deformable slot's change dpb / m to arr (and dpb / (m dt) to acc when dt > 0),
     except components a velocity condition holds."""
     nn, slot_group, n_def = nodes.nn, nodes.slot_group, nodes.n_def
+    face_type, wall_index, rigid_vol, constrain, rig_vel = (grid.face_type, grid.wall_index, held.volume,
+                                                            held.constrain, held.velocity)
     i, j, k = node_ijk(node, grid.shape)
     for s in range(s0, s1):
         if slot_group[s] >= n_def:
             continue
         m = mass[nn + s]
         for d in range(dim):
-            owner, vbc = node_bc(node, i, j, k, d, dim, grid, held)
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
             if owner != NO_BC:
                 continue
             arr[nn + s, d] += dpb[s - s0, d] / m
@@ -268,7 +270,8 @@ def pass2_target(a, s0, s1, node, nodes, grid, held, rigid_of_group, mass, acc, 
     dec.contact2[a] = 1 if applied else 0
     if applied:
         for d in range(dim):
-            owner, vbc = node_bc(node, i, j, k, d, dim, grid, held)
+            owner, vbc = node_bc(node, i, j, k, d, dim, grid.face_type, grid.wall_index, held.volume, held.constrain,
+                                 held.velocity)
             if owner != NO_BC:
                 continue  # a velocity condition holds this component
             share_change(a, b, rigid_b, out[d], d, w.dpb, s0)

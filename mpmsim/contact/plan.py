@@ -54,7 +54,7 @@ class GeometryInputs(NamedTuple):
     dt: float  # the step the CFL rule allows (interface bonding switch)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def plan_node(s0, s1, nodes, vol, role, partner):
     """Roles (1: target) and partners (-1: the lumped rest) of the slots s0:s1 of a node."""
     slot_group, n_def = nodes.slot_group, nodes.n_def
@@ -92,7 +92,7 @@ def plan_node(s0, s1, nodes, vol, role, partner):
                 role[s] = 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def on_side(s, a, b, side, nodes):
     """Whether slot s belongs to a side of target a: a itself (side 0), or its partner (side 1:
     slot b, or every other deformable slot when b < 0)."""
@@ -103,7 +103,7 @@ def on_side(s, a, b, side, nodes):
     return s != a and nodes.slot_group[s] < nodes.n_def
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def side_average(a, b, s0, s1, nodes, weight, arr, dim, side, out):
     """Weighted average of a slot quantity (arr holds weighted sums) over one side of target a."""
     nn = nodes.nn
@@ -119,7 +119,7 @@ def side_average(a, b, s0, s1, nodes, weight, arr, dim, side, out):
         out[d] /= w
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def side_at_point(a, b, s0, s1, nodes, mass, sums, shift, dim, side, out):
     """A side's mass-weighted displacement evaluated at node + shift: (sum S m u(node) +
     sum S m H shift) / sum S m, with u(node) and H from fields.scatter_slot_extras."""
@@ -139,7 +139,7 @@ def side_at_point(a, b, s0, s1, nodes, mass, sums, shift, dim, side, out):
         out[d] /= m
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lumped_neighbour(a, s0, s1, nodes, vol):
     """The other deformable material with the largest volume at the node."""
     best = -1
@@ -151,7 +151,7 @@ def lumped_neighbour(a, s0, s1, nodes, vol):
     return best
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def reduced_mass(a, b, rigid_b, s0, s1, nodes, mass):
     """m_a m_b / (m_a + m_b) of target a and its partner side (m_a against a rigid one)."""
     nn = nodes.nn
@@ -167,7 +167,7 @@ def reduced_mass(a, b, rigid_b, s0, s1, nodes, mass):
     return ma * (M - ma) / M
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def target_law(a, b, s0, s1, inp, geo):
     """Law and friction of target a (with its partner, or the lumped neighbour of largest
     volume), and the contact volumes of its two sides: (ga, gb, omega_a, omega_b)."""
@@ -190,7 +190,7 @@ def target_law(a, b, s0, s1, inp, geo):
     return ga, gb, omega_a, omega_b
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def label_cloud(a, b, ga, c0, c1, nodes, clouds, labels):
     """labels[q - c0]: -1 for material a's particles, +1 for its partner side's, 0 others."""
     for q in range(c0, c1):
@@ -232,7 +232,7 @@ def regression_normal_of(b, ga, rigid_b, node, c0, c1, inp, R, dim, n):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def specified_normal(ga, gb, rigid_b, xnode, method, dim, n):
     """The deck's normal (from the lower group to the higher), or radial from a centre."""
     sign = -1.0 if (not rigid_b and ga > gb) else 1.0

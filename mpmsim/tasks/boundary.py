@@ -4,7 +4,9 @@ mirrored ghost values (the per-node rules are in mpmsim/bc.py).
 Ghost values act per *field*: where materials meet (mpmsim/contact), a ghost node's material
 slot mirrors the same material's slot at the mirror node, so two materials bonded across a
 wall-side node see the same wall as one material does (B-spline supports reach the ghosts).
-`slot_info(state)` carries what that lookup needs.
+`slot_info(state)` carries what that lookup needs. Which field each ghost component mirrors
+is found once per step (`find_ghosts`, after the extrapolation decides which nodes rigid
+bodies hold) into `fields.ghost_src`/`ghost_face`; every later mirror reads that table.
 """
 
 from __future__ import annotations
@@ -14,22 +16,25 @@ from numba import njit, prange
 
 from ..bc import NO_BC, ghost_mirror, node_bc, rigid_holds
 from ..contact.workspace import no_contact
-from ..gridops import node_ijk
+from ..gridops import chunk_range, node_ijk
 from ..views import RigidHold
 
+NOT_GHOST, ZERO = -1, -2  # ghost_src codes: not a constrained ghost component; held at zero
 
-@njit(parallel=True, cache=True)
-def grid_velocity(active, grid, held, mass, mom, vel):
-    """vel = p/m on every active field, with velocity conditions imposed (for velocity gradients)."""
+
+@njit(cache=True)
+def velocity_chunk(start, stop, active, grid, held, mass, mom, vel):
+    """grid_velocity on active fields start:stop."""
     dim = mom.shape[1]
-    fields, fnodes, shape = active.fields, active.fnodes, grid.shape
-    for q in prange(fields.size):  # (numba's parallel loops read bundle members through locals only)
+    fields, fnodes, shape, face_type, wall_index = active.fields, active.fnodes, grid.shape, grid.face_type, grid.wall_index
+    rigid_vol, constrain, rig_vel = held.volume, held.constrain, held.velocity
+    for q in range(start, stop):
         f = fields[q]
         node = fnodes[q]
         i, j, k = node_ijk(node, shape)
         m = mass[f]
         for d in range(dim):
-            owner, vbc = node_bc(node, i, j, k, d, dim, grid, held)
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
             if owner != NO_BC:
                 vel[f, d] = vbc
             elif m > 0.0:
@@ -38,19 +43,27 @@ def grid_velocity(active, grid, held, mass, mom, vel):
                 vel[f, d] = 0.0
 
 
+@njit(parallel=True, cache=True)
+def grid_velocity(active, grid, held, mass, mom, vel, nchunk):
+    """vel = p/m on every active field, with velocity conditions imposed (for velocity gradients)."""
+    n = active.fields.size
+    for c in prange(nchunk):  # (parallel loop bodies call chunk helpers with the bundles: docs/architecture.md)
+        start, stop = chunk_range(c, nchunk, n)
+        velocity_chunk(start, stop, active, grid, held, mass, mom, vel)
+
+
 def slot_info(state):
     """The SlotMap of this step's material slots (an empty one without contact)."""
     cs = state.contact
     return no_contact(state.dim).slots if cs is None else cs.slot_map()
 
 
-@njit(cache=True)
-def mirror_field(fid, mirror, nn, slots):
+@njit(cache=True, inline="always")
+def mirror_field(fid, mirror, nn, node_cn, cn_ptr, slot_group, mask, n_def):
     """The field at node `mirror` that field `fid` mirrors: the field of the same material
     group there (its slot, or the node if that group is the node's only one). -1 where there
     is none (rigid contact slots, a group absent at the mirror, a contact node's unused node
     field): the field keeps its own values, as every field did before ghosts were mirrored."""
-    node_cn, cn_ptr, slot_group, mask, n_def = slots.node_cn, slots.cn_ptr, slots.slot_group, slots.mask, slots.n_def
     if mirror < 0 or node_cn.size <= 1:
         return mirror
     if fid >= nn:
@@ -75,44 +88,73 @@ def mirror_field(fid, mirror, nn, slots):
 
 
 @njit(cache=True)
-def ghost_source(fid, node, d, dim, grid, held, slots):
-    """(source, face) of component d of field fid at node: source -1 if the component is not
-    a constrained ghost value (or a rigid body holds it), -2 if it is held at zero, else the
-    mirror field whose value it takes with the opposite sign."""
-    i, j, k = node_ijk(node, grid.shape)
-    mirror, face = ghost_mirror(i, j, k, d, dim, grid)
-    if mirror == -1 or rigid_holds(node, d, held):
-        return -1, face
-    nn = grid.shape[0] * grid.shape[1] * grid.shape[2]
-    return mirror_field(fid, mirror, nn, slots), face
+def ghost_chunk(start, stop, active, grid, held, slots, src, face):
+    """find_ghosts on active fields start:stop."""
+    dim = src.shape[1]
+    fields, fnodes, shape, face_type, wall_index = active.fields, active.fnodes, grid.shape, grid.face_type, grid.wall_index
+    rigid_vol, constrain = held.volume, held.constrain
+    node_cn, cn_ptr, slot_group, mask, n_def = slots.node_cn, slots.cn_ptr, slots.slot_group, slots.mask, slots.n_def
+    nn = shape[0] * shape[1] * shape[2]
+    for q in range(start, stop):
+        fid = fields[q]
+        node = fnodes[q]
+        i, j, k = node_ijk(node, shape)
+        for d in range(dim):
+            mirror, f = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
+            face[q, d] = f
+            if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
+                src[q, d] = NOT_GHOST
+            else:
+                src[q, d] = mirror_field(fid, mirror, nn, node_cn, cn_ptr, slot_group, mask, n_def)
 
 
 @njit(parallel=True, cache=True)
-def mirror_ghosts(active, grid, held, slots, field):
-    """Constrained ghost components of the given fields take minus their mirror field's value."""
+def ghost_table(active, grid, held, slots, nchunk, src, face):
+    """For each active field and component: the field whose value a constrained ghost takes
+    with the opposite sign (ZERO: held at zero; NOT_GHOST: not a constrained ghost value, or
+    a rigid body holds it, or no field of its group at the mirror), and the face."""
+    n = active.fields.size
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        ghost_chunk(start, stop, active, grid, held, slots, src, face)
+
+
+def find_ghosts(state) -> None:
+    """This step's ghost table (fields.ghost_src, ghost_face), after the extrapolation."""
+    f, box = state.fields, state.box
+    n = box.fields.size
+    if f.ghost_src.shape[0] < n:
+        f.ghost_src = np.zeros((2 * n, state.dim), dtype=np.int64)
+        f.ghost_face = np.zeros((2 * n, state.dim), dtype=np.int64)
+    ghost_table(box.active(), state.grid.view, held_by(state, state.rigid.v_end), slot_info(state), state.nchunk,
+                f.ghost_src, f.ghost_face)
+
+
+@njit(parallel=True, cache=True)
+def mirror_ghosts(fields, ghost_src, field):
+    """Constrained ghost components of the active fields take minus their mirror field's value."""
     dim = field.shape[1]
-    fields, fnodes = active.fields, active.fnodes
     for q in prange(fields.size):
         fid = fields[q]
         for d in range(dim):
-            mf, face = ghost_source(fid, fnodes[q], d, dim, grid, held, slots)
-            if mf != -1:
+            mf = ghost_src[q, d]
+            if mf != NOT_GHOST:
                 field[fid, d] = -field[mf, d] if mf >= 0 else 0.0
 
 
 @njit(cache=True)
-def fold_ghost_forces(active, grid, held, slots, force):
+def fold_ghost_forces(fields, ghost_src, ghost_face, force):
     """Add minus each ghost node's normal force to its mirror node: the force the mirror image
     of the material (the symmetric extension a wall implies) would exert there. Without it a
     B-spline node one cell inside a wall, whose support crosses the wall, feels an unbalanced
     -p/8 per cell from a uniform pressure and squeezes the rows beside roller walls (+16%
     pressure at a 118 GPa shock, docs/shock.md). Used with B-spline grid functions only."""
     dim = force.shape[1]
-    for q in range(active.fields.size):
-        fid = active.fields[q]
+    for q in range(fields.size):
+        fid = fields[q]
         for d in range(dim):
-            mf, face = ghost_source(fid, active.fnodes[q], d, dim, grid, held, slots)
-            if mf >= 0 and face // 2 == d:
+            mf = ghost_src[q, d]
+            if mf >= 0 and ghost_face[q, d] // 2 == d:
                 force[mf, d] -= force[fid, d]
 
 
@@ -127,6 +169,6 @@ def held_by(state, velocity) -> RigidHold:
 
 def set_grid_velocity(state, rig_vel) -> None:
     f, box, held = state.fields, state.box, held_by(state, rig_vel)
-    grid_velocity(box.active(), state.grid.view, held, f.mass, f.mom, f.vel)
+    grid_velocity(box.active(), state.grid.view, held, f.mass, f.mom, f.vel, state.nchunk)
     if has_walls(state):
-        mirror_ghosts(box.active(), state.grid.view, held, slot_info(state), f.vel)
+        mirror_ghosts(box.fields, f.ghost_src, f.vel)

@@ -14,6 +14,7 @@ from numba import njit, prange
 
 from ..contact import extrapolate_contact
 from ..gridops import chunk_range, slab, zero_fields
+from .boundary import find_ghosts, has_walls
 from ..materials.kernels import inv3
 
 # a rigid particle constrains a node only where its weight is clearly non-zero
@@ -119,6 +120,8 @@ def extrapolate(state) -> None:
         zero_fields(box.fields[: box.n_box], f.rigid_vol)
         R = state.rigid
         p2g_rigid_volume(state.rigid_sd.nodes, state.rigid_sd.S, R.vol, R.mat, f.rigid_vol)
+    if has_walls(state):  # which field each ghost mirrors, now that rigid bodies' nodes are known
+        find_ghosts(state)
 
 
 def reextrapolate(state) -> None:

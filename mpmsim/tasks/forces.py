@@ -8,7 +8,7 @@ from numba import njit, prange
 from ..gridops import slab, zero_fields
 from ..loads import damp_grid, p2g_loads
 from ..materials.kernels import VOIGT
-from .boundary import fold_ghost_forces, has_walls, held_by, slot_info
+from .boundary import fold_ghost_forces, has_walls
 
 
 @njit(parallel=True, cache=True)
@@ -46,6 +46,6 @@ def forces(state) -> None:
     # only B-splines: with linear hats the ghosts carry only the force of a CPDI corner pushed
     # past the wall, and folding that back flings the particle out (Fig. 6 ellipses, 75% strain)
     if state.shape.reaches_ghosts and has_walls(state):
-        fold_ghost_forces(box.active(), state.grid.view, held_by(state, state.rigid.v_end), slot_info(state), f.force)
+        fold_ghost_forces(box.fields, f.ghost_src, f.ghost_face, f.force)
     if state.damping > 0.0:
         damp_grid(box.fields, f.mom, state.damping, f.force)

@@ -17,7 +17,7 @@ from numba import njit, prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..gridops import chunk_range, node_ijk
-from .boundary import ghost_source, has_walls, held_by, slot_info
+from .boundary import NOT_GHOST, has_walls, held_by
 
 
 class UpdateFields(NamedTuple):
@@ -29,77 +29,91 @@ class UpdateFields(NamedTuple):
     vstart: np.ndarray  # out: start velocity with conditions imposed
 
 
+@njit(cache=True)
+def update_chunk(c, start, stop, active, grid, held_start, held_end, f, dt, chunk_reaction):
+    """grid_update_kernel on active fields start:stop (chunk c); returns the conditions' work."""
+    dim = f.mom.shape[1]
+    fields, fnodes, skip = active.fields, active.fnodes, active.skip
+    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
+    rigid_vol, constrain, v_start, v_end = held_end.volume, held_end.constrain, held_start.velocity, held_end.velocity
+    mass, mom, force, vnew, acc, vstart = f.mass, f.mom, f.force, f.vnew, f.acc, f.vstart
+    for a in range(chunk_reaction.shape[1]):
+        for d in range(dim):
+            chunk_reaction[c, a, d] = 0.0
+    work = 0.0
+    for q in range(start, stop):
+        fid = fields[q]
+        node = fnodes[q]
+        i, j, k = node_ijk(node, shape)
+        m = mass[fid]
+        if m <= 0.0 or skip[q]:
+            for d in range(dim):
+                vnew[fid, d] = 0.0
+                acc[fid, d] = 0.0
+                vstart[fid, d] = 0.0
+            continue
+        for d in range(dim):
+            fd = force[fid, d]
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
+            if owner != NO_BC:
+                owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
+                vstart[fid, d] = vbc0
+            else:
+                vstart[fid, d] = mom[fid, d] / m
+            if owner != NO_BC:
+                f_bc = (m * vbc - mom[fid, d]) / dt
+                dfc = f_bc - fd
+                work += dfc * vbc * dt  # signed work done on the material
+                add_reaction(chunk_reaction, c, owner, node, d, dfc, rigid_vol, constrain)
+                fd = f_bc
+            acc[fid, d] = fd / m
+            vnew[fid, d] = (mom[fid, d] + fd * dt) / m
+    return work
+
+
 @njit(parallel=True, cache=True)
 def grid_update_kernel(active, grid, held_start, held_end, f, dt, nchunk, chunk_reaction, chunk_work):
     """v+ and a on every active field; a component held by a velocity condition (at the step's
     end: held_end; its start value, held_start, seeds vstart) gets the force that lands it on
     the imposed velocity, and the difference is that condition's reaction and work."""
-    dim = f.mom.shape[1]
-    fields, fnodes, skip, shape = active.fields, active.fnodes, active.skip, grid.shape
-    mass, mom, force, vnew, acc, vstart = f.mass, f.mom, f.force, f.vnew, f.acc, f.vstart
-    nq = fields.size
-    for c in prange(nchunk):  # (numba's parallel loops read bundle members through locals only)
+    nq = active.fields.size
+    for c in prange(nchunk):  # (parallel loop bodies call chunk helpers with the bundles: docs/architecture.md)
         start, stop = chunk_range(c, nchunk, nq)
-        for a in range(chunk_reaction.shape[1]):
-            for d in range(dim):
-                chunk_reaction[c, a, d] = 0.0
-        work = 0.0
-        for q in range(start, stop):
-            fid = fields[q]
-            node = fnodes[q]
-            i, j, k = node_ijk(node, shape)
-            m = mass[fid]
-            if m <= 0.0 or skip[q]:
-                for d in range(dim):
-                    vnew[fid, d] = 0.0
-                    acc[fid, d] = 0.0
-                    vstart[fid, d] = 0.0
+        chunk_work[c] = update_chunk(c, start, stop, active, grid, held_start, held_end, f, dt, chunk_reaction)
+
+
+@njit(cache=True)
+def mirror_update_chunk(c, start, stop, fields, ghost_src, ghost_face, f, dt, chunk_reaction):
+    """mirror_update on active fields start:stop (chunk c)."""
+    dim = f.mom.shape[1]
+    mass, mom, vnew, acc, vstart = f.mass, f.mom, f.vnew, f.acc, f.vstart
+    for a in range(chunk_reaction.shape[1]):
+        for d in range(dim):
+            chunk_reaction[c, a, d] = 0.0
+    for q in range(start, stop):
+        fid = fields[q]
+        m = mass[fid]
+        if m <= 0.0:
+            continue
+        for d in range(dim):
+            mf = ghost_src[q, d]
+            if mf == NOT_GHOST:
                 continue
-            for d in range(dim):
-                fd = force[fid, d]
-                owner, vbc = node_bc(node, i, j, k, d, dim, grid, held_end)
-                if owner != NO_BC:
-                    owner0, vbc0 = node_bc(node, i, j, k, d, dim, grid, held_start)
-                    vstart[fid, d] = vbc0
-                else:
-                    vstart[fid, d] = mom[fid, d] / m
-                if owner != NO_BC:
-                    f_bc = (m * vbc - mom[fid, d]) / dt
-                    dfc = f_bc - fd
-                    work += dfc * vbc * dt  # signed work done on the material
-                    add_reaction(chunk_reaction, c, owner, node, d, dfc, held_end)
-                    fd = f_bc
-                acc[fid, d] = fd / m
-                vnew[fid, d] = (mom[fid, d] + fd * dt) / m
-        chunk_work[c] = work
+            v = -vnew[mf, d] if mf >= 0 else 0.0
+            chunk_reaction[c, ghost_face[q, d], d] += m * (v - vnew[fid, d]) / dt
+            vnew[fid, d] = v
+            acc[fid, d] = (v - mom[fid, d] / m) / dt
+            vstart[fid, d] = -vstart[mf, d] if mf >= 0 else 0.0
 
 
 @njit(parallel=True, cache=True)
-def mirror_update(active, grid, held, slots, f, dt, nchunk, chunk_reaction):
+def mirror_update(fields, ghost_src, ghost_face, f, dt, nchunk, chunk_reaction):
     """Second pass of the update: constrained ghost components of the box nodes take minus
     their mirror's new velocity (boundary.py); the extra force is added to that face's reaction."""
-    dim = f.mom.shape[1]
-    fields, fnodes, mass, mom, vnew, acc, vstart = active.fields, active.fnodes, f.mass, f.mom, f.vnew, f.acc, f.vstart
     nq = fields.size
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, nq)
-        for a in range(chunk_reaction.shape[1]):
-            for d in range(dim):
-                chunk_reaction[c, a, d] = 0.0
-        for q in range(start, stop):
-            fid = fields[q]
-            m = mass[fid]
-            if m <= 0.0:
-                continue
-            for d in range(dim):
-                mf, face = ghost_source(fid, fnodes[q], d, dim, grid, held, slots)
-                if mf == -1:
-                    continue
-                v = -vnew[mf, d] if mf >= 0 else 0.0
-                chunk_reaction[c, face, d] += m * (v - vnew[fid, d]) / dt
-                vnew[fid, d] = v
-                acc[fid, d] = (v - mom[fid, d] / m) / dt
-                vstart[fid, d] = -vstart[mf, d] if mf >= 0 else 0.0
+        mirror_update_chunk(c, start, stop, fields, ghost_src, ghost_face, f, dt, chunk_reaction)
 
 
 def grid_update(state) -> None:
@@ -108,10 +122,10 @@ def grid_update(state) -> None:
     reaction = np.zeros((nc,) + state.reaction.shape)
     work = np.zeros(nc)
     uf = UpdateFields(f.mass, f.mom, f.force, f.vnew, f.acc, f.vstart)
-    held_end = held_by(state, R.v_end)
-    grid_update_kernel(box.active(), g.view, held_by(state, R.v_start), held_end, uf, state.dt, nc, reaction, work)
+    grid_update_kernel(box.active(), g.view, held_by(state, R.v_start), held_by(state, R.v_end), uf, state.dt, nc,
+                       reaction, work)
     state.reaction[:] = reaction.sum(axis=0)
     state.work_in += float(work.sum())
     if has_walls(state):
-        mirror_update(box.active(), g.view, held_end, slot_info(state), uf, state.dt, nc, reaction)
+        mirror_update(box.fields, f.ghost_src, f.ghost_face, uf, state.dt, nc, reaction)
         state.reaction += reaction.sum(axis=0)

@@ -80,48 +80,56 @@ class HeldSums(NamedTuple):
 
 
 @njit(cache=True)
-def seed_filter(q, active, nn, f, opts, dim):
-    """First term of the series at active field q: v (XPIC) or v+ (FMPM); vstar starts as
-    v0 + (v+ - v_e) (XPIC) or v0 (FMPM)."""
-    fld = active.fields[q]
-    for d in range(dim):
-        if active.skip[q]:
-            f.dv[fld, d] = 0.0
-            f.vstar[fld, d] = 0.0
-            continue
-        # seed: v (XPIC) or v+ (FMPM); seed_shift holds -dv^a for the uncorrected variant
-        shift = opts.seed_shift[fld - nn, d] if (opts.use_shift and fld >= nn) else 0.0
-        f.dv[fld, d] = (f.vnew[fld, d] if opts.filter_updated else f.vstart[fld, d]) + shift
-        f.vstar[fld, d] = f.dv[fld, d] if opts.filter_updated else f.vnew[fld, d] + shift  # v0 + (v+ - v_e)
+def seed_chunk(start, stop, active, nn, f, opts, dim):
+    """First term of the series at active fields start:stop: v (XPIC) or v+ (FMPM); vstar
+    starts as v0 + (v+ - v_e) (XPIC) or v0 (FMPM)."""
+    fields, skip, dv, vstar, vnew, vstart = active.fields, active.skip, f.dv, f.vstar, f.vnew, f.vstart
+    seed_shift, use_shift, filter_updated = opts.seed_shift, opts.use_shift, opts.filter_updated
+    for q in range(start, stop):
+        fld = fields[q]
+        for d in range(dim):
+            if skip[q]:
+                dv[fld, d] = 0.0
+                vstar[fld, d] = 0.0
+                continue
+            # seed: v (XPIC) or v+ (FMPM); seed_shift holds -dv^a for the uncorrected variant
+            shift = seed_shift[fld - nn, d] if (use_shift and fld >= nn) else 0.0
+            dv[fld, d] = (vnew[fld, d] if filter_updated else vstart[fld, d]) + shift
+            vstar[fld, d] = dv[fld, d] if filter_updated else vnew[fld, d] + shift  # v0 + (v+ - v_e)
 
 
 @njit(cache=True)
-def hold_increment(q, active, grid, held, f, dim, ch, chunk_impulse, work):
-    """dv -= S+S dv at active field q, except components a velocity condition holds: those stay
-    at zero increment, and the momentum the increment would have put there goes to the wall
-    or rigid body (the free nodes' increments sum to minus it). Returns `work` plus that
-    part's work."""
-    fld = active.fields[q]
-    node = active.fnodes[q]
-    i, j, k = node_ijk(node, grid.shape)
-    m = f.mass[fld]
-    for d in range(dim):
-        owner = NO_BC
-        v_held = 0.0
-        if m > 0.0 and not active.skip[q]:
-            owner, v_held = node_bc(node, i, j, k, d, dim, grid, held)
-        if owner == NO_BC:
-            f.dv[fld, d] = f.dv[fld, d] - f.tmp[fld, d] / m if m > 0.0 and not active.skip[q] else 0.0
-            continue
-        held_p = f.tmp[fld, d] - m * f.dv[fld, d]
-        work += held_p * v_held
-        add_reaction(chunk_impulse, ch, owner, node, d, held_p, held)
-        f.dv[fld, d] = 0.0
+def hold_chunk(start, stop, active, grid, held, f, dim, ch, chunk_impulse):
+    """dv -= S+S dv at active fields start:stop, except components a velocity condition holds:
+    those stay at zero increment, and the momentum the increment would have put there goes to
+    the wall or rigid body (the free nodes' increments sum to minus it). Returns that part's
+    work."""
+    fields, fnodes, skip, mass, dv, tmp = active.fields, active.fnodes, active.skip, f.mass, f.dv, f.tmp
+    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
+    rigid_vol, constrain, rig_vel = held.volume, held.constrain, held.velocity
+    work = 0.0
+    for q in range(start, stop):
+        fld = fields[q]
+        node = fnodes[q]
+        i, j, k = node_ijk(node, shape)
+        m = mass[fld]
+        for d in range(dim):
+            owner = NO_BC
+            v_held = 0.0
+            if m > 0.0 and not skip[q]:
+                owner, v_held = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+            if owner == NO_BC:
+                dv[fld, d] = dv[fld, d] - tmp[fld, d] / m if m > 0.0 and not skip[q] else 0.0
+                continue
+            held_p = tmp[fld, d] - m * dv[fld, d]
+            work += held_p * v_held
+            add_reaction(chunk_impulse, ch, owner, node, d, held_p, rigid_vol, constrain)
+            dv[fld, d] = 0.0
     return work
 
 
 @njit(parallel=True, cache=True)
-def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, slots, nchunk, sums):
+def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, ghost_src, nchunk, sums):
     """The series v* = sum_j (I - S+S)^j v over the active fields (sc: the particles' entries
     into their fields, material slots at contact nodes), with contact re-imposed on every
     increment at the cnodes.n_cn contact nodes. The impulses the velocity conditions exert on
@@ -138,8 +146,9 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
     nodes, S, dv, tmp, vstar, fmass, ptr = sc.fidx, sc.S, f.dv, f.tmp, f.vstar, f.mass, sc.ptr
     n_cn, sep_velocity, touch = cnodes.n_cn, opts.sep_velocity, opts.touch
     K = S.shape[1]
-    for q in prange(nq):
-        seed_filter(q, active, nn, f, opts, dim)
+    for ch in prange(nchunk):  # (parallel loop bodies call chunk helpers with the bundles: docs/architecture.md)
+        start, stop = chunk_range(ch, nchunk, nq)
+        seed_chunk(start, stop, active, nn, f, opts, dim)
     for ell in range(2, opts.order + 1):
         for q in prange(nq):
             fld = fields[q]
@@ -171,16 +180,13 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
                             tmp[node, 2] += wm * g2
         for ch in prange(nchunk):
             start, stop = chunk_range(ch, nchunk, nq)
-            work_ch = 0.0
-            for q in range(start, stop):
-                work_ch = hold_increment(q, active, grid, held, f, dim, ch, chunk_impulse, work_ch)
-            chunk_work[ch] += work_ch
+            chunk_work[ch] += hold_chunk(start, stop, active, grid, held, f, dim, ch, chunk_impulse)
         for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
             increment_contact(c, cnodes, grid, held, fmass, dv, geo, dec, sep_velocity, touch, node_scratch())
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
             point_bond(bonds, nn, f.mass, dv, False, f.vstar[:1], 0.0, geo.normal, dim)
         if opts.walls:  # ghost components of the increment mirror their interior node
-            mirror_ghosts(active, grid, held, slots, dv)
+            mirror_ghosts(fields, ghost_src, dv)
         for q in prange(nq):
             fld = fields[q]
             for d in range(dim):
@@ -200,7 +206,6 @@ def xpic(scheme: str, order: int, spec):
         shift = _NO_SHIFT[dim]
         empty = no_contact(dim)
         cnodes, geo, dec, bonds, touch = empty.nodes, empty.geo, empty.dec, empty.bonds, 0.0
-        slots = cs.slot_map() if cs is not None else empty.slots
         if reimpose:
             ns = cs.n_slots
             if spec.xpic_term:  # re-impose contact on the increments, from pass 2's totals
@@ -218,7 +223,7 @@ def xpic(scheme: str, order: int, spec):
         opts = FilterOptions(order, fmpm, shift, shift is not _NO_SHIFT[dim], has_walls(state),
                              sep_velocity, touch)
         xpic_series(box.scatter(state.field_index, sd.S), state.particles.mass, box.active(), g.view, held, ff, opts,
-                    cnodes, geo, dec, bonds, slots, nc, sums)
+                    cnodes, geo, dec, bonds, f.ghost_src, nc, sums)
         state.reaction += sums.impulse.sum(axis=0) / state.dt
         state.work_in += float(sums.work.sum())
 
