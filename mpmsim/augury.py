@@ -38,6 +38,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .materials.kernels import inv3
+
 LINEAR, BSPLINE2, FOUR_NODE = 0, 1, 2
 KERNELS = {"linear": LINEAR, "bspline2": BSPLINE2, "four_node": FOUR_NODE}
 NODES_PER_AXIS = (2, 3, 4)
@@ -91,119 +93,91 @@ def particle_weights(x, grid, base, W):
 
 
 @njit(cache=True)
-def transfer(x, m, v, B, grid, base, W, lo, extent, out_v, out_B):
-    """One grid transfer H: particles -> grid -> particles (Eqs. 10, 17-20; PIC without B).
-    base/W: the particles' weights (particle_weights); lo, extent: the node box. The results
-    go to out_v, out_B (out_B untouched for PIC)."""
+def particle_entries(x, grid, base, W, lo, extent, node, weight, r):
+    """Each particle's K = k^dim grid entries: node index in the box (lo, extent), weight
+    N_ip and offset x_i - x_p, from its per-axis base nodes and weights (base, W)."""
     n, dim = x.shape
     k = NODES_PER_AXIS[grid.kernel]
     h = grid.h
-    nx, ny = extent[0], extent[1]
-    nz = extent[2] if dim == 3 else 1
-    gm = np.zeros(nx * ny * nz)
-    gp = np.zeros((nx * ny * nz, dim))
-    D = np.zeros((3, 3))
-    Di = np.zeros((3, 3))
-    r = np.zeros(3)
-    Bd = np.zeros(3)
-    kz = k if dim == 3 else 1
+    K = node.shape[1]
     for p in range(n):
-        if grid.apic:
-            inertia(p, x, base, W, h, k, dim, D, Di, r)
-        for a in range(k):
-            for b in range(k):
-                for c in range(kz):
-                    w = W[p, 0, a] * W[p, 1, b] * (W[p, 2, c] if dim == 3 else 1.0)
-                    if w == 0.0:
-                        continue
-                    i = base[p, 0] + a - lo[0]
-                    j = base[p, 1] + b - lo[1]
-                    kk = (base[p, 2] + c - lo[2]) if dim == 3 else 0
-                    node = i + nx * (j + ny * kk)
-                    wm = w * m[p]
-                    gm[node] += wm
-                    if grid.apic:
-                        r[0] = (base[p, 0] + a) * h - x[p, 0]
-                        r[1] = (base[p, 1] + b) * h - x[p, 1]
-                        if dim == 3:
-                            r[2] = (base[p, 2] + c) * h - x[p, 2]
-                        # B D^-1 (x_i - x_p)
-                        for e in range(dim):
-                            Bd[e] = 0.0
-                            for f in range(dim):
-                                for g in range(dim):
-                                    Bd[e] += B[p, e, f] * Di[f, g] * r[g]
-                        for e in range(dim):
-                            gp[node, e] += wm * (v[p, e] + Bd[e])
-                    else:
-                        for e in range(dim):
-                            gp[node, e] += wm * v[p, e]
-    for node in range(gm.size):
-        if gm[node] > 0.0:
-            for e in range(dim):
-                gp[node, e] /= gm[node]
-    for p in range(n):
-        for e in range(dim):
-            out_v[p, e] = 0.0
-            if grid.apic:
-                for f in range(dim):
-                    out_B[p, e, f] = 0.0
-        for a in range(k):
-            for b in range(k):
-                for c in range(kz):
-                    w = W[p, 0, a] * W[p, 1, b] * (W[p, 2, c] if dim == 3 else 1.0)
-                    if w == 0.0:
-                        continue
-                    i = base[p, 0] + a - lo[0]
-                    j = base[p, 1] + b - lo[1]
-                    kk = (base[p, 2] + c - lo[2]) if dim == 3 else 0
-                    node = i + nx * (j + ny * kk)
-                    r[0] = (base[p, 0] + a) * h - x[p, 0]
-                    r[1] = (base[p, 1] + b) * h - x[p, 1]
-                    if dim == 3:
-                        r[2] = (base[p, 2] + c) * h - x[p, 2]
-                    for e in range(dim):
-                        out_v[p, e] += w * gp[node, e]
-                        if grid.apic:
-                            for f in range(dim):
-                                out_B[p, e, f] += w * gp[node, e] * r[f]
+        for e in range(K):
+            a = e % k
+            b = (e // k) % k
+            c = e // (k * k)
+            w = W[p, 0, a] * W[p, 1, b]
+            idx = (base[p, 0] + a - lo[0]) + extent[0] * (base[p, 1] + b - lo[1])
+            r[p, e, 0] = (base[p, 0] + a) * h - x[p, 0]
+            r[p, e, 1] = (base[p, 1] + b) * h - x[p, 1]
+            if dim == 3:
+                w *= W[p, 2, c]
+                idx += extent[0] * extent[1] * (base[p, 2] + c - lo[2])
+                r[p, e, 2] = (base[p, 2] + c) * h - x[p, 2]
+            node[p, e] = idx
+            weight[p, e] = w
 
 
 @njit(cache=True)
-def inertia(p, x, base, W, h, k, dim, D, Di, r):
-    """D_p = sum_i N_ip (x_i - x_p)(x_i - x_p)^T of particle p and its inverse (Di)."""
-    for a in range(3):
-        for b in range(3):
-            D[a, b] = 0.0
-    kz = k if dim == 3 else 1
-    for a in range(k):
-        for b in range(k):
-            for c in range(kz):
-                w = W[p, 0, a] * W[p, 1, b] * (W[p, 2, c] if dim == 3 else 1.0)
-                r[0] = (base[p, 0] + a) * h - x[p, 0]
-                r[1] = (base[p, 1] + b) * h - x[p, 1]
-                r[2] = ((base[p, 2] + c) * h - x[p, 2]) if dim == 3 else 0.0
-                for e in range(dim):
-                    for f in range(dim):
-                        D[e, f] += w * r[e] * r[f]
-    if dim == 2:
-        det = D[0, 0] * D[1, 1] - D[0, 1] * D[1, 0]
-        Di[0, 0] = D[1, 1] / det
-        Di[0, 1] = -D[0, 1] / det
-        Di[1, 0] = -D[1, 0] / det
-        Di[1, 1] = D[0, 0] / det
-    else:
-        det = (D[0, 0] * (D[1, 1] * D[2, 2] - D[1, 2] * D[2, 1]) - D[0, 1] * (D[1, 0] * D[2, 2] - D[1, 2] * D[2, 0])
-               + D[0, 2] * (D[1, 0] * D[2, 1] - D[1, 1] * D[2, 0]))
-        Di[0, 0] = (D[1, 1] * D[2, 2] - D[1, 2] * D[2, 1]) / det
-        Di[0, 1] = (D[0, 2] * D[2, 1] - D[0, 1] * D[2, 2]) / det
-        Di[0, 2] = (D[0, 1] * D[1, 2] - D[0, 2] * D[1, 1]) / det
-        Di[1, 0] = (D[1, 2] * D[2, 0] - D[1, 0] * D[2, 2]) / det
-        Di[1, 1] = (D[0, 0] * D[2, 2] - D[0, 2] * D[2, 0]) / det
-        Di[1, 2] = (D[0, 2] * D[1, 0] - D[0, 0] * D[1, 2]) / det
-        Di[2, 0] = (D[1, 0] * D[2, 1] - D[1, 1] * D[2, 0]) / det
-        Di[2, 1] = (D[0, 1] * D[2, 0] - D[0, 0] * D[2, 1]) / det
-        Di[2, 2] = (D[0, 0] * D[1, 1] - D[0, 1] * D[1, 0]) / det
+def inertia_inverse(weight, r, Di):
+    """D_p^-1 with D_p = sum_i N_ip (x_i - x_p)(x_i - x_p)^T (2D: padded to 3x3)."""
+    n, K, dim = r.shape
+    D = np.zeros((3, 3))
+    for p in range(n):
+        for a in range(3):
+            for b in range(3):
+                D[a, b] = 1.0 if (a == b and a >= dim) else 0.0
+        for e in range(K):
+            for a in range(dim):
+                for b in range(dim):
+                    D[a, b] += weight[p, e] * r[p, e, a] * r[p, e, b]
+        inv3(D, Di[p])
+
+
+@njit(cache=True)
+def transfer(m, v, B, apic, node, weight, r, Di, n_nodes, out_v, out_B):
+    """One grid transfer H: particles -> grid -> particles (Eqs. 10, 17-20; PIC without B),
+    through the particles' entries (particle_entries) and inertia inverses (inertia_inverse).
+    The results go to out_v, out_B (out_B untouched for PIC)."""
+    n, K, dim = r.shape
+    gm = np.zeros(n_nodes)
+    gp = np.zeros((n_nodes, dim))
+    Bd = np.zeros(3)
+    for p in range(n):
+        for e in range(K):
+            w = weight[p, e]
+            if w == 0.0:
+                continue
+            i = node[p, e]
+            wm = w * m[p]
+            gm[i] += wm
+            for a in range(dim):
+                Bd[a] = 0.0
+                if apic:  # B D^-1 (x_i - x_p)
+                    for b in range(dim):
+                        for c in range(dim):
+                            Bd[a] += B[p, a, b] * Di[p, b, c] * r[p, e, c]
+            for a in range(dim):
+                gp[i, a] += wm * (v[p, a] + Bd[a])
+    for i in range(n_nodes):
+        if gm[i] > 0.0:
+            for a in range(dim):
+                gp[i, a] /= gm[i]
+    for p in range(n):
+        for a in range(dim):
+            out_v[p, a] = 0.0
+            if apic:
+                for b in range(dim):
+                    out_B[p, a, b] = 0.0
+        for e in range(K):
+            w = weight[p, e]
+            if w == 0.0:
+                continue
+            i = node[p, e]
+            for a in range(dim):
+                out_v[p, a] += w * gp[i, a]
+                if apic:
+                    for b in range(dim):
+                        out_B[p, a, b] += w * gp[i, a] * r[p, e, b]
 
 
 @njit(cache=True)
@@ -235,19 +209,41 @@ def undesired(dv, dB, normal, mu, rule, apic, w_v, w_B):
                     w_B[p, e, f] = dB[p, e, f]
 
 
-def node_box(x: np.ndarray, grid: AuguryGrid):
-    """The particles' weights and the node box they touch: (base, W, lo, extent)."""
+class Entries(NamedTuple):
+    """The augury particles' grid entries for one step (particle_entries)."""
+
+    node: np.ndarray  # (n, K) node index in the box
+    weight: np.ndarray  # (n, K)
+    r: np.ndarray  # (n, K, dim) x_i - x_p
+    Di: np.ndarray  # (n, 3, 3) D_p^-1
+    n_nodes: int  # nodes in the box
+
+
+def grid_entries(x: np.ndarray, grid: AuguryGrid) -> Entries:
+    """Weights, offsets and inertia of particles at x on the augury grid (one node box around
+    them, on the lattice through the origin)."""
     n, dim = x.shape
+    k = NODES_PER_AXIS[grid.kernel]
     base = np.zeros((n, 3), dtype=np.int64)
     W = np.zeros((n, 3, 4))
-    W[:, 2, 0] = 1.0  # 2D: one node layer in z
     particle_weights(x, grid, base, W)
-    k = NODES_PER_AXIS[grid.kernel]
     lo = np.zeros(3, dtype=np.int64)
     extent = np.ones(3, dtype=np.int64)
     lo[:dim] = base[:, :dim].min(axis=0)
     extent[:dim] = base[:, :dim].max(axis=0) + k - lo[:dim]
-    return base, W, lo, extent
+    K = k**dim
+    node, weight, r = np.zeros((n, K), dtype=np.int64), np.zeros((n, K)), np.zeros((n, K, dim))
+    particle_entries(x, grid, base, W, lo, extent, node, weight, r)
+    Di = np.zeros((n, 3, 3))
+    inertia_inverse(weight, r, Di)
+    return Entries(node, weight, r, Di, int(np.prod(extent)))
+
+
+def apply_h(ent: Entries, m, v, B, apic: bool):
+    """H V: (v, B) after one transfer (B zeros for PIC)."""
+    out_v, out_B = np.zeros_like(v), np.zeros_like(B)
+    transfer(m, v, B, apic, ent.node, ent.weight, ent.r, ent.Di, ent.n_nodes, out_v, out_B)
+    return out_v, out_B
 
 
 def augury_correction(x, m, vbar, Bbar, normal, mu, grid: AuguryGrid, iterations: int, tau: float,
@@ -256,18 +252,14 @@ def augury_correction(x, m, vbar, Bbar, normal, mu, grid: AuguryGrid, iterations
     velocities vbar and affine parts Bbar (ignored for PIC), outward normals and friction
     coefficients mu, after `iterations` augury iterations (0: the bodies stick)."""
     n, dim = x.shape
-    base, W, lo, extent = node_box(x, grid)
+    ent = grid_entries(x, grid)
     B_in = Bbar if grid.apic else np.zeros((n, dim, dim))
-    v_hat = np.zeros((n, dim))
-    B_hat = np.zeros((n, dim, dim))
-    transfer(x, m, vbar, B_in, grid, base, W, lo, extent, v_hat, B_hat)
-    hw_v = np.zeros((n, dim))
-    hw_B = np.zeros((n, dim, dim))
+    v_hat, B_hat = apply_h(ent, m, vbar, B_in, grid.apic)
     w_v = np.zeros((n, dim))
     w_B = np.zeros((n, dim, dim))
     for _ in range(iterations):
         undesired(v_hat - vbar, B_hat - B_in, normal, mu, rule, grid.apic, w_v, w_B)
-        transfer(x, m, w_v, w_B, grid, base, W, lo, extent, hw_v, hw_B)
+        hw_v, hw_B = apply_h(ent, m, w_v, w_B, grid.apic)
         v_hat += hw_v - w_v
         if grid.apic:
             B_hat += hw_B - w_B

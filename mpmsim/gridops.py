@@ -13,8 +13,9 @@ even slabs run in parallel, then all odd slabs. With one thread there is a singl
 and no binning cost. Every scatter kernel walks the slabs the same way:
 
     for color in range(2):
-        for s in prange((sc.ptr.size - color) // 2):
-            for p in slab(sc, color, s):
+        for s in prange((ptr.size - color) // 2):
+            for q in slab(ptr, color, s):
+                p = order[q]  # (order, ptr: the views.Scatter's, bound before the loops)
                 ...
 """
 
@@ -45,11 +46,11 @@ def node_ijk(node, shape):
     return node % shape[0], (node // shape[0]) % shape[1], node // (shape[0] * shape[1])
 
 
-@njit(cache=True)
-def slab(sc, color, s):
-    """The particles of slab color + 2 s of a views.Scatter, in order."""
+@njit(cache=True, inline="always")
+def slab(ptr, color, s):
+    """The positions in the particle order of slab color + 2 s (ptr: a views.Scatter's)."""
     k = color + 2 * s
-    return sc.order[sc.ptr[k]:sc.ptr[k + 1]]
+    return range(ptr[k], ptr[k + 1])
 
 
 @njit(cache=True)

@@ -22,11 +22,11 @@ def excess_text(excess: float, supplied: float) -> str:
     return f"{100 * excess / supplied:.1f}%" if supplied > 0.0 else f"{excess:.4g}"
 
 
-def total_sums(state):
+def total_sums(state, detail: bool = False):
     """Sums over every body set that carries mass (bodies.Sums layout), or None."""
     total = None
     for body in state.bodies:
-        s = body.sums(state)
+        s = body.sums(state, detail)
         if s is None:
             continue
         total = s.total if total is None else total + s.total

@@ -60,9 +60,10 @@ class BodySet:
         """The deck bodies this set holds."""
         return self.infos
 
-    def sums(self, state) -> Sums | None:
+    def sums(self, state, detail: bool = True) -> Sums | None:
         """Mass-carrying kinds return their sums; kinds without mass (prescribed rigid motion)
-        return None."""
+        return None. detail=False: only the energies, momentum, stress and volume of the total
+        (the energy check), nothing per body."""
         return None
 
     def history_columns(self, units, dim: int) -> list[tuple[str, str]]:

@@ -17,7 +17,7 @@ from ..faults import MESSAGES
 from ..gridops import chunk_range
 from ..materials.kernels import det3, energy_density
 from ..views import ParticleView
-from . import NSUMS, BodyInfo, BodySet, Sums
+from . import ANGULAR, KINETIC, MASS, MOMENTUM, NSUMS, STRAIN, BodyInfo, BodySet, Sums
 
 
 @dataclass
@@ -77,13 +77,34 @@ class Particles(BodySet):
                    seed.body.copy(), seed.x.copy(), np.zeros((na, dim, dim)), np.zeros((na, dim, dim)), np.zeros(ne),
                    np.zeros(ne), np.zeros(ne), x.copy() if affine else x, np.asarray(semi, float), local, infos)
 
-    def sums(self, state) -> Sums:
+    def sums(self, state, detail: bool = True) -> Sums:
         m = state.materials
         nb = len(self.infos)
         out = np.zeros((state.nchunk, NSUMS))
-        out_body = np.zeros((state.nchunk, max(nb, 1), NSUMS))
-        particle_sums(self.view(), m.view(), self.affine, self.local_body, state.nchunk, out, out_body)
-        return Sums(out.sum(axis=0), out_body.sum(axis=0)[:nb])
+        per_body = detail and nb > 1
+        density = np.zeros(self.n if per_body else 0)
+        particle_sums(self.view(), m.view(), state.nchunk, out, density)
+        total = out.sum(axis=0)
+        if not detail:
+            return Sums(total, np.zeros((0, NSUMS)))
+        dim = self.x.shape[1]
+        L = self.mass[:, None] * angular_density(self.x, self.v, self.B if self.affine else None)
+        total[ANGULAR] = L.sum(axis=0)
+        total[MASS] = self.mass.sum()
+        rows = np.zeros((nb, NSUMS))
+        if nb == 1:
+            rows[0] = total
+        elif nb > 1:
+            b = self.local_body
+            count = lambda w: np.bincount(b, weights=w, minlength=nb)  # noqa: E731
+            rows[:, KINETIC] = count(0.5 * self.mass * np.sum(self.v**2, axis=1))
+            rows[:, STRAIN] = count(density)
+            rows[:, MASS] = count(self.mass)
+            for d in range(dim):
+                rows[:, MOMENTUM.start + d] = count(self.mass * self.v[:, d])
+            for a in range(3):
+                rows[:, ANGULAR.start + a] = count(L[:, a])
+        return Sums(total, rows)
 
     def vtu_pieces(self, state) -> list[tuple[str, dict]]:
         mats, dim, n = state.materials, state.dim, self.n
@@ -133,35 +154,46 @@ def pad3(a: np.ndarray) -> np.ndarray:
     return out
 
 
+def angular_density(x, v, B):
+    """(n, 3) angular momentum per unit mass about the origin, x cross v, plus APIC's affine
+    part eps_abc B_cb when B is given (2D: only the z component)."""
+    n, dim = x.shape
+    L = np.zeros((n, 3))
+    L[:, 2] = x[:, 0] * v[:, 1] - x[:, 1] * v[:, 0]
+    if dim == 3:
+        L[:, 0] = x[:, 1] * v[:, 2] - x[:, 2] * v[:, 1]
+        L[:, 1] = x[:, 2] * v[:, 0] - x[:, 0] * v[:, 2]
+    if B is not None:
+        L[:, 2] += B[:, 1, 0] - B[:, 0, 1]
+        if dim == 3:
+            L[:, 0] += B[:, 2, 1] - B[:, 1, 2]
+            L[:, 1] += B[:, 0, 2] - B[:, 2, 0]
+    return L
+
+
 @njit(parallel=True, cache=True)
-def particle_sums(P, M, affine, local_body, nchunk, out, out_body):
-    """Per chunk, in the `bodies.Sums` layout: totals (out) and per body (out_body) of
-    particles P (views.ParticleView) of materials M. Angular momentum about the origin
-    includes APIC's affine part, eps_abc B_cb per unit mass."""
-    stress, vol, v, mass, F, mat, U, x, B = P.stress, P.vol, P.v, P.mass, P.F, P.mat, P.U, P.x, P.B
+def particle_sums(P, M, nchunk, out, density):
+    """Per chunk, the first entries of the `bodies.Sums` layout (stress integral, volume,
+    kinetic, strain, momentum, internal energy) over particles P (views.ParticleView) of
+    materials M; each particle's strain energy into `density` when it has room."""
+    stress, vol, v, mass, F, mat, U = P.stress, P.vol, P.v, P.mass, P.F, P.mat, P.U
     code, props, energy = M.code, M.props, M.energy
     n, dim = v.shape
+    keep = density.size == n
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
         F3 = np.zeros((3, 3))
         acc = np.zeros(NSUMS)
-        row = np.zeros(NSUMS)
         for p in range(start, stop):
-            for a in range(NSUMS):
-                row[a] = 0.0
             vp = vol[p]
             for a in range(6):
                 acc[a] += vp * stress[p, a]
-                row[a] = vp * stress[p, a]
             acc[6] += vp
-            row[6] = vp
             v2 = 0.0
             for d in range(dim):
                 v2 += v[p, d] * v[p, d]
                 acc[9 + d] += mass[p] * v[p, d]
-                row[9 + d] = mass[p] * v[p, d]
             acc[7] += 0.5 * mass[p] * v2
-            row[7] = 0.5 * mass[p] * v2
             for a in range(3):
                 for b in range(3):
                     F3[a, b] = F[p, a, b] if (a < dim and b < dim) else (1.0 if a == b else 0.0)
@@ -169,31 +201,9 @@ def particle_sums(P, M, affine, local_body, nchunk, out, out_body):
             mt = mat[p]
             e = vp * energy_density(code[mt], props[mt], F3, stress[p], J)
             acc[8] += e
-            row[8] = e
+            if keep:
+                density[p] = e
             if energy[mt]:
                 acc[12] += mass[p] * U[p]
-                row[12] = mass[p] * U[p]
-            row[16] = mass[p]
-            # angular momentum m x cross v (+ m eps_abc B_cb)
-            if dim == 2:
-                row[15] = mass[p] * (x[p, 0] * v[p, 1] - x[p, 1] * v[p, 0])
-                if affine:
-                    row[15] += mass[p] * (B[p, 1, 0] - B[p, 0, 1])
-            else:
-                row[13] = mass[p] * (x[p, 1] * v[p, 2] - x[p, 2] * v[p, 1])
-                row[14] = mass[p] * (x[p, 2] * v[p, 0] - x[p, 0] * v[p, 2])
-                row[15] = mass[p] * (x[p, 0] * v[p, 1] - x[p, 1] * v[p, 0])
-                if affine:
-                    row[13] += mass[p] * (B[p, 2, 1] - B[p, 1, 2])
-                    row[14] += mass[p] * (B[p, 0, 2] - B[p, 2, 0])
-                    row[15] += mass[p] * (B[p, 1, 0] - B[p, 0, 1])
-            for a in range(13, NSUMS):
-                acc[a] += row[a]
-            b = local_body[p]
-            for a in range(NSUMS):
-                out_body[c, b, a] += row[a]
         for a in range(NSUMS):
             out[c, a] = acc[a]
-
-
-

@@ -27,10 +27,11 @@ def scatter_group_masks(sc, group, mask):
     with grid nodes as fields)."""
     nodes, S = sc.fidx, sc.S
     K = S.shape[1]
+    order, ptr = sc.order, sc.ptr
     for color in range(2):
-        n_pairs = (sc.ptr.size - color) // 2
-        for s in prange(n_pairs):
-            for p in slab(sc, color, s):
+        for s in prange((ptr.size - color) // 2):
+            for q in slab(ptr, color, s):
+                p = order[q]
                 bit = ONE << np.uint64(group[p])
                 for k in range(K):
                     if S[p, k] > 0.0:
@@ -177,12 +178,13 @@ def scatter_slot_extras(sc, G, P, grid, n_nodes, slot_node, wants, sums):
     vol, disp, pos, grad, udisp, ugrad = sums.vol, sums.disp, sums.pos, sums.grad, sums.udisp, sums.ugrad
     K = S.shape[1]
     dim = x.shape[1]
+    order, ptr = sc.order, sc.ptr
     for color in range(2):
-        n_pairs = (sc.ptr.size - color) // 2
-        for s in prange(n_pairs):
+        for s in prange((ptr.size - color) // 2):
             H = np.zeros((3, 3))
             Finv = np.zeros((3, 3))
-            for p in slab(sc, color, s):
+            for q in slab(ptr, color, s):
+                p = order[q]
                 have_h = False
                 for k in range(K):
                     f = fidx[p, k]

@@ -126,13 +126,11 @@ def direction_force(D, area, mred, delta0, d, df, dt, mode):
 
 
 @njit(cache=True, inline="always")
-def interface_impulse(geo, a, dp, df, n, mred, dt, mode, dim, out):
-    """Pass 2 at interface target a (geo: contact.workspace.Targets): bonded directions take
-    the stick impulse dp, the others the interface force times dt. dp: stick impulse on the
-    updated momenta; df: relative force (m_a/M) F - f_a of the update; the start-of-step
-    normal opening geo.delta[a] and tangential opening vector geo.open[a] (b - a). Returns
-    the interfacial energy at the end of the step."""
-    stiff, bonded, delta_n, open_t, area = geo.stiff[a], geo.bonded[a], geo.delta[a], geo.open[a], geo.area[a]
+def interface_impulse(stiff, bonded, dp, df, n, delta_n, open_t, area, mred, dt, mode, dim, out):
+    """Pass 2 at an interface: bonded directions take the stick impulse dp, the others the
+    interface force times dt. dp: stick impulse on the updated momenta; df: relative force
+    (m_a/M) F - f_a of the update; delta_n: start-of-step normal opening; open_t: tangential
+    opening vector (b - a). Returns the interfacial energy at the end of the step."""
     dotn = 0.0
     dfn = 0.0
     for d in range(dim):

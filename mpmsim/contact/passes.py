@@ -39,36 +39,20 @@ from numba import njit, prange
 from ..bc import NO_BC, node_bc
 from ..gridops import chunk_range, node_ijk
 from .laws import apply_law, interface_impulse
-from .plan import BOND_PHI2, plan_node  # noqa: F401  (re-exported: the bonding switch)
 from .spec import INTERFACE
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
 PASS_1, PASS_3 = 1, 3
 
-
-class NodeScratch(NamedTuple):
-    """Per-thread scratch of the passes: one node's slot momenta and their changes."""
-
-    pbuf: np.ndarray  # (MAX_SLOTS, 3)
-    dpb: np.ndarray  # (MAX_SLOTS, 3)
-    touching: np.ndarray  # (MAX_SLOTS,) bool
-    imp: np.ndarray  # (3,) stick impulse
-    out: np.ndarray  # (3,) applied impulse
-    n: np.ndarray  # (3,) normal
-    df: np.ndarray  # (3,) relative force
-
-
-@njit(cache=True)
-def node_scratch():
-    return NodeScratch(np.zeros((MAX_SLOTS, 3)), np.zeros((MAX_SLOTS, 3)), np.zeros(MAX_SLOTS, dtype=np.bool_),
-                       np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+# The kernels take bundles (contact.workspace, views); their parallel loops work on arrays
+# bound to locals, and the small helpers called per slot take arrays (docs/architecture.md,
+# "Kernels and bundles").
 
 
 @njit(cache=True, inline="always")
-def stick_impulse(a, b, rigid_b, s0, s1, nodes, mass, pbuf, dim, out):
+def stick_impulse(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, pbuf, dim, out):
     """Impulse that moves a to the centre-of-mass velocity (or to the rigid velocity).
     b: partner slot (-1: the lumped rest). Returns the reduced mass."""
-    nn, slot_group, n_def = nodes.nn, nodes.slot_group, nodes.n_def
     ma = mass[nn + a]
     if rigid_b:
         mr = mass[nn + b]
@@ -96,10 +80,9 @@ def stick_impulse(a, b, rigid_b, s0, s1, nodes, mass, pbuf, dim, out):
 
 
 @njit(cache=True, inline="always")
-def relative_force(a, b, rigid_b, s0, s1, nodes, mass, acc, dim, out):
+def relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim, out):
     """df = (m_a/M) F - f_a over a and its partner side (f = m a of the update), or -f_a
     against a rigid material: the force that changes a's velocity relative to the rest."""
-    nn, slot_group, n_def = nodes.nn, nodes.slot_group, nodes.n_def
     ma = mass[nn + a]
     for d in range(dim):
         out[d] = -ma * acc[nn + a, d]
@@ -116,14 +99,14 @@ def relative_force(a, b, rigid_b, s0, s1, nodes, mass, acc, dim, out):
 
 
 @njit(cache=True, inline="always")
-def target_stick(a, s0, s1, nodes, mass, geo, w, dim):
-    """Target a's partner, whether that is rigid, and the reduced mass; its normal into w.n
-    and its stick impulse on the momenta w.pbuf into w.imp."""
-    b = geo.partner[a]
-    rigid_b = b >= 0 and nodes.slot_group[b] >= nodes.n_def
+def target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp):
+    """Target a's partner, whether that is rigid, and the reduced mass; its normal into n and
+    its stick impulse on the momenta pbuf into imp."""
+    b = partner[a]
+    rigid_b = b >= 0 and slot_group[b] >= n_def
     for d in range(dim):
-        w.n[d] = geo.normal[a, d]
-    mred = stick_impulse(a, b, rigid_b, s0, s1, nodes, mass, w.pbuf, dim, w.imp)
+        n[d] = geo_n[a, d]
+    mred = stick_impulse(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, pbuf, dim, imp)
     return b, rigid_b, mred
 
 
@@ -136,51 +119,26 @@ def share_change(a, b, rigid_b, value, d, dpb, s0):
 
 
 @njit(cache=True, inline="always")
-def exchange_momenta(s0, s1, nodes, mass, mom, geo, need_approach, dim, w):
-    """The laws at one contact node on the momenta `mom`; the change of each slot in w.dpb.
-    w.touching[a - s0]: target a's surfaces touch. A touching target is in contact if it
+def exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu, slot_mus,
+                     bonded, touching, need_approach, dim, pbuf, dpb, imp, out, n):
+    """The laws at one contact node on the momenta `mom`; the change of each slot in dpb.
+    touching[a - s0]: target a's surfaces touch. A touching target is in contact if it
     approaches (need_approach) or whatever its normal velocity (a decision already made)."""
-    nn = nodes.nn
-    pbuf, dpb, imp, out, n = w.pbuf, w.dpb, w.imp, w.out, w.n
     for s in range(s0, s1):
         for d in range(dim):
             pbuf[s - s0, d] = mom[nn + s, d]
             dpb[s - s0, d] = 0.0
     for a in range(s0, s1):
-        if geo.role[a] == 0:
+        if role[a] == 0:
             continue
-        b, rigid_b, mred = target_stick(a, s0, s1, nodes, mass, geo, w, dim)
+        b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp)
         dotn = 0.0
         for d in range(dim):
             dotn += imp[d] * n[d]
-        in_contact = w.touching[a - s0] and (dotn < 0.0 or not need_approach)
-        if apply_law(geo.law[a], geo.mu[a], geo.mus[a], geo.bonded[a], imp, n, dotn, in_contact, dim, out):
+        in_contact = touching[a - s0] and (dotn < 0.0 or not need_approach)
+        if apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, in_contact, dim, out):
             for d in range(dim):
                 share_change(a, b, rigid_b, out[d], d, dpb, s0)
-
-
-@njit(cache=True)
-def exchange_nodes(start, stop, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, dp1):
-    """Pass 1 or 3 at contact nodes start:stop (exchange_pass)."""
-    dim = mom.shape[1]
-    nn, cn_ptr, slot_group, n_def = nodes.nn, nodes.cn_ptr, nodes.slot_group, nodes.n_def
-    w = node_scratch()
-    for c in range(start, stop):
-        s0 = cn_ptr[c]
-        s1 = cn_ptr[c + 1]
-        for a in range(s0, s1):
-            if mode == PASS_1:
-                w.touching[a - s0] = sep_velocity or geo.delta[a] < touch
-            else:
-                w.touching[a - s0] = contact2[a] != 0
-        exchange_momenta(s0, s1, nodes, mass, mom, geo, mode == PASS_1, dim, w)
-        for s in range(s0, s1):
-            if slot_group[s] >= n_def:
-                continue
-            for d in range(dim):
-                mom[nn + s, d] += w.dpb[s - s0, d]
-                if mode == PASS_1:
-                    dp1[s, d] = w.dpb[s - s0, d]
 
 
 @njit(parallel=True, cache=True)
@@ -189,31 +147,35 @@ def exchange_pass(mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, nc
     (separation below `touch`, a length; always for velocity-only detection) and approach;
     the change is kept in dp1. Pass 3 (mode PASS_3): where pass 2 made contact (contact2),
     whatever the normal velocity. Only deformable slots change."""
-    n_cn = nodes.n_cn
-    for ch in prange(nchunk):  # (numba's parallel loops read bundle members through locals only)
+    dim = mom.shape[1]
+    n_cn, cn_ptr, slot_group, n_def, nn = nodes.n_cn, nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
+    role, partner, geo_n, geo_delta, bonded = geo.role, geo.partner, geo.normal, geo.delta, geo.bonded
+    slot_law, slot_mu, slot_mus = geo.law, geo.mu, geo.mus
+    for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
-        exchange_nodes(start, stop, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, dp1)
-
-
-@njit(cache=True, inline="always")
-def add_free_changes(node, s0, s1, nodes, grid, held, mass, dpb, arr, acc, dt, dim):
-    """Add each deformable slot's change dpb / m to arr (and dpb / (m dt) to acc when dt > 0),
-    except components a velocity condition holds."""
-    nn, slot_group, n_def = nodes.nn, nodes.slot_group, nodes.n_def
-    face_type, wall_index, rigid_vol, constrain, rig_vel = (grid.face_type, grid.wall_index, held.volume,
-                                                            held.constrain, held.velocity)
-    i, j, k = node_ijk(node, grid.shape)
-    for s in range(s0, s1):
-        if slot_group[s] >= n_def:
-            continue
-        m = mass[nn + s]
-        for d in range(dim):
-            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
-            if owner != NO_BC:
-                continue
-            arr[nn + s, d] += dpb[s - s0, d] / m
-            if dt > 0.0:
-                acc[nn + s, d] += dpb[s - s0, d] / (m * dt)
+        pbuf = np.zeros((MAX_SLOTS, 3))
+        dpb = np.zeros((MAX_SLOTS, 3))
+        touching = np.zeros(MAX_SLOTS, dtype=np.bool_)
+        imp = np.zeros(3)
+        out = np.zeros(3)
+        n = np.zeros(3)
+        for c in range(start, stop):
+            s0 = cn_ptr[c]
+            s1 = cn_ptr[c + 1]
+            for a in range(s0, s1):
+                if mode == PASS_1:
+                    touching[a - s0] = sep_velocity or geo_delta[a] < touch
+                else:
+                    touching[a - s0] = contact2[a] != 0
+            exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
+                             slot_mus, bonded, touching, mode == PASS_1, dim, pbuf, dpb, imp, out, n)
+            for s in range(s0, s1):
+                if slot_group[s] >= n_def:
+                    continue
+                for d in range(dim):
+                    mom[nn + s, d] += dpb[s - s0, d]
+                    if mode == PASS_1:
+                        dp1[s, d] = dpb[s - s0, d]
 
 
 class Pass2Sums(NamedTuple):
@@ -223,62 +185,6 @@ class Pass2Sums(NamedTuple):
     reaction: np.ndarray  # (nchunk, n_rigid, dim)
     work: np.ndarray  # (nchunk,)
     energy: np.ndarray  # (nchunk,)
-
-
-@njit(cache=True)
-def pass2_target(a, s0, s1, node, nodes, grid, held, rigid_of_group, mass, acc, geo, dec, settings, w, sums, ch):
-    """Pass 2 for target a: the law (or the interface force) on the updated momenta in
-    w.pbuf; its share of the node's change into w.dpb; the stick and applied impulses, the
-    end-of-step separation and the contact flag into dec; interfacial energy, the force on a
-    rigid partner and its work into chunk ch of sums (Pass2Sums)."""
-    dim = geo.normal.shape[1]
-    sep_velocity, integration, touch, dt = settings.sep_velocity, settings.integration, settings.touch, settings.dt
-    i, j, k = node_ijk(node, grid.shape)
-    imp, out, n, df = w.imp, w.out, w.n, w.df
-    b, rigid_b, mred = target_stick(a, s0, s1, nodes, mass, geo, w, dim)
-    dotn = 0.0
-    for d in range(dim):
-        dotn += imp[d] * n[d]
-    delta = geo.delta[a]
-    interface = geo.law[a] == INTERFACE
-    if not sep_velocity or interface:
-        # the relative force of the update: df = (m_a/M) F - f_a, or -f_a against a rigid
-        # material. It advances the separation to the end of the step (the reference code
-        # does this for grid separations only; d_LR too needs it: a 5 um gap closing by 70 um
-        # within the step must count as contact, or the free update drives the surfaces
-        # through each other, docs/contact.md), and it drives the interface force.
-        relative_force(a, b, rigid_b, s0, s1, nodes, mass, acc, dim, df)
-        dfn = 0.0
-        for d in range(dim):
-            dfn += df[d] * n[d]
-        delta += dt * (dotn - 0.5 * dfn * dt) / mred
-    dec.delta2[a] = delta
-    if interface:
-        sums.energy[ch] += interface_impulse(geo, a, imp, df, n, mred, dt, integration, dim, out)
-        applied = True
-    else:
-        touching = sep_velocity or delta < touch
-        applied = apply_law(geo.law[a], geo.mu[a], geo.mus[a], geo.bonded[a], imp, n, dotn, touching and dotn < 0.0,
-                            dim, out)
-    for d in range(dim):
-        dec.stick2[a, d] = imp[d]
-        dec.applied2[a, d] = out[d] if applied else 0.0
-    if interface:  # XPIC increments re-impose only the bonded directions
-        apply_law(INTERFACE, 0.0, 0.0, geo.bonded[a], imp, n, dotn, True, dim, df)
-        for d in range(dim):
-            dec.applied2[a, d] = df[d]
-    dec.contact2[a] = 1 if applied else 0
-    if applied:
-        for d in range(dim):
-            owner, vbc = node_bc(node, i, j, k, d, dim, grid.face_type, grid.wall_index, held.volume, held.constrain,
-                                 held.velocity)
-            if owner != NO_BC:
-                continue  # a velocity condition holds this component
-            share_change(a, b, rigid_b, out[d], d, w.dpb, s0)
-            if rigid_b:
-                r = rigid_of_group[nodes.slot_group[b]]
-                sums.reaction[ch, r, d] += out[d] / dt
-                sums.work[ch] += out[d] * held.velocity[r, d]  # the rigid body's work on the material
 
 
 class Pass2Settings(NamedTuple):
@@ -294,75 +200,146 @@ def contact_pass_2(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
     target's stick impulse, applied impulse and end-of-step separation are kept for XPIC.
     Interfaces add their force here (and only here, notes §4.2) and their energy. held: the
     velocity conditions at the step's end (rigid contact slots move at that velocity)."""
-    n_cn = nodes.n_cn
-    for ch in prange(nchunk):  # (numba's parallel loops read bundle members through locals only)
-        start, stop = chunk_range(ch, nchunk, n_cn)
-        pass2_nodes(ch, start, stop, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, sums)
-
-
-@njit(cache=True)
-def pass2_nodes(ch, start, stop, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, sums):
-    """Pass 2 at contact nodes start:stop, chunk ch of the sums (contact_pass_2)."""
     dim = vnew.shape[1]
-    nn, cn_ptr, slot_group, n_def = nodes.nn, nodes.cn_ptr, nodes.slot_group, nodes.n_def
-    dt = settings.dt
-    w = node_scratch()
-    sums.work[ch] = 0.0
-    sums.energy[ch] = 0.0
-    for r in range(sums.reaction.shape[1]):
-        for d in range(dim):
-            sums.reaction[ch, r, d] = 0.0
-    for c in range(start, stop):
-        s0 = cn_ptr[c]
-        s1 = cn_ptr[c + 1]
-        node = nodes.cn_nodes[c]
-        for s in range(s0, s1):
-            g = slot_group[s]
+    n_cn, cn_nodes, cn_ptr, slot_group, n_def, nn = nodes
+    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
+    rigid_vol, constrain, rig_vel = held
+    role, partner, geo_n, geo_delta, geo_area, geo_open, bonded, slot_law, slot_mu, slot_mus, slot_stiff, _ = geo
+    stick2, applied2, delta2, contact2 = dec.stick2, dec.applied2, dec.delta2, dec.contact2
+    sep_velocity, integration, touch, dt = settings
+    chunk_reaction, chunk_work, chunk_energy = sums
+    for ch in prange(nchunk):
+        start, stop = chunk_range(ch, nchunk, n_cn)
+        pbuf = np.zeros((MAX_SLOTS, 3))
+        dpb = np.zeros((MAX_SLOTS, 3))
+        imp = np.zeros(3)
+        out = np.zeros(3)
+        n = np.zeros(3)
+        df = np.zeros(3)
+        chunk_work[ch] = 0.0
+        chunk_energy[ch] = 0.0
+        for r in range(chunk_reaction.shape[1]):
             for d in range(dim):
-                # a rigid slot has no grid update: it moves at its end-of-step velocity
-                v = held.velocity[rigid_of_group[g], d] if g >= n_def else vnew[nn + s, d]
-                w.pbuf[s - s0, d] = mass[nn + s] * v
-                w.dpb[s - s0, d] = 0.0
-        for a in range(s0, s1):
-            if geo.role[a] == 0:
+                chunk_reaction[ch, r, d] = 0.0
+        for c in range(start, stop):
+            s0 = cn_ptr[c]
+            s1 = cn_ptr[c + 1]
+            node = cn_nodes[c]
+            i, j, k = node_ijk(node, shape)
+            for s in range(s0, s1):
+                g = slot_group[s]
+                for d in range(dim):
+                    # a rigid slot has no grid update: it moves at its end-of-step velocity
+                    v = rig_vel[rigid_of_group[g], d] if g >= n_def else vnew[nn + s, d]
+                    pbuf[s - s0, d] = mass[nn + s] * v
+                    dpb[s - s0, d] = 0.0
+            for a in range(s0, s1):
+                if role[a] == 0:
+                    continue
+                b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n,
+                                                imp)
+                dotn = 0.0
+                for d in range(dim):
+                    dotn += imp[d] * n[d]
+                delta = geo_delta[a]
+                interface = slot_law[a] == INTERFACE
+                if not sep_velocity or interface:
+                    # the relative force of the update: df = (m_a/M) F - f_a, or -f_a against a
+                    # rigid material. It advances the separation to the end of the step (the
+                    # reference code does this for grid separations only; d_LR too needs it: a
+                    # 5 um gap closing by 70 um within the step must count as contact, or the
+                    # free update drives the surfaces through each other, docs/contact.md), and
+                    # it drives the interface force.
+                    relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim, df)
+                    dfn = 0.0
+                    for d in range(dim):
+                        dfn += df[d] * n[d]
+                    delta += dt * (dotn - 0.5 * dfn * dt) / mred
+                delta2[a] = delta
+                if interface:
+                    chunk_energy[ch] += interface_impulse(slot_stiff[a], bonded[a], imp, df, n, geo_delta[a],
+                                                          geo_open[a], geo_area[a], mred, dt, integration, dim, out)
+                    applied = True
+                else:
+                    touching = sep_velocity or delta < touch
+                    applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn,
+                                        touching and dotn < 0.0, dim, out)
+                for d in range(dim):
+                    stick2[a, d] = imp[d]
+                    applied2[a, d] = out[d] if applied else 0.0
+                if interface:  # XPIC increments re-impose only the bonded directions
+                    apply_law(INTERFACE, 0.0, 0.0, bonded[a], imp, n, dotn, True, dim, df)
+                    for d in range(dim):
+                        applied2[a, d] = df[d]
+                contact2[a] = 1 if applied else 0
+                if applied:
+                    for d in range(dim):
+                        owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
+                                             rig_vel)
+                        if owner != NO_BC:
+                            continue  # a velocity condition holds this component
+                        share_change(a, b, rigid_b, out[d], d, dpb, s0)
+                        if rigid_b:
+                            r = rigid_of_group[slot_group[b]]
+                            chunk_reaction[ch, r, d] += out[d] / dt
+                            chunk_work[ch] += out[d] * rig_vel[r, d]  # the rigid body's work on the material
+            add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol,
+                             constrain, rig_vel, mass, dpb, vnew, acc, dt, dim)
+
+
+@njit(cache=True, inline="always")
+def add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
+                     rig_vel, mass, dpb, arr, acc, dt, dim):
+    """Add each deformable slot's change dpb / m to arr (and dpb / (m dt) to acc when dt > 0),
+    except components a velocity condition holds."""
+    for s in range(s0, s1):
+        if slot_group[s] >= n_def:
+            continue
+        m = mass[nn + s]
+        for d in range(dim):
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+            if owner != NO_BC:
                 continue
-            pass2_target(a, s0, s1, node, nodes, grid, held, rigid_of_group, mass, acc, geo, dec, settings, w, sums, ch)
-        add_free_changes(node, s0, s1, nodes, grid, held, mass, w.dpb, vnew, acc, dt, dim)
+            arr[nn + s, d] += dpb[s - s0, d] / m
+            if dt > 0.0:
+                acc[nn + s, d] += dpb[s - s0, d] / (m * dt)
 
 
 @njit(cache=True)
-def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, touch, w):
+def increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def, nn, shape, face_type, wall_index, rigid_vol, constrain,
+                      rig_vel, mass, dv, role, partner, geo_n, slot_law, slot_mu, slot_mus, bonded, delta2,
+                      stick_total, applied_total, sep_velocity, touch, pbuf, dpb, imp, out, n):
     """Re-impose contact on one XPIC increment dv at contact node c (notes §5.2): the
     increment's stick change is added to a running stick total (seeded by pass 2's), the law
     is applied to the total, and only the change of the applied result is put on the
     increment. With bonded contact every increment goes to the centre of mass, so the filter
     is exactly single-material XPIC."""
     dim = dv.shape[1]
-    nn, cn_ptr, slot_group, n_def = nodes.nn, nodes.cn_ptr, nodes.slot_group, nodes.n_def
-    pbuf, dpb, imp, out, n = w.pbuf, w.dpb, w.imp, w.out, w.n
-    stick_total, applied_total = dec.stick_total, dec.applied_total
     s0 = cn_ptr[c]
     s1 = cn_ptr[c + 1]
+    node = cn_nodes[c]
+    i, j, k = node_ijk(node, shape)
     for s in range(s0, s1):
         for d in range(dim):
             pbuf[s - s0, d] = mass[nn + s] * dv[nn + s, d] if slot_group[s] < n_def else 0.0
             dpb[s - s0, d] = 0.0
     for a in range(s0, s1):
-        if geo.role[a] == 0:
+        if role[a] == 0:
             continue
-        b, rigid_b, mred = target_stick(a, s0, s1, nodes, mass, geo, w, dim)
+        b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp)
         dotn = 0.0
         for d in range(dim):
             stick_total[a, d] += imp[d]
             dotn += stick_total[a, d] * n[d]
-        touching = sep_velocity or dec.delta2[a] < touch
+        touching = sep_velocity or delta2[a] < touch
         for d in range(dim):
             imp[d] = stick_total[a, d]
-        applied = apply_law(geo.law[a], geo.mu[a], geo.mus[a], geo.bonded[a], imp, n, dotn, touching and dotn < 0.0,
+        applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, touching and dotn < 0.0,
                             dim, out)
         for d in range(dim):
             now = out[d] if applied else 0.0
             change = now - applied_total[a, d]
             applied_total[a, d] = now
             share_change(a, b, rigid_b, change, d, dpb, s0)
-    add_free_changes(nodes.cn_nodes[c], s0, s1, nodes, grid, held, mass, dpb, dv, dv, 0.0, dim)
+    add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
+                     rig_vel, mass, dpb, dv, dv, 0.0, dim)

@@ -16,19 +16,21 @@ from numba import njit, prange
 
 from ..bc import NO_BC, ghost_mirror, node_bc, rigid_holds
 from ..contact.workspace import no_contact
-from ..gridops import chunk_range, node_ijk
+from ..gridops import node_ijk
 from ..views import RigidHold
 
 NOT_GHOST, ZERO = -1, -2  # ghost_src codes: not a constrained ghost component; held at zero
 
 
-@njit(cache=True)
-def velocity_chunk(start, stop, active, grid, held, mass, mom, vel):
-    """grid_velocity on active fields start:stop."""
+@njit(parallel=True, cache=True)
+def grid_velocity(active, grid, held, mass, mom, vel):
+    """vel = p/m on every active field, with velocity conditions imposed (for velocity gradients)."""
     dim = mom.shape[1]
-    fields, fnodes, shape, face_type, wall_index = active.fields, active.fnodes, grid.shape, grid.face_type, grid.wall_index
-    rigid_vol, constrain, rig_vel = held.volume, held.constrain, held.velocity
-    for q in range(start, stop):
+    # (parallel loops work on arrays bound to locals: docs/architecture.md)
+    fields, fnodes, _ = active
+    shape, _, _, face_type, wall_index = grid
+    rigid_vol, constrain, rig_vel = held
+    for q in prange(fields.size):
         f = fields[q]
         node = fnodes[q]
         i, j, k = node_ijk(node, shape)
@@ -41,15 +43,6 @@ def velocity_chunk(start, stop, active, grid, held, mass, mom, vel):
                 vel[f, d] = mom[f, d] / m
             else:
                 vel[f, d] = 0.0
-
-
-@njit(parallel=True, cache=True)
-def grid_velocity(active, grid, held, mass, mom, vel, nchunk):
-    """vel = p/m on every active field, with velocity conditions imposed (for velocity gradients)."""
-    n = active.fields.size
-    for c in prange(nchunk):  # (parallel loop bodies call chunk helpers with the bundles: docs/architecture.md)
-        start, stop = chunk_range(c, nchunk, n)
-        velocity_chunk(start, stop, active, grid, held, mass, mom, vel)
 
 
 def slot_info(state):
@@ -87,15 +80,19 @@ def mirror_field(fid, mirror, nn, node_cn, cn_ptr, slot_group, mask, n_def):
     return -1
 
 
-@njit(cache=True)
-def ghost_chunk(start, stop, active, grid, held, slots, src, face):
-    """find_ghosts on active fields start:stop."""
+@njit(parallel=True, cache=True)
+def ghost_table(active, grid, held, slots, src, face):
+    """For each active field and component: the field whose value a constrained ghost takes
+    with the opposite sign (ZERO: held at zero; NOT_GHOST: not a constrained ghost value, or
+    a rigid body holds it, or no field of its group at the mirror), and the face."""
     dim = src.shape[1]
-    fields, fnodes, shape, face_type, wall_index = active.fields, active.fnodes, grid.shape, grid.face_type, grid.wall_index
-    rigid_vol, constrain = held.volume, held.constrain
-    node_cn, cn_ptr, slot_group, mask, n_def = slots.node_cn, slots.cn_ptr, slots.slot_group, slots.mask, slots.n_def
+    # (parallel loops work on arrays bound to locals: docs/architecture.md)
+    fields, fnodes, _ = active
+    shape, _, _, face_type, wall_index = grid
+    rigid_vol, constrain, _ = held
+    node_cn, cn_ptr, slot_group, mask, n_def = slots
     nn = shape[0] * shape[1] * shape[2]
-    for q in range(start, stop):
+    for q in prange(fields.size):
         fid = fields[q]
         node = fnodes[q]
         i, j, k = node_ijk(node, shape)
@@ -108,17 +105,6 @@ def ghost_chunk(start, stop, active, grid, held, slots, src, face):
                 src[q, d] = mirror_field(fid, mirror, nn, node_cn, cn_ptr, slot_group, mask, n_def)
 
 
-@njit(parallel=True, cache=True)
-def ghost_table(active, grid, held, slots, nchunk, src, face):
-    """For each active field and component: the field whose value a constrained ghost takes
-    with the opposite sign (ZERO: held at zero; NOT_GHOST: not a constrained ghost value, or
-    a rigid body holds it, or no field of its group at the mirror), and the face."""
-    n = active.fields.size
-    for c in prange(nchunk):
-        start, stop = chunk_range(c, nchunk, n)
-        ghost_chunk(start, stop, active, grid, held, slots, src, face)
-
-
 def find_ghosts(state) -> None:
     """This step's ghost table (fields.ghost_src, ghost_face), after the extrapolation."""
     f, box = state.fields, state.box
@@ -126,8 +112,8 @@ def find_ghosts(state) -> None:
     if f.ghost_src.shape[0] < n:
         f.ghost_src = np.zeros((2 * n, state.dim), dtype=np.int64)
         f.ghost_face = np.zeros((2 * n, state.dim), dtype=np.int64)
-    ghost_table(box.active(), state.grid.view, held_by(state, state.rigid.v_end), slot_info(state), state.nchunk,
-                f.ghost_src, f.ghost_face)
+    ghost_table(box.active(), state.grid.view, held_by(state, state.rigid.v_end), slot_info(state), f.ghost_src,
+                f.ghost_face)
 
 
 @njit(parallel=True, cache=True)
@@ -169,6 +155,6 @@ def held_by(state, velocity) -> RigidHold:
 
 def set_grid_velocity(state, rig_vel) -> None:
     f, box, held = state.fields, state.box, held_by(state, rig_vel)
-    grid_velocity(box.active(), state.grid.view, held, f.mass, f.mom, f.vel, state.nchunk)
+    grid_velocity(box.active(), state.grid.view, held, f.mass, f.mom, f.vel)
     if has_walls(state):
         mirror_ghosts(box.fields, f.ghost_src, f.vel)

@@ -29,11 +29,12 @@ def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, off
     origin, h = grid.origin, grid.h
     K = S.shape[1]
     dim = pvel.shape[1]
+    order, ptr = sc.order, sc.ptr
     for color in range(2):
-        n_pairs = (sc.ptr.size - color) // 2
-        for s in prange(n_pairs):
+        for s in prange((ptr.size - color) // 2):
             r = np.zeros(3)
-            for p in slab(sc, color, s):
+            for q in slab(ptr, color, s):
+                p = order[q]
                 mp = pmass[p]
                 for k in range(K):
                     w = S[p, k]

@@ -17,10 +17,11 @@ def p2g_forces(sc, G, P, gravity, has_gravity, gforce):
     nodes, S, vol, stress, pmass = sc.fidx, sc.S, P.vol, P.stress, P.mass
     K = S.shape[1]
     dim = G.shape[2]
+    order, ptr = sc.order, sc.ptr
     for color in range(2):
-        n_pairs = (sc.ptr.size - color) // 2
-        for s in prange(n_pairs):
-            for p in slab(sc, color, s):
+        for s in prange((ptr.size - color) // 2):
+            for q in slab(ptr, color, s):
+                p = order[q]
                 vp = vol[p]
                 for k in range(K):
                     w = S[p, k]

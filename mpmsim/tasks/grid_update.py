@@ -29,91 +29,76 @@ class UpdateFields(NamedTuple):
     vstart: np.ndarray  # out: start velocity with conditions imposed
 
 
-@njit(cache=True)
-def update_chunk(c, start, stop, active, grid, held_start, held_end, f, dt, chunk_reaction):
-    """grid_update_kernel on active fields start:stop (chunk c); returns the conditions' work."""
-    dim = f.mom.shape[1]
-    fields, fnodes, skip = active.fields, active.fnodes, active.skip
-    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
-    rigid_vol, constrain, v_start, v_end = held_end.volume, held_end.constrain, held_start.velocity, held_end.velocity
-    mass, mom, force, vnew, acc, vstart = f.mass, f.mom, f.force, f.vnew, f.acc, f.vstart
-    for a in range(chunk_reaction.shape[1]):
-        for d in range(dim):
-            chunk_reaction[c, a, d] = 0.0
-    work = 0.0
-    for q in range(start, stop):
-        fid = fields[q]
-        node = fnodes[q]
-        i, j, k = node_ijk(node, shape)
-        m = mass[fid]
-        if m <= 0.0 or skip[q]:
-            for d in range(dim):
-                vnew[fid, d] = 0.0
-                acc[fid, d] = 0.0
-                vstart[fid, d] = 0.0
-            continue
-        for d in range(dim):
-            fd = force[fid, d]
-            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
-            if owner != NO_BC:
-                owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
-                vstart[fid, d] = vbc0
-            else:
-                vstart[fid, d] = mom[fid, d] / m
-            if owner != NO_BC:
-                f_bc = (m * vbc - mom[fid, d]) / dt
-                dfc = f_bc - fd
-                work += dfc * vbc * dt  # signed work done on the material
-                add_reaction(chunk_reaction, c, owner, node, d, dfc, rigid_vol, constrain)
-                fd = f_bc
-            acc[fid, d] = fd / m
-            vnew[fid, d] = (mom[fid, d] + fd * dt) / m
-    return work
-
-
 @njit(parallel=True, cache=True)
 def grid_update_kernel(active, grid, held_start, held_end, f, dt, nchunk, chunk_reaction, chunk_work):
     """v+ and a on every active field; a component held by a velocity condition (at the step's
     end: held_end; its start value, held_start, seeds vstart) gets the force that lands it on
     the imposed velocity, and the difference is that condition's reaction and work."""
-    nq = active.fields.size
-    for c in prange(nchunk):  # (parallel loop bodies call chunk helpers with the bundles: docs/architecture.md)
-        start, stop = chunk_range(c, nchunk, nq)
-        chunk_work[c] = update_chunk(c, start, stop, active, grid, held_start, held_end, f, dt, chunk_reaction)
-
-
-@njit(cache=True)
-def mirror_update_chunk(c, start, stop, fields, ghost_src, ghost_face, f, dt, chunk_reaction):
-    """mirror_update on active fields start:stop (chunk c)."""
     dim = f.mom.shape[1]
-    mass, mom, vnew, acc, vstart = f.mass, f.mom, f.vnew, f.acc, f.vstart
-    for a in range(chunk_reaction.shape[1]):
-        for d in range(dim):
-            chunk_reaction[c, a, d] = 0.0
-    for q in range(start, stop):
-        fid = fields[q]
-        m = mass[fid]
-        if m <= 0.0:
-            continue
-        for d in range(dim):
-            mf = ghost_src[q, d]
-            if mf == NOT_GHOST:
+    # (parallel loops read bundle members through locals: docs/architecture.md)
+    fields, fnodes, skip = active.fields, active.fnodes, active.skip
+    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
+    rigid_vol, constrain, v_start, v_end = held_end.volume, held_end.constrain, held_start.velocity, held_end.velocity
+    mass, mom, force, vnew, acc, vstart = f.mass, f.mom, f.force, f.vnew, f.acc, f.vstart
+    nq = fields.size
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, nq)
+        chunk_reaction[c] = 0.0
+        work = 0.0
+        for q in range(start, stop):
+            fid = fields[q]
+            node = fnodes[q]
+            i, j, k = node_ijk(node, shape)
+            m = mass[fid]
+            if m <= 0.0 or skip[q]:
+                for d in range(dim):
+                    vnew[fid, d] = 0.0
+                    acc[fid, d] = 0.0
+                    vstart[fid, d] = 0.0
                 continue
-            v = -vnew[mf, d] if mf >= 0 else 0.0
-            chunk_reaction[c, ghost_face[q, d], d] += m * (v - vnew[fid, d]) / dt
-            vnew[fid, d] = v
-            acc[fid, d] = (v - mom[fid, d] / m) / dt
-            vstart[fid, d] = -vstart[mf, d] if mf >= 0 else 0.0
+            for d in range(dim):
+                fd = force[fid, d]
+                owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
+                if owner != NO_BC:
+                    owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
+                    vstart[fid, d] = vbc0
+                else:
+                    vstart[fid, d] = mom[fid, d] / m
+                if owner != NO_BC:
+                    f_bc = (m * vbc - mom[fid, d]) / dt
+                    dfc = f_bc - fd
+                    work += dfc * vbc * dt  # signed work done on the material
+                    add_reaction(chunk_reaction, c, owner, node, d, dfc, rigid_vol, constrain)
+                    fd = f_bc
+                acc[fid, d] = fd / m
+                vnew[fid, d] = (mom[fid, d] + fd * dt) / m
+        chunk_work[c] = work
 
 
 @njit(parallel=True, cache=True)
 def mirror_update(fields, ghost_src, ghost_face, f, dt, nchunk, chunk_reaction):
     """Second pass of the update: constrained ghost components of the box nodes take minus
     their mirror's new velocity (boundary.py); the extra force is added to that face's reaction."""
+    dim = f.mom.shape[1]
+    mass, mom, vnew, acc, vstart = f.mass, f.mom, f.vnew, f.acc, f.vstart
     nq = fields.size
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, nq)
-        mirror_update_chunk(c, start, stop, fields, ghost_src, ghost_face, f, dt, chunk_reaction)
+        chunk_reaction[c] = 0.0
+        for q in range(start, stop):
+            fid = fields[q]
+            m = mass[fid]
+            if m <= 0.0:
+                continue
+            for d in range(dim):
+                mf = ghost_src[q, d]
+                if mf == NOT_GHOST:
+                    continue
+                v = -vnew[mf, d] if mf >= 0 else 0.0
+                chunk_reaction[c, ghost_face[q, d], d] += m * (v - vnew[fid, d]) / dt
+                vnew[fid, d] = v
+                acc[fid, d] = (v - mom[fid, d] / m) / dt
+                vstart[fid, d] = -vstart[mf, d] if mf >= 0 else 0.0
 
 
 def grid_update(state) -> None:

@@ -43,7 +43,7 @@ from numba import njit, prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.bond import point_bond
-from ..contact.passes import increment_contact, node_scratch
+from ..contact.passes import MAX_SLOTS, increment_contact
 from ..contact.spec import SEP_VELOCITY
 from ..contact.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
@@ -79,13 +79,31 @@ class HeldSums(NamedTuple):
     work: np.ndarray  # (nchunk,)
 
 
-@njit(cache=True)
-def seed_chunk(start, stop, active, nn, f, opts, dim):
-    """First term of the series at active fields start:stop: v (XPIC) or v+ (FMPM); vstar
-    starts as v0 + (v+ - v_e) (XPIC) or v0 (FMPM)."""
-    fields, skip, dv, vstar, vnew, vstart = active.fields, active.skip, f.dv, f.vstar, f.vnew, f.vstart
-    seed_shift, use_shift, filter_updated = opts.seed_shift, opts.use_shift, opts.filter_updated
-    for q in range(start, stop):
+@njit(parallel=True, cache=True)
+def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, ghost_src, nchunk, sums):
+    """The series v* = sum_j (I - S+S)^j v over the active fields (sc: the particles' entries
+    into their fields, material slots at contact nodes), with contact re-imposed on every
+    increment at the cnodes.n_cn contact nodes. The impulses the velocity conditions exert on
+    the increments (and their work) go to sums (HeldSums), so reactions and the energy check
+    see the filter's share of the condition."""
+    # (parallel loops work on arrays bound to locals: docs/architecture.md)
+    order_, ptr, nodes, S = sc
+    fields, fnodes, skip = active
+    shape, _, _, face_type, wall_index = grid
+    rigid_vol, constrain, rig_vel = held
+    mass, vnew, vstart, dv, tmp, vstar = f
+    m_order, filter_updated, seed_shift, use_shift, walls, sep_velocity, touch = opts
+    n_cn, cn_nodes, cn_ptr, slot_group, n_def, _ = cnodes
+    nn = shape[0] * shape[1] * shape[2]
+    role, partner, geo_n, _, _, _, bonded, slot_law, slot_mu, slot_mus, _, _ = geo
+    _, _, delta2, _, stick_total, applied_total = dec
+    chunk_impulse, chunk_work = sums
+    dim = vnew.shape[1]
+    chunk_work[:] = 0.0
+    chunk_impulse[:] = 0.0
+    nq = fields.size
+    K = S.shape[1]
+    for q in prange(nq):
         fld = fields[q]
         for d in range(dim):
             if skip[q]:
@@ -96,60 +114,7 @@ def seed_chunk(start, stop, active, nn, f, opts, dim):
             shift = seed_shift[fld - nn, d] if (use_shift and fld >= nn) else 0.0
             dv[fld, d] = (vnew[fld, d] if filter_updated else vstart[fld, d]) + shift
             vstar[fld, d] = dv[fld, d] if filter_updated else vnew[fld, d] + shift  # v0 + (v+ - v_e)
-
-
-@njit(cache=True)
-def hold_chunk(start, stop, active, grid, held, f, dim, ch, chunk_impulse):
-    """dv -= S+S dv at active fields start:stop, except components a velocity condition holds:
-    those stay at zero increment, and the momentum the increment would have put there goes to
-    the wall or rigid body (the free nodes' increments sum to minus it). Returns that part's
-    work."""
-    fields, fnodes, skip, mass, dv, tmp = active.fields, active.fnodes, active.skip, f.mass, f.dv, f.tmp
-    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
-    rigid_vol, constrain, rig_vel = held.volume, held.constrain, held.velocity
-    work = 0.0
-    for q in range(start, stop):
-        fld = fields[q]
-        node = fnodes[q]
-        i, j, k = node_ijk(node, shape)
-        m = mass[fld]
-        for d in range(dim):
-            owner = NO_BC
-            v_held = 0.0
-            if m > 0.0 and not skip[q]:
-                owner, v_held = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
-            if owner == NO_BC:
-                dv[fld, d] = dv[fld, d] - tmp[fld, d] / m if m > 0.0 and not skip[q] else 0.0
-                continue
-            held_p = tmp[fld, d] - m * dv[fld, d]
-            work += held_p * v_held
-            add_reaction(chunk_impulse, ch, owner, node, d, held_p, rigid_vol, constrain)
-            dv[fld, d] = 0.0
-    return work
-
-
-@njit(parallel=True, cache=True)
-def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, ghost_src, nchunk, sums):
-    """The series v* = sum_j (I - S+S)^j v over the active fields (sc: the particles' entries
-    into their fields, material slots at contact nodes), with contact re-imposed on every
-    increment at the cnodes.n_cn contact nodes. The impulses the velocity conditions exert on
-    the increments (and their work) go to sums (HeldSums), so reactions and the energy check
-    see the filter's share of the condition."""
-    dim = f.vnew.shape[1]
-    chunk_work, chunk_impulse = sums.work, sums.impulse
-    chunk_work[:] = 0.0
-    chunk_impulse[:] = 0.0
-    fields = active.fields
-    nq = fields.size
-    nn = grid.shape[0] * grid.shape[1] * grid.shape[2]
-    # (numba's parallel loops read bundle members through locals only)
-    nodes, S, dv, tmp, vstar, fmass, ptr = sc.fidx, sc.S, f.dv, f.tmp, f.vstar, f.mass, sc.ptr
-    n_cn, sep_velocity, touch = cnodes.n_cn, opts.sep_velocity, opts.touch
-    K = S.shape[1]
-    for ch in prange(nchunk):  # (parallel loop bodies call chunk helpers with the bundles: docs/architecture.md)
-        start, stop = chunk_range(ch, nchunk, nq)
-        seed_chunk(start, stop, active, nn, f, opts, dim)
-    for ell in range(2, opts.order + 1):
+    for ell in range(2, m_order + 1):
         for q in prange(nq):
             fld = fields[q]
             for d in range(dim):
@@ -157,7 +122,8 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
         # tmp = sum_p m_p S_ip (S dv)_p: gather then scatter, slab by slab
         for color in range(2):
             for s in prange((ptr.size - color) // 2):
-                for p in slab(sc, color, s):
+                for q in slab(ptr, color, s):
+                    p = order_[q]
                     g0 = 0.0
                     g1 = 0.0
                     g2 = 0.0
@@ -180,12 +146,41 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
                             tmp[node, 2] += wm * g2
         for ch in prange(nchunk):
             start, stop = chunk_range(ch, nchunk, nq)
-            chunk_work[ch] += hold_chunk(start, stop, active, grid, held, f, dim, ch, chunk_impulse)
+            work_ch = 0.0
+            for q in range(start, stop):
+                fld = fields[q]
+                node = fnodes[q]
+                i, j, k = node_ijk(node, shape)
+                m = mass[fld]
+                for d in range(dim):
+                    owner = NO_BC
+                    v_held = 0.0
+                    if m > 0.0 and not skip[q]:
+                        owner, v_held = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
+                                                rig_vel)
+                    if owner == NO_BC:
+                        dv[fld, d] = dv[fld, d] - tmp[fld, d] / m if m > 0.0 and not skip[q] else 0.0
+                        continue
+                    # The condition holds this component at zero increment; the momentum the
+                    # increment would have put here, m dv - (S+S dv) m, is taken by the wall or
+                    # rigid body instead (the free nodes' increments sum to minus it).
+                    held_p = tmp[fld, d] - m * dv[fld, d]
+                    work_ch += held_p * v_held
+                    add_reaction(chunk_impulse, ch, owner, node, d, held_p, rigid_vol, constrain)
+                    dv[fld, d] = 0.0
+            chunk_work[ch] += work_ch
         for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
-            increment_contact(c, cnodes, grid, held, fmass, dv, geo, dec, sep_velocity, touch, node_scratch())
+            pbuf = np.zeros((MAX_SLOTS, 3))
+            dpb = np.zeros((MAX_SLOTS, 3))
+            imp = np.zeros(3)
+            out = np.zeros(3)
+            nvec = np.zeros(3)
+            increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def, nn, shape, face_type, wall_index, rigid_vol,
+                              constrain, rig_vel, mass, dv, role, partner, geo_n, slot_law, slot_mu, slot_mus, bonded,
+                              delta2, stick_total, applied_total, sep_velocity, touch, pbuf, dpb, imp, out, nvec)
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
-            point_bond(bonds, nn, f.mass, dv, False, f.vstar[:1], 0.0, geo.normal, dim)
-        if opts.walls:  # ghost components of the increment mirror their interior node
+            point_bond(bonds, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
+        if walls:  # ghost components of the increment mirror their interior node
             mirror_ghosts(fields, ghost_src, dv)
         for q in prange(nq):
             fld = fields[q]

@@ -121,7 +121,7 @@ class Probe(BodySet):
     def __init__(self):
         self.infos = [BodyInfo(99, "probe", self.kind)]
 
-    def sums(self, state):
+    def sums(self, state, detail=True):
         row = np.zeros(NSUMS)
         row[MASS], row[KINETIC] = 2.0, 5.0
         row[MOMENTUM][:2] = (3.0, -1.0)
