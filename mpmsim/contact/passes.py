@@ -306,15 +306,24 @@ def add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wa
 
 
 @njit(cache=True)
-def increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def, nn, shape, face_type, wall_index, rigid_vol, constrain,
-                      rig_vel, mass, dv, role, partner, geo_n, slot_law, slot_mu, slot_mus, bonded, delta2,
-                      stick_total, applied_total, sep_velocity, touch, pbuf, dpb, imp, out, n):
+def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, touch):
     """Re-impose contact on one XPIC increment dv at contact node c (notes §5.2): the
     increment's stick change is added to a running stick total (seeded by pass 2's), the law
     is applied to the total, and only the change of the applied result is put on the
     increment. With bonded contact every increment goes to the centre of mass, so the filter
     is exactly single-material XPIC."""
     dim = dv.shape[1]
+    _, cn_nodes, cn_ptr, slot_group, n_def, _ = nodes
+    shape, _, _, face_type, wall_index = grid
+    rigid_vol, constrain, rig_vel = held
+    role, partner, geo_n, _, _, _, bonded, slot_law, slot_mu, slot_mus, _, _ = geo
+    _, _, delta2, _, stick_total, applied_total = dec
+    nn = shape[0] * shape[1] * shape[2]
+    pbuf = np.zeros((MAX_SLOTS, 3))
+    dpb = np.zeros((MAX_SLOTS, 3))
+    imp = np.zeros(3)
+    out = np.zeros(3)
+    n = np.zeros(3)
     s0 = cn_ptr[c]
     s1 = cn_ptr[c + 1]
     node = cn_nodes[c]

@@ -43,7 +43,7 @@ from numba import njit, prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.bond import point_bond
-from ..contact.passes import MAX_SLOTS, increment_contact
+from ..contact.passes import increment_contact
 from ..contact.spec import SEP_VELOCITY
 from ..contact.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
@@ -93,10 +93,9 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
     rigid_vol, constrain, rig_vel = held
     mass, vnew, vstart, dv, tmp, vstar = f
     m_order, filter_updated, seed_shift, use_shift, walls, sep_velocity, touch = opts
-    n_cn, cn_nodes, cn_ptr, slot_group, n_def, _ = cnodes
+    n_cn = cnodes.n_cn
     nn = shape[0] * shape[1] * shape[2]
-    role, partner, geo_n, _, _, _, bonded, slot_law, slot_mu, slot_mus, _, _ = geo
-    _, _, delta2, _, stick_total, applied_total = dec
+    geo_n = geo.normal
     chunk_impulse, chunk_work = sums
     dim = vnew.shape[1]
     chunk_work[:] = 0.0
@@ -170,14 +169,7 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
                     dv[fld, d] = 0.0
             chunk_work[ch] += work_ch
         for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
-            pbuf = np.zeros((MAX_SLOTS, 3))
-            dpb = np.zeros((MAX_SLOTS, 3))
-            imp = np.zeros(3)
-            out = np.zeros(3)
-            nvec = np.zeros(3)
-            increment_contact(c, cn_nodes, cn_ptr, slot_group, n_def, nn, shape, face_type, wall_index, rigid_vol,
-                              constrain, rig_vel, mass, dv, role, partner, geo_n, slot_law, slot_mu, slot_mus, bonded,
-                              delta2, stick_total, applied_total, sep_velocity, touch, pbuf, dpb, imp, out, nvec)
+            increment_contact(c, cnodes, grid, held, mass, dv, geo, dec, sep_velocity, touch)
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
             point_bond(bonds, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
         if walls:  # ghost components of the increment mirror their interior node
