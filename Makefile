@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench bench-fem bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -26,6 +26,12 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python bench/column.py
 	$(BIN)/python bench/column.py --deck bench/two_blocks.yaml --matrix-steps 0
+	$(BIN)/python bench/fem_contact.py speed
+
+# FEM bodies with APIC augury contact: two blocks (conservation, gap, energy), the ramp, where
+# contact fails (chart in docs/figures/), speed; about 10 minutes on one core
+bench-fem: $(STAMP)
+	$(BIN)/python bench/fem_contact.py all
 
 # contact methods on the LR paper's problems: Fig. 5 errors, cost, charts in docs/figures/
 # (about 10 minutes on 2 cores; `python bench/contact.py ellipses` adds full-size Fig. 6)

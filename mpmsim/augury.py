@@ -219,9 +219,10 @@ class Entries(NamedTuple):
     n_nodes: int  # nodes in the box
 
 
-def grid_entries(x: np.ndarray, grid: AuguryGrid) -> Entries:
+@njit(cache=True)
+def grid_entries(x, grid):
     """Weights, offsets and inertia of particles at x on the augury grid (one node box around
-    them, on the lattice through the origin)."""
+    them, on the lattice through the origin), as Entries."""
     n, dim = x.shape
     k = NODES_PER_AXIS[grid.kernel]
     base = np.zeros((n, 3), dtype=np.int64)
@@ -229,42 +230,50 @@ def grid_entries(x: np.ndarray, grid: AuguryGrid) -> Entries:
     particle_weights(x, grid, base, W)
     lo = np.zeros(3, dtype=np.int64)
     extent = np.ones(3, dtype=np.int64)
-    lo[:dim] = base[:, :dim].min(axis=0)
-    extent[:dim] = base[:, :dim].max(axis=0) + k - lo[:dim]
+    for d in range(dim):
+        lo[d] = base[:, d].min()
+        extent[d] = base[:, d].max() + k - lo[d]
     K = k**dim
     node, weight, r = np.zeros((n, K), dtype=np.int64), np.zeros((n, K)), np.zeros((n, K, dim))
     particle_entries(x, grid, base, W, lo, extent, node, weight, r)
     Di = np.zeros((n, 3, 3))
     inertia_inverse(weight, r, Di)
-    return Entries(node, weight, r, Di, int(np.prod(extent)))
+    return Entries(node, weight, r, Di, extent[0] * extent[1] * extent[2])
 
 
-def apply_h(ent: Entries, m, v, B, apic: bool):
+@njit(cache=True)
+def apply_h(ent, m, v, B, apic):
     """H V: (v, B) after one transfer (B zeros for PIC)."""
     out_v, out_B = np.zeros_like(v), np.zeros_like(B)
     transfer(m, v, B, apic, ent.node, ent.weight, ent.r, ent.Di, ent.n_nodes, out_v, out_B)
     return out_v, out_B
 
 
-def augury_correction(x, m, vbar, Bbar, normal, mu, grid: AuguryGrid, iterations: int, tau: float,
-                      rule: int = FRICTION):
-    """The augury acceleration correction (Â_v, Â_B) of particles at x with masses m, predicted
-    velocities vbar and affine parts Bbar (ignored for PIC), outward normals and friction
-    coefficients mu, after `iterations` augury iterations (0: the bodies stick)."""
-    n, dim = x.shape
-    ent = grid_entries(x, grid)
-    B_in = Bbar if grid.apic else np.zeros((n, dim, dim))
-    v_hat, B_hat = apply_h(ent, m, vbar, B_in, grid.apic)
+@njit(cache=True)
+def correction(ent, m, vbar, Bbar, normal, mu, grid, iterations, tau, rule):
+    """(Â_v, Â_B): the augury acceleration correction of particles with grid entries `ent`,
+    masses m, predicted velocities vbar and affine parts Bbar (zero for PIC), outward normals
+    and friction coefficients mu, after `iterations` augury iterations (0: bodies stick)."""
+    n, dim = vbar.shape
+    v_hat, B_hat = apply_h(ent, m, vbar, Bbar, grid.apic)
     w_v = np.zeros((n, dim))
     w_B = np.zeros((n, dim, dim))
     for _ in range(iterations):
-        undesired(v_hat - vbar, B_hat - B_in, normal, mu, rule, grid.apic, w_v, w_B)
+        undesired(v_hat - vbar, B_hat - Bbar, normal, mu, rule, grid.apic, w_v, w_B)
         hw_v, hw_B = apply_h(ent, m, w_v, w_B, grid.apic)
         v_hat += hw_v - w_v
         if grid.apic:
             B_hat += hw_B - w_B
-    acc_B = (B_hat - B_in) / tau if grid.apic else np.zeros((n, dim, dim))
+    acc_B = (B_hat - Bbar) / tau if grid.apic else np.zeros((n, dim, dim))
     return (v_hat - vbar) / tau, acc_B
+
+
+def augury_correction(x, m, vbar, Bbar, normal, mu, grid: AuguryGrid, iterations: int, tau: float,
+                      rule: int = FRICTION):
+    """The augury acceleration correction (Â_v, Â_B) of particles at x (see `correction`)."""
+    n, dim = x.shape
+    B_in = Bbar if grid.apic else np.zeros((n, dim, dim))
+    return correction(grid_entries(x, grid), m, vbar, B_in, normal, mu, grid, iterations, tau, rule)
 
 
 def kernel_weights(kernel: str, xi: float) -> tuple[int, np.ndarray]:

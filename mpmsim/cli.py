@@ -115,11 +115,15 @@ def _units(scene):
 
 
 def _timing_table(result, sim) -> None:
-    n = sim.state.particles.n
+    n_p = sim.state.particles.n
+    n_e = len(sim.state.fem.cells) if sim.state.fem is not None else 0
+    n = n_p + n_e
+    what = "particle+element" if n_p and n_e else ("element" if n_e else "particle")
+    counts = ", ".join(s for s in (f"{n_p} particles" if n_p or not n_e else "", f"{n_e} elements" if n_e else "") if s)
     steps = max(result.steps, 1)
-    table = Table(title=f"{result.steps} steps, {n} particles, {result.wall_time:.2f} s wall, "
-                        f"{result.rate / 1e6:.2f} M particle-steps/s")
-    for col in ("task", "time (s)", "%", "us/step", "M particle-steps/s"):
+    table = Table(title=f"{result.steps} steps, {counts}, {result.wall_time:.2f} s wall, "
+                        f"{result.rate / 1e6:.2f} M {what}-steps/s")
+    for col in ("task", "time (s)", "%", "us/step", f"M {what}-steps/s"):
         table.add_column(col, justify="left" if col == "task" else "right")
     total = sum(result.timers.values()) or 1.0
     for name, sec in result.timers.items():
@@ -135,25 +139,15 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
     from .state import State
 
     scene = _load_scene(deck)
-    d, g, u = scene.deck, scene.grid, _units(scene)
+    d, u = scene.deck, _units(scene)
     state = State.from_scene(scene, threads=1)
-    cells = g.cells
     out.print(f"[bold]{scene.loaded.path}[/]: {d.title}", highlight=False)
     out.print(f"analysis {d.analysis}, units {u.name} (length {u.length}, time {u.time}, stress {u.stress})",
               highlight=False)
-    dims = " x ".join(str(c) for c in cells)
-    sizes = " x ".join(f"{h:g}" for h in g.h)
-    box = " x ".join(f"[{a:g}, {b:g}]" for a, b in zip(g.domain_lo, g.domain_hi))
-    faces = ", ".join(f"{f}={getattr(d.grid.boundaries, f)}" for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * g.dim])
-    out.print(f"grid: {dims} cells of {sizes} {u.length}; domain {box}; "
-              f"{g.n_nodes} nodes with {g.ghost} ghost layer(s); faces {faces}", highlight=False)
-    P = state.particles
-    occupied = np.unique(np.floor((P.x - g.domain_lo) / g.h).astype(np.int64), axis=0)
-    out.print(f"active cells: {len(occupied)} of {int(np.prod(cells))} hold particles", highlight=False)
-    per = ", ".join(f"{m}: {int(np.sum(P.mat == i))}" for i, m in enumerate(scene.materials.deformable))
-    rig = ", ".join(f"{m}: {int(np.sum(state.rigid.mat == i))}" for i, m in enumerate(scene.materials.rigid))
-    out.print(f"particles: {P.n} deformable ({per})" + (f"; {state.rigid.n} rigid ({rig})" if rig else ""),
-              highlight=False)
+    if scene.has_particles:
+        _describe_particles(scene, state, u)
+    if state.fem is not None:
+        _describe_fem(scene, state, u)
     integrator = make_integrator(scene)
     dt = integrator.stable_dt(state)
     if d.time.dt is not None:
@@ -163,14 +157,17 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
         speed = state.wave_max
         if state.n_rigid_materials:
             speed = max(speed, float(np.abs(state.rigid.v_start).max()))
-        how = f"CFL {cfl:g}, max wave speed + |v| = {speed:.4g} {u.velocity}"
+        how = f"CFL {cfl:g}" + (f", max wave speed + |v| = {speed:.4g} {u.velocity}" if scene.has_particles else
+                                ", smallest FEM element over its wave speed")
     steps = int(np.ceil(d.time.end / dt))
     out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
               highlight=False)
-    ps = steps * P.n
-    out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
-              f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
-    out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
+    P = state.particles
+    if scene.has_particles:
+        ps = steps * P.n
+        out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
+                  f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
+        out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
     out.print(f"[bold]tasks per step[/] ({integrator.name} integrator; only what this scene needs):")
     for i, (name, why) in enumerate(integrator.plan, 1):
         out.print(f"  {i:2d}. {name:22s} {why}", highlight=False)
@@ -178,6 +175,42 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
         out.print("[bold]left out[/] (not needed by this scene):")
         for name, why in integrator.skipped:
             out.print(f"      {name:22s} {why}", highlight=False)
+
+
+def _describe_particles(scene, state, u) -> None:
+    d, g = scene.deck, scene.grid
+    cells = g.cells
+    dims = " x ".join(str(c) for c in cells)
+    sizes = " x ".join(f"{h:g}" for h in g.h)
+    box = " x ".join(f"[{a:g}, {b:g}]" for a, b in zip(g.domain_lo, g.domain_hi))
+    faces = ", ".join(f"{f}={getattr(d.grid.boundaries, f)}" for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * g.dim])
+    out.print(f"grid: {dims} cells of {sizes} {u.length}; domain {box}; "
+              f"{g.n_nodes} nodes with {g.ghost} ghost layer(s); faces {faces}", highlight=False)
+    P = state.particles
+    occupied = np.unique(np.floor((P.x - g.domain_lo) / g.h).astype(np.int64), axis=0)
+    out.print(f"active cells: {len(occupied)} of {int(np.prod(cells))} hold particles", highlight=False)
+    per = ", ".join(f"{m}: {int(np.sum(P.mat == i))}" for i, m in enumerate(scene.materials.deformable)
+                    if np.any(P.mat == i))
+    rig = ", ".join(f"{m}: {int(np.sum(state.rigid.mat == i))}" for i, m in enumerate(scene.materials.rigid))
+    out.print(f"particles: {P.n} deformable ({per})" + (f"; {state.rigid.n} rigid ({rig})" if rig else ""),
+              highlight=False)
+
+
+def _describe_fem(scene, state, u) -> None:
+    fem = state.fem
+    kind = "triangles" if scene.dim == 2 else "tetrahedra"
+    for row, info in enumerate(fem.infos):
+        nodes = int(np.sum(fem.node_body == row))
+        cells = int(np.sum(fem.cell_body == row))
+        held = int(np.sum(fem.held[fem.node_body == row].any(axis=1)))
+        out.print(f"FEM body '{info.name}': {nodes} nodes, {cells} {kind}" + (f", {held} held nodes" if held else ""),
+                  highlight=False)
+    out.print(f"FEM boundary nodes (augury particles): {len(fem.boundary)}", highlight=False)
+    a = scene.deck.contact.augury
+    if a is not None:
+        out.print(f"augury contact: {a.transfer.upper()}, grid {a.cell_size:g} {u.length}, {a.kernel}, "
+                  f"{a.iterations} iteration(s), tau = " + (f"{a.tau:g} {u.time}" if a.tau else "the time step"),
+                  highlight=False)
 
 
 def kernel_dimension(state) -> str:

@@ -44,7 +44,7 @@ class RunResult:
 
     @property
     def rate(self) -> float:
-        """Particle-steps per second over the stepping (output excluded)."""
+        """Particle-steps (plus element-steps of FEM bodies) per second over the stepping (output excluded)."""
         stepping = sum(v for k, v in self.timers.items() if k != OUTPUT)
         return self.particle_steps / stepping if stepping > 0 else 0.0
 
@@ -159,5 +159,6 @@ class Simulation:
             self.history.record(st)
         self._write_output(vtu=written_at != st.t)
         wall = wallclock.perf_counter() - start
-        return RunResult(st.step, wall, st.step * st.particles.n, self.timers, list(self.files),
+        n_cells = len(st.fem.cells) if st.fem is not None else 0  # points stepped: particles + elements
+        return RunResult(st.step, wall, st.step * (st.particles.n + n_cells), self.timers, list(self.files),
                          self.history.path, self.vtu.pvd_path if self.vtu else None)

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bodies.fem import FemBodies
 from .bodies.particles import Particles
 from .bodies.rigid import RigidParticles
 from .contact.workspace import ContactWorkspace
@@ -118,6 +119,7 @@ class State:
     flags: StepFlags = field(default_factory=StepFlags)
     particle_bounds: tuple = ()  # (lo, hi): where particle centres may go (GridSpec.particle_bounds)
     noise_scratch: tuple | None = None  # shape data and grid arrays for the noise metric
+    fem: FemBodies | None = None  # the FEM bodies (mpmsim/bodies/fem.py), if any
 
     @property
     def field_index(self) -> np.ndarray:
@@ -136,6 +138,42 @@ class State:
 
     @classmethod
     def from_scene(cls, scene: Scene, threads: int | None = None) -> "State":
+        state = cls.particle_state(scene, threads) if scene.has_particles else cls.without_particles(scene, threads)
+        if scene.fem is not None:
+            state.fem = FemBodies.from_seed(scene.fem, scene.materials, scene.thickness, scene.dim)
+            state.fem.check_every = scene.deck.stability.check_every
+            if scene.deck.contact.augury is not None:
+                state.fem.crossing_depth = scene.deck.contact.augury.overlap_tolerance
+            state.bodies.append(state.fem)
+            state.energy0 += 0.5 * float(state.fem.mass @ np.sum(state.fem.v**2, axis=1))
+            c0 = np.sqrt(np.array([initial_modulus(c, r) for c, r in zip(scene.materials.type_code,
+                                                                           scene.materials.props)])
+                         / scene.materials.density)
+            node_mat = np.zeros(state.fem.n, dtype=np.int64)
+            node_mat[state.fem.cells.ravel()] = np.repeat(state.fem.cell_mat, state.fem.cells.shape[1])
+            state.energy_floor += 1e-12 * float(np.sum(state.fem.mass * c0[node_mat] ** 2))
+        return state
+
+    @classmethod
+    def without_particles(cls, scene: Scene, threads: int | None) -> "State":
+        """A scene of FEM bodies only: no background grid, no particle workspace."""
+        dim, deck, mats = scene.dim, scene.deck, scene.materials
+        g = np.zeros(dim)
+        if deck.gravity is not None:
+            g[:] = deck.gravity
+        threads = threads or n_threads()
+        particles = Particles.from_seed(scene.deformable, mats.density, np.full(dim, 0.5), [], affine=False,
+                                        energy=False)
+        rigid = RigidParticles.from_seed(scene.rigid, mats, [], dim)
+        state = cls(dim=dim, grid=None, materials=mats, shape=None, particles=particles, rigid=rigid,
+                    bodies=[particles, rigid], sd=None, rigid_sd=None, fields=None, box=None, gravity=g,
+                    threads=threads, nchunk=max(1, 4 * threads), entry_offsets=None, contact=None, loads=None,
+                    damping=0.0)
+        state.reaction = np.zeros((6 + len(mats.rigid), dim))
+        return state
+
+    @classmethod
+    def particle_state(cls, scene: Scene, threads: int | None) -> "State":
         dim = scene.dim
         deck = scene.deck
         mats = scene.materials

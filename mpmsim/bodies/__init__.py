@@ -26,10 +26,10 @@ import numpy as np
 
 # layout of a sums row (totals of a set, or one body): volume-integrated Cauchy stress
 # [xx, yy, zz, xy, yz, xz], volume, kinetic, strain and internal energy, linear and angular
-# momentum (about the origin; with APIC's affine part), mass
+# momentum (about the origin; with APIC's affine part), mass, first moment of mass sum m x
 STRESS, VOLUME, KINETIC, STRAIN, MOMENTUM, INTERNAL = slice(0, 6), 6, 7, 8, slice(9, 12), 12
-ANGULAR, MASS = slice(13, 16), 16
-NSUMS = 17
+ANGULAR, MASS, FIRST_MOMENT = slice(13, 16), 16, slice(17, 20)
+NSUMS = 20
 
 
 @dataclass(frozen=True)

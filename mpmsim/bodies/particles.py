@@ -17,7 +17,7 @@ from ..faults import MESSAGES
 from ..gridops import chunk_range
 from ..materials.kernels import det3, energy_density
 from ..views import ParticleView
-from . import ANGULAR, KINETIC, MASS, MOMENTUM, NSUMS, STRAIN, BodyInfo, BodySet, Sums
+from . import ANGULAR, FIRST_MOMENT, KINETIC, MASS, MOMENTUM, NSUMS, STRAIN, BodyInfo, BodySet, Sums
 
 
 @dataclass
@@ -45,7 +45,10 @@ class Particles(BodySet):
     infos: list  # BodyInfo of each deformable particle body
 
     kind = "particles"
-    has_mass = True
+
+    @property
+    def has_mass(self) -> bool:
+        return self.n > 0
 
     @property
     def n(self) -> int:
@@ -77,7 +80,9 @@ class Particles(BodySet):
                    seed.body.copy(), seed.x.copy(), np.zeros((na, dim, dim)), np.zeros((na, dim, dim)), np.zeros(ne),
                    np.zeros(ne), np.zeros(ne), x.copy() if affine else x, np.asarray(semi, float), local, infos)
 
-    def sums(self, state, detail: bool = True) -> Sums:
+    def sums(self, state, detail: bool = True) -> Sums | None:
+        if self.n == 0:
+            return None
         m = state.materials
         nb = len(self.infos)
         out = np.zeros((state.nchunk, NSUMS))
@@ -91,6 +96,7 @@ class Particles(BodySet):
         L = self.mass[:, None] * angular_density(self.x, self.v, self.B if self.affine else None)
         total[ANGULAR] = L.sum(axis=0)
         total[MASS] = self.mass.sum()
+        total[FIRST_MOMENT.start:FIRST_MOMENT.start + dim] = self.mass @ self.x
         rows = np.zeros((nb, NSUMS))
         if nb == 1:
             rows[0] = total
@@ -102,12 +108,15 @@ class Particles(BodySet):
             rows[:, MASS] = count(self.mass)
             for d in range(dim):
                 rows[:, MOMENTUM.start + d] = count(self.mass * self.v[:, d])
+                rows[:, FIRST_MOMENT.start + d] = count(self.mass * self.x[:, d])
             for a in range(3):
                 rows[:, ANGULAR.start + a] = count(L[:, a])
         return Sums(total, rows)
 
     def vtu_pieces(self, state) -> list[tuple[str, dict]]:
         mats, dim, n = state.materials, state.dim, self.n
+        if n == 0:
+            return []
         F9 = np.zeros((n, 3, 3))
         F9[:, 2, 2] = 1.0
         F9[:, :dim, :dim] = self.F

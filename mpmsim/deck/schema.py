@@ -40,6 +40,17 @@ class NeoHookean(Strict):
     density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
 
 
+class CompressibleNeoHookean(Strict):
+    """Compressible neo-Hookean solid of the FEM contact papers:
+    psi = mu/2 (tr F^T F - d) - mu ln J + lambda/2 (ln J)^2, with Lame constants from E and nu
+    (FEM bodies)."""
+
+    type: Literal["compressible_neo_hookean"]
+    E: float = Field(gt=0, description="Young's modulus (stress unit).")
+    nu: float = Field(gt=-1.0, lt=0.5, description="Poisson's ratio, -1 < nu < 0.5.")
+    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
+
+
 class TransverselyIsotropic(Strict):
     """Transversely isotropic linear elastic (wood, fibre composites): axial properties along
     `axis`, isotropic in the plane normal to it; hypoelastic with the Hughes–Winget stress
@@ -98,7 +109,8 @@ class Rigid(Strict):
     )
 
 
-Material = Annotated[Union[LinearElastic, NeoHookean, MieGruneisen, TransverselyIsotropic, Rigid],
+Material = Annotated[Union[LinearElastic, NeoHookean, CompressibleNeoHookean, MieGruneisen, TransverselyIsotropic,
+                           Rigid],
                      Field(discriminator="type")]
 
 
@@ -138,6 +150,24 @@ class ContactLaw(Strict):
 
 class ContactPair(ContactLaw):
     between: list[str] = Field(min_length=2, max_length=2, description="Two material names.")
+
+
+class Augury(Strict):
+    """APIC augury contact between FEM bodies (docs/fem-contact.md): their boundary nodes meet
+    through grid transfers on a background grid of their own."""
+
+    cell_size: float = Field(gt=0, description="Spacing h_c of the augury grid (length unit).")
+    transfer: Literal["apic", "pic"] = Field(default="apic", description="APIC (affine part kept) or PIC transfers.")
+    iterations: int = Field(
+        default=1, ge=0, le=20,
+        description="Augury iterations N: 0 makes bodies stick; 1 (default) lets them rebound and slide.")
+    tau: float | None = Field(default=None, gt=0, description="Augury time tau (time unit). Default: the time step.")
+    kernel: Literal["bspline2", "linear", "four_node"] = Field(
+        default="bspline2", description="Grid functions: quadratic B-spline, linear hats, or the paper's 4-node kernel.")
+    overlap_tolerance: float = Field(
+        default=0.01, gt=0, le=0.3,
+        description="How deep (fraction of an element, in barycentric terms) a boundary node may sit inside another "
+        "body before the run stops as interpenetrated.")
 
 
 class Contact(Strict):
@@ -217,6 +247,9 @@ class Contact(Strict):
         default=None, gt=0.0, lt=1.0, description="Skip contact and interface work at nodes whose total "
         "nodal volume is below this fraction of a cell's volume (free-edge nodes with unreliable normals; "
         "0.75-0.85 in the 2013 paper).")
+    augury: Augury | None = Field(
+        default=None, description="APIC augury contact between FEM bodies {cell_size, transfer, iterations, tau, "
+        "kernel}; their laws come from `default` and `pairs` (frictionless, coulomb, stick).")
     cloud_weights: Literal["shape_function", "uniform"] = Field(
         default="shape_function", description="Regression weight of each particle in a node's point cloud. "
         "shape_function: its shape function at the node, each material's weights scaled to the same "
@@ -252,12 +285,41 @@ class Domain(Strict):
     max: Vector = Field(description="Upper corner.")
 
 
+class NodeConstraint(Strict):
+    """FEM nodes held: those inside `region` or in the mesh's `node_set`; fixed in `axes`
+    (default: all), or moving there at a prescribed `velocity`."""
+
+    region: Domain | None = Field(default=None, description="Box selecting the nodes.")
+    frame: Literal["world", "body"] = Field(
+        default="world", description="Coordinates of `region`: world (after the body's transforms) or body "
+        "(the shape's own, before them: a tilted ramp's bottom face).")
+    node_set: str | None = Field(default=None, description="Name of a node set of the mesh file.")
+    axes: list[Literal["x", "y", "z"]] | None = Field(default=None, description="Components held (default: all).")
+    velocity: Vector | None = Field(default=None, description="Prescribed velocity of the held components (default 0).")
+
+
+class Transform(Strict):
+    """One step of placing an FEM body: a rotation (degrees, about `axis` through `center`) or
+    a translation; steps apply in order."""
+
+    rotate: float | None = Field(default=None, description="Angle in degrees (counter-clockwise about the axis).")
+    axis: Literal["x", "y", "z"] = Field(default="z", description="Rotation axis (2D: z).")
+    center: Vector | None = Field(default=None, description="A point on the axis (default: the origin).")
+    translate: Vector | None = Field(default=None, description="Translation vector.")
+
+
 class BodyBase(Strict):
     """Keys every body takes."""
 
     name: str | None = Field(
         default=None, description="Name used in per-body history columns and messages (default: body<index>).")
     material: str = Field(description="Name of a material in `materials`.")
+    discretization: Literal["particles", "fem"] = Field(
+        default="particles", description="Material points on the background grid, or a finite element mesh "
+        "(linear triangles in 2D, tetrahedra in 3D; rectangle, box, circle, annulus or mesh shapes).")
+    element_size: float | None = Field(default=None, gt=0, description="FEM: element edge length of a generated mesh.")
+    transform: list[Transform] = Field(default_factory=list, description="FEM: rotations and translations, in order.")
+    constraints: list[NodeConstraint] = Field(default_factory=list, description="FEM: held nodes.")
     velocity: Vector | SineVelocity | RotationVelocity | None = Field(
         default=None,
         description="Initial velocity: a vector, a sine mode {amplitude, axis, wavelength, origin}, "
@@ -322,6 +384,15 @@ class Annulus(BodyBase):
     outer_radius: float = Field(gt=0)
 
 
+class MeshFile(BodyBase):
+    """A finite element mesh from a file meshio reads (Gmsh .msh, .vtu, .inp, ...): its
+    triangles (2D) or tetrahedra (3D) make an FEM body."""
+
+    shape: Literal["mesh"]
+    file: str = Field(description="Mesh path, relative to the deck's directory.")
+    scale: float = Field(default=1.0, gt=0, description="Factor on the file's coordinates.")
+
+
 class ImageMapEntry(Strict):
     """One pixel class. Give `grey` (an inclusive range of grey levels 0–255) or `color`
     (an exact [r, g, b]); pixels matching no entry are empty."""
@@ -344,11 +415,12 @@ class Image(BodyBase):
 
 
 Body = Annotated[
-    Union[Rectangle, Box, Circle, Sphere, Ellipse, Ellipsoid, Polygon, Annulus, Image],
+    Union[Rectangle, Box, Circle, Sphere, Ellipse, Ellipsoid, Polygon, Annulus, Image, MeshFile],
     Field(discriminator="shape"),
 ]
 
 SHAPES_2D = {"rectangle", "circle", "ellipse", "polygon", "annulus", "image"}
+FEM_SHAPES = {"rectangle", "box", "circle", "annulus", "mesh"}
 SHAPES_3D = {"box", "sphere", "ellipsoid"}
 
 
@@ -526,7 +598,7 @@ class Deck(Strict):
         description="plane_strain (2D) or 3d. axisymmetric is reserved and not yet available.",
     )
     thickness: float = Field(default=1.0, gt=0, description="Out-of-plane thickness in 2D.")
-    grid: Grid
+    grid: Grid | None = Field(default=None, description="The MPM background grid (needed by particle bodies).")
     shape_function: Literal["linear", "gimp", "cpdi", "cpdi_q", "bspline2", "bspline3", "b2cpdi"] = Field(
         default="gimp",
         description="Particle–grid shape function: linear; gimp (uGIMP); cpdi (linear CPDI on the "

@@ -28,14 +28,23 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
         if v is not None and len(v) != n:
             add(path, f"{what} needs {n} components for {deck.analysis} analysis, got {len(v)}")
 
+    fem = [i for i, b in enumerate(deck.bodies) if b.discretization == "fem"]
+    particle_bodies = [i for i, b in enumerate(deck.bodies) if b.discretization == "particles"]
+    if particle_bodies and deck.grid is None:
+        add(["grid"], f"particle bodies (bodies.{particle_bodies[0]}) need the background grid: give grid.cell_size")
+        return problems
+    if deck.contact.augury is not None and len(fem) < 2:
+        add(["contact", "augury"], "augury contact acts between FEM bodies (discretization: fem); the deck has "
+                                   f"{len(fem)}")
+    problems += _check_fem_bodies(deck, fem, base_dir)
     # grid
-    cs = deck.grid.cell_size
+    cs = deck.grid.cell_size if deck.grid is not None else 1.0
     if isinstance(cs, list):
         vec(["grid", "cell_size"], cs, what="cell_size list")
         for i, h in enumerate(cs):
             if h <= 0:
                 add(["grid", "cell_size", i], "cell size must be > 0")
-    if deck.grid.domain is not None:
+    if deck.grid is not None and deck.grid.domain is not None:
         d = deck.grid.domain
         vec(["grid", "domain", "min"], d.min)
         vec(["grid", "domain", "max"], d.max)
@@ -43,7 +52,7 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             for k in range(dim):
                 if d.max[k] <= d.min[k]:
                     add(["grid", "domain", "max", k], f"domain max {axes[k]} must exceed min")
-    if dim == 2:
+    if dim == 2 and deck.grid is not None:
         for face in ("zmin", "zmax"):
             if getattr(deck.grid.boundaries, face) != "free":
                 add(["grid", "boundaries", face], "z faces exist only in 3d analysis")
@@ -182,6 +191,65 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
                 add(path + ["velocity"], f"material '{mname}' is rigid: its velocity is set in the material")
         if isinstance(body, Image):
             _check_image(body, base_dir, path, add)
+    return problems
+
+
+FEM_MATERIALS = ("linear_elastic", "compressible_neo_hookean")
+
+
+def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple, str]]:
+    """FEM bodies: shape, element size, material, transforms and constraints."""
+    from .schema import FEM_SHAPES
+
+    problems = []
+    add = lambda path, msg: problems.append((tuple(path), msg))  # noqa: E731
+    dim = deck.dim
+    for i, body in enumerate(deck.bodies):
+        path = ["bodies", i]
+        if body.discretization != "fem":
+            for key in ("element_size", "transform", "constraints"):
+                if key in body.model_fields_set:
+                    add(path + [key], "applies to FEM bodies (discretization: fem)")
+            if body.shape == "mesh":
+                add(path + ["discretization"], "a mesh file makes an FEM body: set discretization: fem")
+            mat = deck.materials.get(body.material)
+            if mat is not None and mat.type == "compressible_neo_hookean":
+                add(path + ["material"], "compressible_neo_hookean is for FEM bodies; particles use neo_hookean")
+            continue
+        if body.shape not in FEM_SHAPES:
+            add(path + ["shape"], f"an FEM body is one of {', '.join(sorted(FEM_SHAPES))}, not '{body.shape}'")
+        elif body.shape != "mesh" and body.element_size is None:
+            add(path + ["element_size"], "a generated FEM mesh needs element_size")
+        elif body.shape != "mesh" and (body.shape == "box") != (dim == 3):
+            add(path + ["shape"], f"an FEM '{body.shape}' is {'3D' if body.shape == 'box' else '2D'} only")
+        mat = deck.materials.get(body.material)
+        if mat is not None and mat.type not in FEM_MATERIALS:
+            add(path + ["material"], f"an FEM body's material is {' or '.join(FEM_MATERIALS)}, not {mat.type}")
+        if body.shape == "mesh" and not (base_dir / body.file).is_file():
+            add(path + ["file"], f"mesh file not found: {base_dir / body.file}")
+        for j, t in enumerate(body.transform):
+            if (t.rotate is None) == (t.translate is None):
+                add(path + ["transform", j], "give either rotate or translate")
+            if t.translate is not None and len(t.translate) != dim:
+                add(path + ["transform", j, "translate"], f"needs {dim} components")
+            if t.center is not None and len(t.center) != dim:
+                add(path + ["transform", j, "center"], f"needs {dim} components")
+            if dim == 2 and t.axis != "z":
+                add(path + ["transform", j, "axis"], "in 2D rotations are about z")
+        for j, c in enumerate(body.constraints):
+            if (c.region is None) == (c.node_set is None):
+                add(path + ["constraints", j], "select nodes by region or by node_set")
+            if c.node_set is not None and body.shape != "mesh":
+                add(path + ["constraints", j, "node_set"], "node sets come from mesh files")
+            if c.region is not None:
+                for key in ("min", "max"):
+                    if len(getattr(c.region, key)) != dim:
+                        add(path + ["constraints", j, "region", key], f"needs {dim} components")
+            if c.velocity is not None and len(c.velocity) != dim:
+                add(path + ["constraints", j, "velocity"], f"needs {dim} components")
+            for a in c.axes or []:
+                if a not in "xyz"[:dim]:
+                    add(path + ["constraints", j, "axes"], f"'{a}' is not a direction of a {dim}D analysis")
     return problems
 
 

@@ -1,10 +1,14 @@
-"""Explicit MPM: one step is the task list of mpmsim/tasks, built once from the scene; each
+"""Explicit integration: one step is the task list of mpmsim/tasks, built once from the scene
+(the MPM step for particle bodies, velocity Verlet with augury contact for FEM bodies); each
 task is timed for the run's table."""
 
 from __future__ import annotations
 
 import time as wallclock
 
+import numpy as np
+
+from ..fem.elements import stable_time_step
 from ..tasks import plan_tasks
 from ..tasks.setup import cfl_rule
 from . import Integrator
@@ -19,14 +23,20 @@ class ExplicitMPM(Integrator):
         self.tasks, self.skipped = plan_tasks(scene)
         self.plan = [(t.name, t.why) for t in self.tasks]
         self.timers = {t.name: 0.0 for t in self.tasks}
-        cfl = deck.time.cfl if deck.time.cfl is not None else 0.5
-        self._rule = cfl_rule(deck.time.dt, cfl, float(scene.grid.h.min()))
+        self.cfl = deck.time.cfl if deck.time.cfl is not None else 0.5
+        self.fixed = deck.time.dt
+        self._rule = cfl_rule(deck.time.dt, self.cfl, float(scene.grid.h.min())) if scene.has_particles else None
 
     def stable_dt(self, state) -> float:
+        """The deck's dt, or the smaller of the MPM CFL step and cfl x the smallest FEM
+        element's h / c (at the current positions)."""
         t0 = wallclock.perf_counter()
-        dt = self._rule(state)
+        dt = self._rule(state) if self._rule is not None else np.inf
+        if self.fixed is None and state.fem is not None:
+            fem, m = state.fem, state.materials
+            dt = min(dt, self.cfl * stable_time_step(fem.x, fem.cells, fem.cell_mat, m.props, m.density))
         self.timers[self.tasks[0].name] += wallclock.perf_counter() - t0
-        return dt
+        return self.fixed if self.fixed is not None else dt
 
     def advance(self, state, dt: float) -> float:
         timers = self.timers

@@ -12,16 +12,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..views import MaterialView
-from ..deck.schema import Deck, LinearElastic, MieGruneisen, NeoHookean, Rigid, TransverselyIsotropic, VelocityTable
+from ..deck.schema import CompressibleNeoHookean, Deck, LinearElastic, MieGruneisen, NeoHookean, Rigid, TransverselyIsotropic, VelocityTable
 
 LINEAR_ELASTIC = 0
 NEO_HOOKEAN = 1
 MIE_GRUNEISEN = 2
 ANISOTROPIC = 3
+COMPRESSIBLE_NH = 4  # FEM bodies only (mpmsim/fem)
 TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean", MIE_GRUNEISEN: "mie_gruneisen",
-              ANISOTROPIC: "transversely_isotropic"}
+              ANISOTROPIC: "transversely_isotropic", COMPRESSIBLE_NH: "compressible_neo_hookean"}
 
-# property row: linear_elastic [lambda, mu, E, nu, ...]; neo_hookean [K, G, ...];
+# property row: linear_elastic and compressible_neo_hookean [lambda, mu, E, nu, ...]; neo_hookean [K, G, ...];
 # mie_gruneisen [K, G, gamma0, S1, ...];
 # anisotropic [C (6x6, row major), S = C^-1 (6x6)] in Voigt xx yy zz xy yz xz, engineering shear
 NPROP = 72
@@ -123,6 +124,10 @@ def build_material_table(deck: Deck) -> MaterialTable:
             lam = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu))
             mu = m.E / (2 * (1 + m.nu))
             codes[k], props[k, :4] = LINEAR_ELASTIC, (lam, mu, m.E, m.nu)
+        elif isinstance(m, CompressibleNeoHookean):
+            lam = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu))
+            mu = m.E / (2 * (1 + m.nu))
+            codes[k], props[k, :4] = COMPRESSIBLE_NH, (lam, mu, m.E, m.nu)
         elif isinstance(m, NeoHookean):
             codes[k], props[k, :2] = NEO_HOOKEAN, (m.K, m.G)
         elif isinstance(m, TransverselyIsotropic):

@@ -13,8 +13,8 @@ history adds them up and adds the run's accounts. Columns, in order:
   step: instantaneous, not averaged);
 - each body kind's own columns (rigid materials: reaction force and displacement);
 - chosen materials' own average stress (output.material_stress);
-- per body, when the scene has two or more bodies with mass: ke_, se_, p<axis>_ and L_
-  followed by the body's name.
+- per body, when the scene has two or more bodies with mass: ke_, se_, p<axis>_, L_ and the
+  centre of mass c<axis>_, followed by the body's name.
 In 2D, forces, energies and momenta are for the deck's thickness.
 """
 
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bodies import ANGULAR, INTERNAL, KINETIC, MOMENTUM, STRAIN, VOLUME
+from ..bodies import ANGULAR, FIRST_MOMENT, INTERNAL, KINETIC, MASS, MOMENTUM, STRAIN, VOLUME
 from ..deck.units import unit_system
 from ..noise import null_space_noise, velocity_noise
 from ..scene.grid import FACES
@@ -62,11 +62,14 @@ class History:
         self._interface = state.contact is not None and state.contact.spec.has_interface
         if self._interface:
             self.columns += [("interface_energy", u.energy)]
-        self.columns += [("velocity_noise", "-")]
-        self._null_space = deck.output.null_space_noise
+        self._noise = state.particles.n > 0
+        if self._noise:
+            self.columns += [("velocity_noise", "-")]
+        self._null_space = deck.output.null_space_noise and self._noise
         if self._null_space:
             self.columns += [("null_space_noise", "-")]
-        self._faces = [f for f, t in zip(FACES[: 2 * dim], state.grid.face_type[: 2 * dim]) if t != 0]
+        faces = state.grid.face_type[: 2 * dim] if state.grid is not None else np.zeros(2 * dim)
+        self._faces = [f for f, t in zip(FACES[: 2 * dim], faces) if t != 0]
         for f in self._faces:
             self.columns += [(f"F_{f}_{a}", u.force) for a in axes]
         for body in state.bodies:
@@ -82,6 +85,7 @@ class History:
                 self.columns += [(f"ke_{info.name}", u.energy), (f"se_{info.name}", u.energy)]
                 self.columns += [(f"p{a}_{info.name}", momentum) for a in axes]
                 self.columns += [(f"{n}_{info.name}", f"{momentum} {u.length}") for n in angular_names(dim)]
+                self.columns += [(f"c{a}_{info.name}", u.length) for a in axes]
         self.rows: list[list[float]] = []
 
     @property
@@ -103,7 +107,8 @@ class History:
         row += [s[ANGULAR][a] for a in self._angular]
         if self._interface:
             row.append(state.interface_energy)
-        row.append(velocity_noise(state))
+        if self._noise:
+            row.append(velocity_noise(state))
         if self._null_space:
             row.append(null_space_noise(state))
         face_index = {f: i for i, f in enumerate(FACES)}
@@ -120,6 +125,7 @@ class History:
             for part in sums:
                 for b in part.per_body:
                     row += [b[KINETIC], b[STRAIN]] + list(b[MOMENTUM][:dim]) + [b[ANGULAR][a] for a in self._angular]
+                    row += list(b[FIRST_MOMENT][:dim] / b[MASS])
         self.rows.append(row)
 
     def column(self, name: str) -> np.ndarray:

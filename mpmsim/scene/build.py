@@ -19,6 +19,7 @@ from ..deck.semantics import body_name
 from ..materials import MaterialTable, build_material_table
 from .geometry import bbox, body_materials, inside
 from ..shapes import shape_function
+from .fem import FemSeed, build_fem
 from .grid import FACE_CODES, FACES, GridSpec, plan_grid
 
 
@@ -47,6 +48,11 @@ class Scene:
     contact: ContactSpec | None  # None: a single velocity field, nothing in contact
     deformable_bodies: list[BodyInfo]  # deck bodies holding deformable particles
     rigid_bodies: list[BodyInfo]  # deck bodies holding rigid particles
+    fem: FemSeed | None = None  # the FEM bodies' meshes (None: no FEM body)
+
+    @property
+    def has_particles(self) -> bool:
+        return self.grid is not None
 
     @property
     def deck(self):
@@ -54,7 +60,7 @@ class Scene:
 
     @property
     def dim(self) -> int:
-        return self.grid.dim
+        return self.loaded.deck.dim
 
 
 def _cell_sizes(deck) -> np.ndarray:
@@ -70,15 +76,39 @@ def clipped(box, clip):
     lo, hi = box
     return np.maximum(lo, np.asarray(clip.min, float)), np.minimum(hi, np.asarray(clip.max, float))
 
+def empty_seed(dim: int) -> ParticleSeed:
+    z = np.zeros
+    return ParticleSeed(z((0, dim)), z((0, dim)), z(0), z(0, dtype=np.int64), z(0, dtype=np.int64))
+
+
 def build_scene(loaded: LoadedDeck) -> Scene:
+    deck = loaded.deck
+    base = loaded.base_dir
+    mats = build_material_table(deck)
+    fem, problems = build_fem(deck, base, mats) if any(b.discretization == "fem" for b in deck.bodies) else (None, [])
+    if problems:
+        raise_at(problems, loaded)
+    particle_bodies = [(i, b) for i, b in enumerate(deck.bodies) if b.discretization == "particles"]
+    if not particle_bodies:  # FEM bodies only: no background grid, no particles
+        dim = deck.dim
+        return Scene(loaded, None, mats, empty_seed(dim), empty_seed(dim), None, deck.thickness, None, [], [], fem)
+    grid, deformable, rigid, semi = build_particles(loaded, mats, particle_bodies)
+    infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind)  # noqa: E731
+                                for i in np.unique(seed.body)]
+    return Scene(loaded, grid, mats, deformable, rigid, semi, deck.thickness, build_contact_spec(deck, mats),
+                 infos(deformable, "particles"), infos(rigid, "rigid particles"), fem)
+
+
+def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: list):
+    """The background grid and the particles of the particle bodies [(deck index, body)]:
+    (grid, deformable seed, rigid seed, particle semi-lengths)."""
     deck = loaded.deck
     base = loaded.base_dir
     dim = deck.dim
     h = _cell_sizes(deck)
-    mats = build_material_table(deck)
     faces = [FACE_CODES[getattr(deck.grid.boundaries, f)] for f in FACES[: 2 * dim]]
 
-    boxes = [clipped(bbox(b, base), b.clip) for b in deck.bodies]
+    boxes = [clipped(bbox(b, base), b.clip) for _, b in particle_bodies]
     if deck.grid.domain is not None:
         lo, hi = np.array(deck.grid.domain.min, float), np.array(deck.grid.domain.max, float)
         explicit = True
@@ -86,7 +116,7 @@ def build_scene(loaded: LoadedDeck) -> Scene:
         lo = np.min([b[0] for b in boxes], axis=0)
         hi = np.max([b[1] for b in boxes], axis=0)
         # cover every rigid body's prescribed path
-        for body, (blo, bhi) in zip(deck.bodies, boxes):
+        for (_, body), (blo, bhi) in zip(particle_bodies, boxes):
             name = getattr(body, "material", "")
             if name in mats.rigid:
                 dmin, dmax = mats.motions[mats.rigid.index(name)].displacement_envelope(deck.time.end)
@@ -107,7 +137,7 @@ def build_scene(loaded: LoadedDeck) -> Scene:
     n_lat = (grid.shape[:dim] - 1) * ppd
     keys, owners, mat_names = [], [], []
     problems = []
-    for i, (body, (blo, bhi)) in enumerate(zip(deck.bodies, boxes)):
+    for (i, body), (blo, bhi) in zip(particle_bodies, boxes):
         klo = np.maximum(np.floor((blo - grid.origin) / spacing - 0.5).astype(int), 0)
         khi = np.minimum(np.ceil((bhi - grid.origin) / spacing - 0.5).astype(int), n_lat - 1)
         if np.any(khi < klo):
@@ -184,14 +214,11 @@ def build_scene(loaded: LoadedDeck) -> Scene:
                 v[on] = np.array(body.velocity)
         seeds.append(ParticleSeed(xs, v, np.full(len(xs), vol), mat, own.astype(np.int64)))
     deformable, rigid = seeds
-    if len(deformable.x) == 0:
+    if len(deformable.x) == 0 and not any(b.discretization == "fem" for b in deck.bodies):
         raise_at([(("bodies",), "no body made of a deformable material holds any particle")], loaded)
     empty = [(("loads", i, "region"), "holds no particle centre of a deformable material")
              for i, load in enumerate(deck.loads)
              if not np.all((deformable.x >= load.region.min) & (deformable.x <= load.region.max), axis=1).any()]
     if empty:
         raise_at(empty, loaded)
-    infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind)  # noqa: E731
-                                for i in np.unique(seed.body)]
-    return Scene(loaded, grid, mats, deformable, rigid, 0.5 * spacing, deck.thickness,
-                 build_contact_spec(deck, mats), infos(deformable, "particles"), infos(rigid, "rigid particles"))
+    return grid, deformable, rigid, 0.5 * spacing

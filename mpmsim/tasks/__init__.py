@@ -21,6 +21,7 @@ from .particle_update import move_rigid, particle_update
 from .setup import compute_shape_functions, prescribed_motion
 from .stress import update_stress_first, update_stress_last
 from .xpic import xpic
+from .fem import fem_tasks
 from ..shapes import shape_function
 
 
@@ -42,7 +43,25 @@ def build_task_list(scene) -> list[Task]:
 
 
 def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
-    """(the step's tasks, [(task left out, why it is not needed)])."""
+    """(the step's tasks, [(task left out, why it is not needed)]): the prescribed motions,
+    the MPM step when the scene has particle bodies, the FEM step when it has FEM bodies."""
+    deck = scene.deck
+    tasks = [Task("time step", prescribed_motion(scene.materials.motions),
+                  f"fixed dt = {deck.time.dt:g}" if deck.time.dt else "CFL rule on current wave speeds, every step")]
+    skipped: list[tuple[str, str]] = []
+    if scene.has_particles:
+        more, skip = mpm_tasks(scene)
+        tasks += more
+        skipped += skip
+    else:
+        skipped.append(("particle tasks", "no particle body"))
+    if scene.fem is not None:
+        tasks += fem_tasks(scene)
+    return tasks, skipped
+
+
+def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
+    """The MPM part of the step (after the time step)."""
     deck = scene.deck
     skipped: list[tuple[str, str]] = []
     upd = deck.update
@@ -50,8 +69,6 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     faces = [f for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * scene.dim]
              if getattr(deck.grid.boundaries, f) != "free"]
     tasks = [
-        Task("time step", prescribed_motion(scene.materials.motions),
-             f"fixed dt = {deck.time.dt:g}" if deck.time.dt else "CFL rule on current wave speeds, every step"),
         Task("shape functions", compute_shape_functions,
              f"{deck.shape_function} weights and the active node box"),
     ]

@@ -20,7 +20,7 @@ def test_deck_reference_is_generated_from_the_current_schema():
                          ids=lambda p: p.name)
 def test_shipped_decks_validate_and_build(deck):
     scene = build_scene(load_deck(deck))
-    assert len(scene.deformable.x) > 0
+    assert len(scene.deformable.x) > 0 or (scene.fem is not None and len(scene.fem.cells) > 0)
 
 
 def test_readme_names_the_two_commands():

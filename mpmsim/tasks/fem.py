@@ -1,0 +1,191 @@
+"""Tasks of the FEM bodies' explicit step: velocity Verlet with the augury contact correction
+(the APIC augury paper's Eq. 32; ../shared/notes/fem-coupling-implementation.md):
+
+  fem kick-drift   v^{n+1/2} = v^n + dt/2 A^n (B the same with its rate), x^{n+1} = x^n + dt v^{n+1/2}
+  fem forces       a = f(x^{n+1}) / m + g (held components: 0)
+  augury contact   boundary nodes: V̄ = (v^{n+1/2} + tau a, B^{n+1/2}), Â from the augury
+                   transfers (mpmsim/augury.py), A^{n+1} = a + Â, Ḃ = Â_B
+  fem kick         v^{n+1} = v^{n+1/2} + dt/2 A^{n+1}
+
+Held components take their prescribed velocity at every kick. The work of the contact part
+of each kick, m dt/2 Â . (v_before + v_after)/2 (and its affine counterpart), is summed per
+body (`contact_work`); gravity's work m g . dx goes to the run's external work.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from ..augury import FRICTION, KERNELS, STICK_SEPARATE, AuguryGrid, correction, grid_entries
+from ..fem import elements
+from ..fem.explicit import accelerations, drift
+from ..fem.mesh import node_normal_kernel
+
+
+class AugurySpec(NamedTuple):
+    grid: AuguryGrid
+    iterations: int
+    tau: float | None  # None: the time step
+    mu: np.ndarray  # (nb,) friction of each boundary node
+    rule: int  # augury.FRICTION or STICK_SEPARATE
+
+
+def augury_spec(scene, fem) -> AugurySpec | None:
+    """The deck's augury contact for these FEM bodies (None without contact.augury). Each
+    boundary node takes the law between its material and the other FEM material when there
+    are two, else contact.default."""
+    c = scene.deck.contact
+    if c.augury is None:
+        return None
+    a = c.augury
+    mats = scene.materials
+    default = c.default
+    rule = STICK_SEPARATE if default.law == "stick" else FRICTION
+    node_mat = np.zeros(fem.n, dtype=np.int64)
+    node_mat[fem.cells.ravel()] = np.repeat(fem.cell_mat, fem.cells.shape[1])
+    used = sorted(set(int(m) for m in fem.cell_mat))
+    mu_of = {m: (default.friction if default.law == "coulomb" else 0.0) for m in used}
+    if len(used) == 2:
+        names = [mats.deformable[m] for m in used]
+        for pair in c.pairs:
+            if set(pair.between) == set(names):
+                for m in used:
+                    mu_of[m] = pair.friction if pair.law == "coulomb" else 0.0
+                if pair.law == "stick":
+                    rule = STICK_SEPARATE
+    mu = np.array([mu_of[int(m)] for m in node_mat[fem.boundary]])
+    grid = AuguryGrid(float(a.cell_size), KERNELS[a.kernel], a.transfer == "apic")
+    return AugurySpec(grid, int(a.iterations), a.tau, mu, rule)
+
+
+@njit(cache=True)
+def kick(v, a, a_contact, mass, held, held_velocity, node_body, half_dt, work):
+    """v += dt/2 a on free components (held ones: their prescribed velocity); the contact
+    part's work m dt/2 a_c . (v_before + v_after)/2 added per body."""
+    n, dim = v.shape
+    for i in range(n):
+        for d in range(dim):
+            if held[i, d]:
+                v[i, d] = held_velocity[i, d]
+                continue
+            before = v[i, d]
+            v[i, d] = before + half_dt * a[i, d]
+            if a_contact[i, d] != 0.0:
+                work[node_body[i]] += mass[i] * half_dt * a_contact[i, d] * 0.5 * (before + v[i, d])
+
+
+def kick_affine(fem, half_dt: float) -> None:
+    """B += dt/2 Ḃ of the boundary nodes, with the work of that change on the affine kinetic
+    energy 1/2 m tr(B D^-1 B^T) added per body."""
+    if not fem.B.size:
+        return
+    dim = fem.x.shape[1]
+    before = fem.B.copy()
+    fem.B += half_dt * fem.Bdot
+    Di = fem.Dinv[:, :dim, :dim]
+    w = fem.mass[fem.boundary] * half_dt * np.einsum("pab,pbc,pac->p", fem.Bdot, Di, 0.5 * (before + fem.B))
+    np.add.at(fem.contact_work, fem.node_body[fem.boundary], w)
+
+
+def first_accelerations(state, fem, gravity) -> None:
+    """A^0 before the first step: the mechanical accelerations at the initial positions."""
+    m = state.materials
+    bad = elements.internal_forces(fem.x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props,
+                                   fem.force)
+    accelerations(fem.force, fem.mass, gravity, fem.held, fem.a)
+    fem.bad_element = int(bad)
+    fem.started = True
+
+
+def fem_tasks(scene):
+    """[(name, function, why)] of the FEM part of the explicit step."""
+    from . import Task
+
+    def kick_drift(state) -> None:
+        fem = state.fem
+        if not fem.started:
+            first_accelerations(state, fem, state.gravity)
+        half = 0.5 * state.dt
+        kick(fem.v, fem.a, fem.a_contact, fem.mass, fem.held, fem.held_velocity, fem.node_body, half, fem.contact_work)
+        kick_affine(fem, half)
+        x0 = fem.x.copy() if state.gravity.any() else None
+        drift(fem.x, fem.v, state.dt)
+        if x0 is not None:  # exact work of a constant body force
+            state.work_in += float(np.sum(fem.mass[:, None] * state.gravity[None, :] * (fem.x - x0)))
+
+    def forces(state) -> None:
+        fem, m = state.fem, state.materials
+        fem.bad_element = int(elements.internal_forces(fem.x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat,
+                                                       m.type_code, m.props, fem.force))
+        accelerations(fem.force, fem.mass, state.gravity, fem.held, fem.a)
+        fem.a_contact[:] = 0.0
+
+    def final_kick(state) -> None:
+        fem = state.fem
+        half = 0.5 * state.dt
+        kick(fem.v, fem.a, fem.a_contact, fem.mass, fem.held, fem.held_velocity, fem.node_body, half, fem.contact_work)
+        kick_affine(fem, half)
+
+    tasks = [Task("fem kick-drift", kick_drift, "velocity Verlet: half kick, then positions"),
+             Task("fem forces", forces, "internal forces of the elements" + (", gravity" if scene.deck.gravity else ""))]
+    if scene.deck.contact.augury is not None:
+        a = scene.deck.contact.augury
+        tasks.append(Task("augury contact", AuguryContact(scene),
+                          f"{a.transfer.upper()} augury, {a.iterations} iteration(s), {a.kernel} grid of "
+                          f"{a.cell_size:g}: contact between FEM bodies"))
+    tasks.append(Task("fem kick", final_kick, "velocity Verlet: second half kick"))
+    return tasks
+
+
+@njit(cache=True)
+def boundary_contact(x, v, a, mass, held, facets, boundary, B, mu, grid, iterations, tau, rule, a_contact, Bdot,
+                     Dinv):
+    """The augury correction of the boundary nodes: predicted V̄ = (v + tau a, B), Â added to
+    a (held components: none) and kept in a_contact, Ḃ = Â_B, D^-1 of the transfer kept."""
+    normals = np.zeros_like(x)
+    node_normal_kernel(x, facets, normals)
+    nb = boundary.size
+    dim = x.shape[1]
+    xb = np.empty((nb, dim))
+    vbar = np.empty((nb, dim))
+    mb = np.empty(nb)
+    nrm = np.empty((nb, dim))
+    for q in range(nb):
+        i = boundary[q]
+        mb[q] = mass[i]
+        for d in range(dim):
+            xb[q, d] = x[i, d]
+            vbar[q, d] = v[i, d] + tau * a[i, d]
+            nrm[q, d] = normals[i, d]
+    ent = grid_entries(xb, grid)
+    acc, acc_B = correction(ent, mb, vbar, B if grid.apic else np.zeros_like(B), nrm, mu, grid, iterations, tau, rule)
+    a_contact[:] = 0.0
+    for q in range(nb):
+        i = boundary[q]
+        for d in range(dim):
+            if not held[i, d]:  # held components keep their prescribed motion
+                a_contact[i, d] = acc[q, d]
+                a[i, d] += acc[q, d]
+    Bdot[:] = acc_B
+    Dinv[:] = ent.Di
+
+
+class AuguryContact:
+    """The augury contact task: the correction Â of the boundary nodes' accelerations. The
+    per-node laws are resolved at the first step (they need the state's boundary nodes)."""
+
+    def __init__(self, scene):
+        self.scene = scene
+        self.spec = None
+
+    def __call__(self, state) -> None:
+        fem = state.fem
+        if self.spec is None:
+            self.spec = augury_spec(self.scene, fem)
+        spec = self.spec
+        tau = spec.tau if spec.tau is not None else state.dt
+        boundary_contact(fem.x, fem.v, fem.a, fem.mass, fem.held, fem.facets, fem.boundary, fem.B, spec.mu,
+                         spec.grid, spec.iterations, tau, spec.rule, fem.a_contact, fem.Bdot, fem.Dinv)
