@@ -176,7 +176,12 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
             rigid_group[r] = n_def + int((rigid_group >= 0).sum())
             names.append(name)
     n_groups = len(names)
-    if n_groups < 2:
+    # materials only FEM bodies use meet through the augury contact, not the grid's fields
+    fem_only = ({b.material for b in deck.bodies if b.discretization == "fem"}
+                - {b.material for b in deck.bodies if b.discretization != "fem"})
+    on_grid = {g for m, g in zip(materials.deformable, groups) if m not in fem_only} | \
+        {int(g) for g in rigid_group if g >= 0}
+    if n_groups < 2 or len(on_grid) < 2:
         return None
     rigid_of_group = np.full(n_groups, -1, dtype=np.int64)
     for r, g in enumerate(rigid_group):

@@ -153,8 +153,9 @@ class ContactPair(ContactLaw):
 
 
 class Augury(Strict):
-    """APIC augury contact between FEM bodies (docs/fem-contact.md): their boundary nodes meet
-    through grid transfers on a background grid of their own."""
+    """APIC augury contact between FEM bodies, and between FEM bodies and particle bodies
+    (docs/fem-contact.md): FEM boundary nodes and surface particles meet through grid transfers on
+    a background grid of their own."""
 
     cell_size: float = Field(gt=0, description="Spacing h_c of the augury grid (length unit).")
     transfer: Literal["apic", "pic"] = Field(default="apic", description="APIC (affine part kept) or PIC transfers.")

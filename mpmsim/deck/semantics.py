@@ -33,9 +33,10 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     if particle_bodies and deck.grid is None:
         add(["grid"], f"particle bodies (bodies.{particle_bodies[0]}) need the background grid: give grid.cell_size")
         return problems
-    if deck.contact.augury is not None and len(fem) < 2:
-        add(["contact", "augury"], "augury contact acts between FEM bodies (discretization: fem); the deck has "
-                                   f"{len(fem)}")
+    if deck.contact.augury is not None and (not fem or len(fem) + len(particle_bodies) < 2):
+        add(["contact", "augury"], "augury contact acts between an FEM body (discretization: fem) and other FEM or "
+                                   f"particle bodies; the deck has {len(fem)} FEM and {len(particle_bodies)} particle "
+                                   "bodies")
     problems += _check_fem_bodies(deck, fem, base_dir)
     # grid
     cs = deck.grid.cell_size if deck.grid is not None else 1.0

@@ -21,7 +21,7 @@ from .particle_update import move_rigid, particle_update
 from .setup import compute_shape_functions, prescribed_motion
 from .stress import update_stress_first, update_stress_last
 from .xpic import xpic
-from .fem import fem_tasks
+from .fem import AuguryContact, fem_tasks
 from ..shapes import shape_function
 
 
@@ -49,14 +49,18 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     tasks = [Task("time step", prescribed_motion(scene.materials.motions),
                   f"fixed dt = {deck.time.dt:g}" if deck.time.dt else "CFL rule on current wave speeds, every step")]
     skipped: list[tuple[str, str]] = []
+    augury = AuguryContact(scene) if scene.fem is not None and deck.contact.augury is not None else None
     if scene.has_particles:
+        if augury is not None:
+            tasks.append(Task("augury carry", augury.carry,
+                              "second half of the last augury correction of surface particles"))
         more, skip = mpm_tasks(scene)
         tasks += more
         skipped += skip
     else:
         skipped.append(("particle tasks", "no particle body"))
     if scene.fem is not None:
-        tasks += fem_tasks(scene)
+        tasks += fem_tasks(scene, augury)
     return tasks, skipped
 
 
