@@ -41,6 +41,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials import COMPRESSIBLE_NH, LINEAR_ELASTIC
+from ..materials.kernels import det3, inv3
 
 __all__ = [
     "COMPRESSIBLE_NH",
@@ -79,9 +80,7 @@ def det_small(F):
     """Determinant of a 2x2 or 3x3 matrix."""
     if F.shape[0] == 2:
         return F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
-    return (F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1])
-            - F[0, 1] * (F[1, 0] * F[2, 2] - F[1, 2] * F[2, 0])
-            + F[0, 2] * (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]))
+    return det3(F)
 
 
 @njit(cache=True, inline="always")
@@ -94,15 +93,7 @@ def inv_small(F, out):
         out[1, 0] = -F[1, 0] / J
         out[1, 1] = F[0, 0] / J
         return J
-    out[0, 0] = (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]) / J
-    out[0, 1] = (F[0, 2] * F[2, 1] - F[0, 1] * F[2, 2]) / J
-    out[0, 2] = (F[0, 1] * F[1, 2] - F[0, 2] * F[1, 1]) / J
-    out[1, 0] = (F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]) / J
-    out[1, 1] = (F[0, 0] * F[2, 2] - F[0, 2] * F[2, 0]) / J
-    out[1, 2] = (F[0, 2] * F[1, 0] - F[0, 0] * F[1, 2]) / J
-    out[2, 0] = (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]) / J
-    out[2, 1] = (F[0, 1] * F[2, 0] - F[0, 0] * F[2, 1]) / J
-    out[2, 2] = (F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]) / J
+    inv3(F, out)
     return J
 
 
