@@ -21,7 +21,7 @@ from numba import njit
 
 from ..augury import FRICTION, KERNELS, STICK_SEPARATE, AuguryGrid, correction, grid_entries
 from ..fem import elements
-from ..fem.explicit import accelerations, drift
+from ..fem.explicit import accelerations
 from ..fem.mesh import node_normal_kernel
 
 
@@ -76,17 +76,36 @@ def kick(v, a, a_contact, mass, held, held_velocity, node_body, half_dt, work):
                 work[node_body[i]] += mass[i] * half_dt * a_contact[i, d] * 0.5 * (before + v[i, d])
 
 
-def kick_affine(fem, half_dt: float) -> None:
+@njit(cache=True)
+def kick_affine(B, Bdot, Dinv, mass, boundary, node_body, half_dt, work):
     """B += dt/2 Ḃ of the boundary nodes, with the work of that change on the affine kinetic
     energy 1/2 m tr(B D^-1 B^T) added per body."""
-    if not fem.B.size:
-        return
-    dim = fem.x.shape[1]
-    before = fem.B.copy()
-    fem.B += half_dt * fem.Bdot
-    Di = fem.Dinv[:, :dim, :dim]
-    w = fem.mass[fem.boundary] * half_dt * np.einsum("pab,pbc,pac->p", fem.Bdot, Di, 0.5 * (before + fem.B))
-    np.add.at(fem.contact_work, fem.node_body[fem.boundary], w)
+    nb, dim = B.shape[0], B.shape[1]
+    for q in range(nb):
+        w = 0.0
+        for a in range(dim):
+            for c in range(dim):
+                before = B[q, a, c]
+                B[q, a, c] = before + half_dt * Bdot[q, a, c]
+                mid = 0.5 * (before + B[q, a, c])
+                for b in range(dim):  # Ḃ_ab D^-1_bc B_ac
+                    w += Bdot[q, a, b] * Dinv[q, b, c] * mid
+        i = boundary[q]
+        work[node_body[i]] += mass[i] * half_dt * w
+
+
+@njit(cache=True)
+def drift_work(x, v, dt, mass, gravity):
+    """x += dt v; returns the work of gravity over the move, sum m g . dx (exact for a
+    constant body force)."""
+    n, dim = x.shape
+    work = 0.0
+    for i in range(n):
+        for d in range(dim):
+            dx = dt * v[i, d]
+            x[i, d] += dx
+            work += mass[i] * gravity[d] * dx
+    return work
 
 
 def first_accelerations(state, fem, gravity) -> None:
@@ -110,11 +129,8 @@ def fem_tasks(scene, augury=None):
             first_accelerations(state, fem, state.gravity)
         half = 0.5 * state.dt
         kick(fem.v, fem.a, fem.a_contact, fem.mass, fem.held, fem.held_velocity, fem.node_body, half, fem.contact_work)
-        kick_affine(fem, half)
-        x0 = fem.x.copy() if state.gravity.any() else None
-        drift(fem.x, fem.v, state.dt)
-        if x0 is not None:  # exact work of a constant body force
-            state.work_in += float(np.sum(fem.mass[:, None] * state.gravity[None, :] * (fem.x - x0)))
+        kick_affine(fem.B, fem.Bdot, fem.Dinv, fem.mass, fem.boundary, fem.node_body, half, fem.contact_work)
+        state.work_in += drift_work(fem.x, fem.v, state.dt, fem.mass, state.gravity)
 
     def forces(state) -> None:
         fem, m = state.fem, state.materials
@@ -127,7 +143,7 @@ def fem_tasks(scene, augury=None):
         fem = state.fem
         half = 0.5 * state.dt
         kick(fem.v, fem.a, fem.a_contact, fem.mass, fem.held, fem.held_velocity, fem.node_body, half, fem.contact_work)
-        kick_affine(fem, half)
+        kick_affine(fem.B, fem.Bdot, fem.Dinv, fem.mass, fem.boundary, fem.node_body, half, fem.contact_work)
 
     tasks = [Task("fem kick-drift", kick_drift, "velocity Verlet: half kick, then positions"),
              Task("fem forces", forces, "internal forces of the elements" + (", gravity" if scene.deck.gravity else ""))]
