@@ -151,11 +151,26 @@ def _clean_loc(loc, data) -> tuple:
     return tuple(out)
 
 
+def _model_of_tag(tag: str) -> type[BaseModel] | None:
+    """The schema model a discriminator value (a material `type`, a body `shape`) selects."""
+    for c in _all_models():
+        for name in ("type", "shape"):
+            f = c.model_fields.get(name)
+            if f is not None and getattr(f.annotation, "__args__", None) == (tag,):
+                return c
+    return None
+
+
 def _message(err) -> str:
     kind, msg, loc = err["type"], err["msg"], err["loc"]
     if kind == "extra_forbidden":
         key = str(loc[-1]) if loc else "?"
-        close = difflib.get_close_matches(key, _FIELD_NAMES, n=1, cutoff=0.75)
+        tags = [k for k in loc[:-1] if isinstance(k, str) and k in _TAGS]
+        model = _model_of_tag(tags[-1]) if tags else None
+        names = sorted(model.model_fields) if model is not None else _FIELD_NAMES
+        close = difflib.get_close_matches(key, [n for n in names if n != key], n=1, cutoff=0.75)
+        if model is not None and key in _FIELD_NAMES and not close:  # a key of another kind
+            return f"unknown key '{key}' for '{tags[-1]}' (its keys: {', '.join(names)})"
         hint = f" (did you mean '{close[0]}'?)" if close else ""
         return f"unknown key '{key}'{hint}"
     if kind == "missing":

@@ -24,6 +24,8 @@ time: {end: 0.1}
 CASES = [
     ("yaml syntax", [("  cell_size: 1.0", "  cell_size: [1.0")], None, 5, "YAML syntax"),
     ("unknown key with hint", [("title: base", "title: base\ntitel: again")], "titel", 2, "did you mean 'title'"),
+    ("key of another material type", [("K: 100.0, G: 50.0", "E: 100.0, nu: 0.3")], "materials.block.E", 7,
+     "unknown key 'E' for 'neo_hookean' (its keys: G, K, density, type)"),
     ("missing required key", [("time: {end: 0.1}", "time: {cfl: 0.5}")], "time.end", 10, "required"),
     ("negative modulus", [("K: 100.0", "K: -100.0")], "materials.block.K", 7, "greater than 0"),
     ("wrong type", [("K: 100.0", "K: stiff")], "materials.block.K", 7, "number"),
