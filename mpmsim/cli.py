@@ -6,6 +6,7 @@ Exit codes: 0 ok, 2 bad deck (or bad command line), 3 run stopped as unstable.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -59,7 +60,8 @@ def run(
     deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Output directory (overrides the deck)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar, timing table or file list."),
-    threads: Optional[int] = typer.Option(None, "--threads", help="Worker threads (default: all cores)."),
+    threads: Optional[int] = typer.Option(
+        None, "--threads", help="Worker threads (default: the cores other processes leave idle)."),
 ) -> None:
     """Run a deck: VTU series (+ .pvd for ParaView) and a CSV history."""
     import numba
@@ -67,8 +69,10 @@ def run(
     from .solver import Simulation, default_output_dir
 
     scene = _load_scene(deck)
-    if threads is not None:
-        numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    chosen, why = (threads, "--threads") if threads is not None else default_threads()
+    numba.set_num_threads(max(1, min(chosen, numba.config.NUMBA_NUM_THREADS)))
+    if not quiet and threads is None:
+        out.print(f"threads: {numba.get_num_threads()} ({why}; --threads N to choose)", highlight=False)
     directory = out_dir if out_dir is not None else default_output_dir(scene.loaded)
     sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads())
     st, end = sim.state, scene.deck.time.end
@@ -106,6 +110,24 @@ def run(
     _timing_table(result, sim)
     out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
     out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
+
+
+def default_threads(cpus: int | None = None, load: float | None = None) -> tuple[int, str]:
+    """(threads, why): the cores this process may run on that other processes are not keeping
+    busy (the 1-minute load average, rounded), at least one. A parallel region waits for its
+    slowest thread, so a thread sharing a core with a busy process slows the whole step many
+    times over; one thread per idle core avoids that."""
+    if cpus is None:
+        cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if load is None:
+        try:
+            load = os.getloadavg()[0]
+        except (OSError, AttributeError):
+            load = 0.0
+    busy = min(cpus, max(0, int(round(load))))
+    n = max(1, cpus - busy)
+    return n, (f"{cpus} cores, all idle" if busy == 0 else
+               f"{cpus} cores, {busy} kept busy by other processes (load {load:.1f})")
 
 
 def _units(scene):

@@ -163,3 +163,16 @@ def test_stepping_past_the_end_is_refused(finished):
     sim, _, _ = finished
     with pytest.raises(RuntimeError, match="reached time.end"):
         sim.step()
+
+
+def test_default_threads_leave_busy_cores_alone():
+    """The default thread count is the idle cores (a thread sharing a core with a busy process
+    stalls every parallel region), never below one."""
+    from mpmsim.cli import default_threads
+
+    assert default_threads(cpus=2, load=0.1)[0] == 2
+    assert default_threads(cpus=2, load=1.2)[0] == 1
+    assert default_threads(cpus=2, load=5.0)[0] == 1
+    assert default_threads(cpus=8, load=2.6)[0] == 5
+    n, why = default_threads(cpus=4, load=1.0)
+    assert n == 3 and "1 kept busy" in why
