@@ -41,6 +41,7 @@ class RunResult:
     files: list[Path] = field(default_factory=list)
     history_path: Path | None = None
     pvd_path: Path | None = None
+    timed_steps: int = 0  # steps in the timers and the rate (all but the first, compiling one)
 
     @property
     def rate(self) -> float:
@@ -78,6 +79,7 @@ class Simulation:
         self.history = History(scene, self.state, self.out_dir / f"{stem}_history.csv" if self.out_dir else None)
         self.vtu = VtuSeries(self.out_dir, stem) if self.out_dir is not None else None
         self.files: list[Path] = []
+        self.first_step_seconds = 0.0  # wall time of the first step of run() (compiling)
 
     @classmethod
     def from_deck(cls, deck_path, out_dir: Path | None = None, threads: int | None = None) -> "Simulation":
@@ -118,11 +120,16 @@ class Simulation:
         self.history.flush()
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
 
-    def run(self, progress: Callable[[State], None] | None = None) -> RunResult:
+    def run(self, progress: Callable[[State], None] | None = None,
+            first_step: Callable[[float], None] | None = None) -> RunResult:
+        """Step to time.end with history and output on their schedules. The first step (where
+        numba compiles whatever the cache lacks) is kept out of the timers and the rate;
+        `first_step(seconds)` is called after it."""
         st, end = self.state, self.end
         vtu_dt, hist_dt = self.vtu_interval, self.history_interval
         eps = 1e-9 * end
         start = wallclock.perf_counter()
+        timed_from = None
         if st.step == 0:  # the energy balance starts from the state as the caller left it
             sums = total_sums(st)
             st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
@@ -133,6 +140,12 @@ class Simulation:
         try:
             while st.t < end - eps:
                 self.step()
+                if timed_from is None:
+                    self.first_step_seconds = wallclock.perf_counter() - start
+                    self.reset_timers()
+                    timed_from = st.step
+                    if first_step is not None:
+                        first_step(self.first_step_seconds)
                 if st.t >= next_hist - eps:
                     self.history.record(st)
                     recorded_at = st.t
@@ -160,5 +173,6 @@ class Simulation:
         self._write_output(vtu=written_at != st.t)
         wall = wallclock.perf_counter() - start
         n_cells = len(st.fem.cells) if st.fem is not None else 0  # points stepped: particles + elements
-        return RunResult(st.step, wall, st.step * (st.particles.n + n_cells), self.timers, list(self.files),
-                         self.history.path, self.vtu.pvd_path if self.vtu else None)
+        timed = st.step - (timed_from if timed_from is not None else st.step)
+        return RunResult(st.step, wall, timed * (st.particles.n + n_cells), self.timers, list(self.files),
+                         self.history.path, self.vtu.pvd_path if self.vtu else None, timed)

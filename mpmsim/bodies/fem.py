@@ -190,7 +190,7 @@ class FemBodies(BodySet):
         return int(p), int(e)
 
     def check(self, state, units) -> tuple[str, str] | None:
-        if self.check_crossing and (state.step + 1) % self.check_every == 0:
+        if self.check_crossing and state.step % self.check_every == 0:  # from the first step on
             p, e = self.crossing()
             if p >= 0:
                 a, b = self.infos[int(self.node_body[p])].name, self.infos[int(self.cell_body[e])].name
