@@ -18,7 +18,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from . import __version__
+from . import __version__, kernel_cache
 from .errors import DeckError, InstabilityError
 
 EXIT_BAD_DECK = 2
@@ -68,7 +68,7 @@ def run(
 
     from .solver import Simulation, default_output_dir
 
-    cold = _kernel_cache_is_empty()  # before the scene's own kernels fill it
+    cold = kernel_cache.is_empty()  # before the scene's own kernels fill it
     scene = _load_scene(deck)
     chosen, why = (threads, "--threads") if threads is not None else default_threads()
     numba.set_num_threads(max(1, min(chosen, numba.config.NUMBA_NUM_THREADS)))
@@ -119,15 +119,6 @@ def run(
     _timing_table(result, sim)
     out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
     out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
-
-
-def _kernel_cache_is_empty() -> bool:
-    """Whether numba has cached no kernel of mpmsim yet (a first run compiles them all)."""
-    from pathlib import Path as _P
-
-    root = os.environ.get("NUMBA_CACHE_DIR")
-    where = _P(root) if root else _P(__file__).resolve().parent
-    return not any(where.rglob("*.nbi"))
 
 
 def default_threads(cpus: int | None = None, load: float | None = None) -> tuple[int, str]:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import vtk
@@ -176,3 +178,56 @@ def test_default_threads_leave_busy_cores_alone():
     assert default_threads(cpus=8, load=2.6)[0] == 5
     n, why = default_threads(cpus=4, load=1.0)
     assert n == 3 and "1 kept busy" in why
+
+
+def test_kernels_are_cached_in_the_users_cache_when_the_package_is_read_only(tmp_path):
+    """A package another user installed is not writable: numba would fail with "cannot cache
+    function"; mpmsim points the cache at $XDG_CACHE_HOME/mpmsim/numba instead. A user's
+    NUMBA_CACHE_DIR wins; a writable package keeps numba's default."""
+    from mpmsim.kernel_cache import choose
+
+    home = {"HOME": str(tmp_path)}
+    assert choose(home, tmp_path, writable=lambda p: False) == tmp_path / ".cache" / "mpmsim" / "numba"
+    xdg = {"XDG_CACHE_HOME": str(tmp_path / "xdg")}
+    assert choose(xdg, tmp_path, writable=lambda p: False) == tmp_path / "xdg" / "mpmsim" / "numba"
+    assert choose({"NUMBA_CACHE_DIR": "/somewhere"}, tmp_path, writable=lambda p: False) == Path("/somewhere")
+    assert choose(home, tmp_path, writable=lambda p: True) is None
+
+
+def test_a_read_only_install_imports_with_the_cache_in_the_users_directory(tmp_path):
+    """End to end: a copy of the package that the importing user cannot write (read-only files
+    and folders; as root, os.access is made to answer as for an ordinary user), imported by a fresh
+    process with no NUMBA_CACHE_DIR, caches its kernels in $XDG_CACHE_HOME/mpmsim/numba and
+    compiles one there."""
+    import os
+    import shutil
+    import stat
+    import subprocess
+    import sys
+
+    site = tmp_path / "site"
+    shutil.copytree(Path(__file__).resolve().parents[2] / "mpmsim", site / "mpmsim",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    read = stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH
+    for d, _, files in os.walk(site):
+        for f in files:
+            os.chmod(os.path.join(d, f), read)
+        os.chmod(d, read | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    os.chmod(cache, 0o777)
+    os.chmod(tmp_path, 0o755)
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(PYTHONPATH=str(site), XDG_CACHE_HOME=str(cache), HOME=str(cache))
+    # root writes anywhere, read-only or not: there, os.access answers as an ordinary user would
+    code = ("import os; real = os.access; site = " + repr(str(site)) + "\n"
+            "os.access = lambda p, m, *a, **k: (False if os.getuid() == 0 and m == os.W_OK\n"
+            "                                   and str(p).startswith(site) else real(p, m, *a, **k))\n"
+            "import mpmsim, numpy as np\n"
+            "from mpmsim.fem.elements import det_small\n"
+            "det_small(np.eye(2))\n"
+            "print(mpmsim.CACHE_DIR)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, cwd=str(tmp_path))
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == str(cache / "mpmsim" / "numba")
+    assert any((cache / "mpmsim" / "numba").rglob("*.nbi"))
