@@ -18,6 +18,7 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 run: $(STAMP)
+	$(BIN)/mpmsim compile $(DECK)
 	$(BIN)/mpmsim run $(DECK)
 
 test: $(STAMP)

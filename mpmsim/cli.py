@@ -164,6 +164,29 @@ def _timing_table(result, sim) -> None:
 
 
 @app.command()
+def compile(
+    decks: list[Path] = typer.Argument(None, help="Decks whose kernels to compile."),
+    all_decks: bool = typer.Option(False, "--all", help="Every deck in the inputs/ folder next to the package."),
+) -> None:
+    """Fill numba's kernel cache ahead of runs: build each deck's scene and take one step (no
+    output), so a later `mpmsim run` starts at once."""
+    from .solver import Simulation
+
+    paths = list(decks or [])
+    if all_decks:
+        paths += sorted((kernel_cache.PACKAGE_DIR.parent / "inputs").glob("*.yaml"))
+    if not paths:
+        err.print("mpmsim compile: name a deck or give --all", highlight=False)
+        raise typer.Exit(EXIT_BAD_DECK)
+    for path in paths:
+        out.print(f"{path}: compiling the kernels it uses (numba; cached ones load at once)...", highlight=False)
+        t0 = time.perf_counter()
+        scene = _load_scene(path)
+        Simulation(scene, out_dir=None, threads=1).step()
+        out.print(f"{path}: kernels ready ({time.perf_counter() - t0:.1f} s)", highlight=False)
+
+
+@app.command()
 def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
     from .integrators import make_integrator

@@ -231,3 +231,14 @@ def test_a_read_only_install_imports_with_the_cache_in_the_users_directory(tmp_p
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip() == str(cache / "mpmsim" / "numba")
     assert any((cache / "mpmsim" / "numba").rglob("*.nbi"))
+
+
+def test_compile_command_prepares_decks_and_refuses_nothing_to_do(tmp_path, monkeypatch):
+    deck = Path(__file__).resolve().parents[2] / "inputs" / "fem_blocks_2d.yaml"
+    monkeypatch.chdir(tmp_path)  # a run would write results/ here; compile writes nothing
+    result = CliRunner().invoke(app, ["compile", str(deck)])
+    assert result.exit_code == 0, result.output
+    assert "kernels ready" in result.output
+    assert not any(tmp_path.iterdir())  # nothing written
+    result = CliRunner().invoke(app, ["compile"])
+    assert result.exit_code == 2
