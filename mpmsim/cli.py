@@ -114,6 +114,10 @@ def run(
         err.print(f"[bold red]mpmsim: run stopped[/]: {exc}", highlight=False, soft_wrap=True)
         err.print(f"output so far (including the failing state) is in {directory}", highlight=False)
         raise typer.Exit(EXIT_UNSTABLE) from None
+    except KeyboardInterrupt:  # caught here: the command-line framework would swallow it
+        err.print(f"mpmsim: interrupted at step {st.step}, t = {st.t:.6g} {tu}; the history and the VTU files "
+                  f"written so far are in {directory}", highlight=False, soft_wrap=True)
+        raise typer.Exit(130) from None
     if quiet:
         return
     _timing_table(result, sim)

@@ -242,3 +242,33 @@ def test_compile_command_prepares_decks_and_refuses_nothing_to_do(tmp_path, monk
     assert not any(tmp_path.iterdir())  # nothing written
     result = CliRunner().invoke(app, ["compile"])
     assert result.exit_code == 2
+
+
+def test_ctrl_c_stops_a_run_with_a_message_and_keeps_its_output(tmp_path):
+    """SIGINT during `mpmsim run`: exit 130, one line naming the step, time and folder, and the
+    files written so far complete (no .tmp left)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import yaml
+
+    d = yaml.safe_load((Path(__file__).resolve().parents[2] / "inputs" / "fem_blocks_2d.yaml").read_text())
+    d["time"] = {"end": 100.0, "dt": 2.5e-5}  # far longer than the test waits
+    d["output"] = {"vtu_interval": 0.001, "history_interval": 0.001}
+    deck = tmp_path / "long.yaml"
+    deck.write_text(yaml.safe_dump(d))
+    out = tmp_path / "o"
+    p = subprocess.Popen([sys.executable, "-m", "mpmsim", "run", str(deck), "--out", str(out), "--threads", "1"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while not list(out.glob("*_fem_000003.vtu")) and time.time() - t0 < 300:  # stepping (compiled)
+        time.sleep(0.2)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err
+    assert "interrupted at step" in err and str(out) in " ".join(err.split())
+    assert "Traceback" not in err
+    assert not list(out.glob("*.tmp"))
+    assert (out / "long.pvd").exists() and (out / "long_history.csv").exists()
