@@ -5,6 +5,7 @@ opens the whole series (all parts, as blocks) in one step."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -14,6 +15,7 @@ import numpy as np
 from .atomic import atomic_path, write_text
 
 MAIN_PART = "particles"  # its files keep the plain <stem>_NNNNNN.vtu name
+OTHER_PARTS = ("fem",)  # parts written as <stem>_<part>_NNNNNN.vtu (body sets' vtu_pieces)
 
 
 def merge_pieces(pieces: list[dict]) -> meshio.Mesh:
@@ -66,6 +68,21 @@ class VtuSeries:
         self.entries: list[tuple[float, int, str]] = []  # (time, part index, file)
         self.parts: list[str] = []
         self.count = 0
+        self.removed = self.remove_stale()
+
+    def remove_stale(self) -> int:
+        """Delete the numbered VTU files an earlier run of this deck left in the folder (same
+        stem, `<stem>[_part]_NNNNNN.vtu`), so the folder holds one consistent series. Returns
+        how many were removed."""
+        parts = "|".join(re.escape(p) for p in OTHER_PARTS)
+        pattern = re.compile(re.escape(self.stem) + rf"(_({parts}))?_\d{{6}}\.vtu")
+        n = 0
+        if self.directory.is_dir():
+            for path in self.directory.iterdir():
+                if pattern.fullmatch(path.name) and path.is_file():
+                    path.unlink()
+                    n += 1
+        return n
 
     @property
     def pvd_path(self) -> Path:

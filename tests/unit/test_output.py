@@ -272,3 +272,17 @@ def test_ctrl_c_stops_a_run_with_a_message_and_keeps_its_output(tmp_path):
     assert "Traceback" not in err
     assert not list(out.glob("*.tmp"))
     assert (out / "long.pvd").exists() and (out / "long_history.csv").exists()
+
+
+def test_a_rerun_into_the_same_folder_leaves_no_stale_series_files(tmp_path):
+    """A shorter rerun into the folder of a longer run: the older run's numbered VTU files of
+    this deck are gone (the .pvd and the folder agree); other decks' files stay."""
+    from mpmsim.output.vtu import VtuSeries
+
+    for name in ("deck_000007.vtu", "deck_fem_000012.vtu", "deck_big_000001.vtu", "other_000001.vtu",
+                 "deck_notes.txt"):
+        (tmp_path / name).write_text("x")
+    series = VtuSeries(tmp_path, "deck")
+    assert series.removed == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deck_big_000001.vtu", "deck_notes.txt",
+                                                          "other_000001.vtu"]
