@@ -7,6 +7,7 @@ Exit codes: 0 ok, 2 bad deck (or bad command line), 3 run stopped as unstable.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from pathlib import Path
@@ -102,6 +103,7 @@ def run(
             out.print(f"first step: {seconds:.1f} s (numba compiled the kernels the cache lacked; later runs "
                       "load them)", highlight=False)
 
+    previous = signal.signal(signal.SIGTERM, _terminate)  # SIGTERM stops like Ctrl-C: files kept whole
     try:
         if progress is not None:
             with progress:
@@ -114,15 +116,26 @@ def run(
         err.print(f"[bold red]mpmsim: run stopped[/]: {exc}", highlight=False, soft_wrap=True)
         err.print(f"output so far (including the failing state) is in {directory}", highlight=False)
         raise typer.Exit(EXIT_UNSTABLE) from None
-    except KeyboardInterrupt:  # caught here: the command-line framework would swallow it
-        err.print(f"mpmsim: interrupted at step {st.step}, t = {st.t:.6g} {tu}; the history and the VTU files "
+    except KeyboardInterrupt as exc:  # caught here: the command-line framework would swallow it
+        what, code = ("terminated", 143) if isinstance(exc, Terminated) else ("interrupted", 130)
+        err.print(f"mpmsim: {what} at step {st.step}, t = {st.t:.6g} {tu}; the history and the VTU files "
                   f"written so far are in {directory}", highlight=False, soft_wrap=True)
-        raise typer.Exit(130) from None
+        raise typer.Exit(code) from None
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     if quiet:
         return
     _timing_table(result, sim)
     out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
     out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the run is so it stops as Ctrl-C does (output kept whole)."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
 
 
 def default_threads(cpus: int | None = None, load: float | None = None) -> tuple[int, str]:

@@ -72,10 +72,11 @@ class VtuSeries:
 
     def remove_stale(self) -> int:
         """Delete the numbered VTU files an earlier run of this deck left in the folder (same
-        stem, `<stem>[_part]_NNNNNN.vtu`), so the folder holds one consistent series. Returns
-        how many were removed."""
+        stem, `<stem>[_part]_NNNNNN.vtu`, and `.<name>.tmp` files of a killed run), so the folder
+        holds one consistent series. Returns how many were removed."""
         parts = "|".join(re.escape(p) for p in OTHER_PARTS)
-        pattern = re.compile(re.escape(self.stem) + rf"(_({parts}))?_\d{{6}}\.vtu")
+        # (and the hidden temporary files of a run that was killed mid-write)
+        pattern = re.compile(r"\.?" + re.escape(self.stem) + rf"(_({parts}))?_\d{{6}}\.vtu(\.tmp)?")
         n = 0
         if self.directory.is_dir():
             for path in self.directory.iterdir():

@@ -244,9 +244,10 @@ def test_compile_command_prepares_decks_and_refuses_nothing_to_do(tmp_path, monk
     assert result.exit_code == 2
 
 
-def test_ctrl_c_stops_a_run_with_a_message_and_keeps_its_output(tmp_path):
-    """SIGINT during `mpmsim run`: exit 130, one line naming the step, time and folder, and the
-    files written so far complete (no .tmp left)."""
+@pytest.mark.parametrize("how,code,word", [("SIGINT", 130, "interrupted"), ("SIGTERM", 143, "terminated")])
+def test_ctrl_c_or_sigterm_stops_a_run_with_a_message_and_keeps_its_output(tmp_path, how, code, word):
+    """SIGINT (Ctrl-C) or SIGTERM during `mpmsim run`: exit 130 / 143, one line naming the step,
+    time and folder, and the files written so far complete (no .tmp left)."""
     import signal
     import subprocess
     import sys
@@ -265,10 +266,10 @@ def test_ctrl_c_stops_a_run_with_a_message_and_keeps_its_output(tmp_path):
     t0 = time.time()
     while not list(out.glob("*_fem_000003.vtu")) and time.time() - t0 < 300:  # stepping (compiled)
         time.sleep(0.2)
-    p.send_signal(signal.SIGINT)
+    p.send_signal(signal.SIGINT if how == "SIGINT" else signal.SIGTERM)
     _, err = p.communicate(timeout=120)
-    assert p.returncode == 130, err
-    assert "interrupted at step" in err and str(out) in " ".join(err.split())
+    assert p.returncode == code, err
+    assert f"{word} at step" in err and str(out) in " ".join(err.split())
     assert "Traceback" not in err
     assert not list(out.glob("*.tmp"))
     assert (out / "long.pvd").exists() and (out / "long_history.csv").exists()
@@ -280,9 +281,9 @@ def test_a_rerun_into_the_same_folder_leaves_no_stale_series_files(tmp_path):
     from mpmsim.output.vtu import VtuSeries
 
     for name in ("deck_000007.vtu", "deck_fem_000012.vtu", "deck_big_000001.vtu", "other_000001.vtu",
-                 "deck_notes.txt"):
+                 "deck_notes.txt", ".deck_000008.vtu.tmp"):
         (tmp_path / name).write_text("x")
     series = VtuSeries(tmp_path, "deck")
-    assert series.removed == 2
+    assert series.removed == 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["deck_big_000001.vtu", "deck_notes.txt",
                                                           "other_000001.vtu"]
