@@ -13,6 +13,8 @@ messages.
 
 from __future__ import annotations
 
+import math
+
 import time as wallclock
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,6 +58,16 @@ def default_output_dir(loaded: LoadedDeck) -> Path:
         return Path.cwd() / "results" / loaded.stem
     p = Path(out)
     return p if p.is_absolute() else loaded.base_dir / p
+
+
+def next_time(current: float, interval: float, now: float) -> float:
+    """The first time of the series current + k interval (k >= 1) after `now`; one jump, so an
+    interval far below the time step cannot stall the run (it then records every step)."""
+    if current + interval > now:
+        return current + interval
+    k = math.floor((now - current) / interval) + 1
+    nxt = current + k * interval
+    return nxt if nxt > now else now + interval
 
 
 class Simulation:
@@ -149,13 +161,11 @@ class Simulation:
                 if st.t >= next_hist - eps:
                     self.history.record(st)
                     recorded_at = st.t
-                    while next_hist <= st.t + eps:
-                        next_hist += hist_dt
+                    next_hist = next_time(next_hist, hist_dt, st.t + eps)
                 if st.t >= next_vtu - eps:
                     self._write_output(vtu=True)
                     written_at = st.t
-                    while next_vtu <= st.t + eps:
-                        next_vtu += vtu_dt
+                    next_vtu = next_time(next_vtu, vtu_dt, st.t + eps)
                 if progress is not None:
                     progress(st)
         except InstabilityError:

@@ -287,3 +287,22 @@ def test_a_rerun_into_the_same_folder_leaves_no_stale_series_files(tmp_path):
     assert series.removed == 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["deck_big_000001.vtu", "deck_notes.txt",
                                                           "other_000001.vtu"]
+
+
+def test_an_output_interval_far_below_the_step_records_every_step_and_ends():
+    """history_interval: 1e-300 once never advanced the next output time (a hang); now the
+    series jumps past the current time at once, so every step is recorded and the run ends."""
+    import yaml
+
+    from mpmsim.solver import next_time
+    from tests.conftest import simulate
+
+    assert next_time(0.0, 0.1, 0.05) == 0.1
+    assert next_time(0.0, 0.1, 0.35) == pytest.approx(0.4)
+    assert next_time(0.2, 1e-300, 0.3) > 0.3 - 1e-12
+    d = yaml.safe_load((Path(__file__).resolve().parents[2] / "inputs" / "fem_blocks_2d.yaml").read_text())
+    d["time"] = {"end": 0.001, "dt": 2.5e-5}
+    d["output"] = {"history_interval": 1e-300, "vtu_interval": 1e-300}
+    sim = simulate(d)
+    assert sim.state.step == 40
+    assert len(sim.history.rows) == 41
