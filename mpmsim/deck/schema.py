@@ -16,7 +16,8 @@ Face = Literal["free", "fixed", "roller", "slip"]
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # unknown keys are errors; NaN and +-inf are refused in every number (they would crash later)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 # --------------------------------------------------------------------------- materials

@@ -40,6 +40,8 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     problems += _check_fem_bodies(deck, fem, base_dir)
     # grid
     cs = deck.grid.cell_size if deck.grid is not None else 1.0
+    if not isinstance(cs, list) and cs <= 0:
+        add(["grid", "cell_size"], "cell size must be > 0")
     if isinstance(cs, list):
         vec(["grid", "cell_size"], cs, what="cell_size list")
         for i, h in enumerate(cs):
