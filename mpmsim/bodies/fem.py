@@ -90,11 +90,9 @@ class FemBodies(BodySet):
     def element_stresses(self, state):
         """(Cauchy stress (m, 6), J (m,)) of every element."""
         m = state.materials
-        stress = np.zeros((len(self.cells), 6))
         dim = self.x.shape[1]
-        full = np.zeros((len(self.cells), 6))
-        elements.cauchy_stresses(self.x, self.cells, self.Dm_inv, self.cell_mat, m.type_code, m.props, full)
-        stress[:] = full
+        stress = np.zeros((len(self.cells), 6))
+        elements.cauchy_stresses(self.x, self.cells, self.Dm_inv, self.cell_mat, m.type_code, m.props, stress)
         F = np.zeros((len(self.cells), dim, dim))
         elements.deformation_gradients(self.x, self.cells, self.Dm_inv, F)
         return stress, np.linalg.det(F)
