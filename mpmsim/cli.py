@@ -63,6 +63,8 @@ def run(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar, timing table or file list."),
     threads: Optional[int] = typer.Option(
         None, "--threads", help="Worker threads (default: the cores other processes leave idle)."),
+    max_steps: float = typer.Option(1e8, "--max-steps", help="Refuse a run estimated to take more steps."),
+    max_frames: float = typer.Option(1e5, "--max-frames", help="Refuse more VTU frames or history rows."),
 ) -> None:
     """Run a deck: VTU series (+ .pvd for ParaView) and a CSV history."""
     import numba
@@ -76,7 +78,12 @@ def run(
     if not quiet and threads is None:
         out.print(f"threads: {numba.get_num_threads()} ({why}; --threads N to choose)", highlight=False)
     directory = out_dir if out_dir is not None else default_output_dir(scene.loaded)
-    sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads())
+    try:
+        sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads(), max_steps=max_steps,
+                         max_frames=max_frames)
+    except DeckError as exc:
+        err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
     st, end = sim.state, scene.deck.time.end
     tu = _units(scene).time
     progress = None

@@ -72,9 +72,12 @@ def next_time(current: float, interval: float, now: float) -> float:
 
 class Simulation:
     def __init__(self, scene: Scene, out_dir: Path | None = None, threads: int | None = None,
-                 integrator: Integrator | None = None):
+                 integrator: Integrator | None = None, max_steps: float | None = None,
+                 max_frames: float | None = None):
         """`out_dir=None` keeps the history in memory and writes no files (tests, sweeps).
-        `integrator=None`: the deck's (make_integrator)."""
+        `integrator=None`: the deck's (make_integrator). `max_steps`, `max_frames`: refuse (a
+        DeckError, before any file is touched) a run whose estimated step count (time.end over
+        the first stable step) or output count exceeds them."""
         self.scene = scene
         deck = scene.deck
         self.end = deck.time.end
@@ -84,6 +87,7 @@ class Simulation:
         self.integrator = integrator if integrator is not None else make_integrator(scene)
         self.check = StabilityCheck(scene)
         self.loop_timers = {CHECK: 0.0, OUTPUT: 0.0}
+        self.check_budget(max_steps, max_frames)
         self.out_dir = Path(out_dir) if out_dir is not None else None
         stem = scene.loaded.stem
         if self.out_dir is not None:
@@ -92,6 +96,28 @@ class Simulation:
         self.vtu = VtuSeries(self.out_dir, stem) if self.out_dir is not None else None
         self.files: list[Path] = []
         self.first_step_seconds = 0.0  # wall time of the first step of run() (compiling)
+
+    def check_budget(self, max_steps: float | None, max_frames: float | None) -> None:
+        deck = self.scene.deck
+        problems = []
+        if max_steps is not None:
+            dt = deck.time.dt or self.integrator.stable_dt(self.state)
+            steps = self.end / dt if dt > 0 else math.inf
+            if not steps <= max_steps:
+                problems.append((("time", "end"), f"about {steps:.3g} steps (stable dt {dt:.3g} for time.end "
+                                 f"{self.end:g}); more than the {max_steps:.3g} allowed: check the densities and "
+                                 "moduli, or run with --max-steps N"))
+        if max_frames is not None:
+            for key, interval in (("vtu_interval", self.vtu_interval), ("history_interval", self.history_interval)):
+                frames = self.end / interval
+                if not frames <= max_frames:
+                    problems.append((("output", key), f"about {frames:.3g} outputs to time.end {self.end:g}; more "
+                                     f"than the {max_frames:.3g} allowed: raise output.{key}, or run with "
+                                     "--max-frames N"))
+        if problems:
+            from .deck.loader import raise_at
+
+            raise_at(problems, self.scene.loaded)
 
     @classmethod
     def from_deck(cls, deck_path, out_dir: Path | None = None, threads: int | None = None) -> "Simulation":

@@ -118,3 +118,21 @@ def test_missing_deck_file(tmp_path):
     assert result.exit_code == 2
     assert "cannot read deck file" in result.output
     assert "Traceback" not in result.output
+
+
+def test_absurd_step_or_output_counts_are_refused_with_the_estimate(tmp_path):
+    """A density of 1e-300 makes the stable step absurdly small: `run` refuses it (exit 2) with
+    the estimate and the override, before writing anything; the same for 1e-300 s output
+    intervals; --max-steps lets a user go on."""
+    deck = tmp_path / "d.yaml"
+    deck.write_text(BASE.replace("density: 0.001", "density: 1.0e-300"))
+    out = tmp_path / "o"
+    result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet"])
+    assert result.exit_code == 2, result.output
+    text = " ".join(result.output.split())
+    assert "time.end: about" in text and "steps" in text and "--max-steps" in text
+    assert not out.exists()
+    deck.write_text(BASE.replace("time: {end: 0.1}", "time: {end: 0.1}\noutput: {history_interval: 1.0e-300}"))
+    result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet"])
+    assert result.exit_code == 2, result.output
+    assert "output.history_interval: about 1e+299 outputs" in " ".join(result.output.split())
