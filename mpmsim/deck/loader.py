@@ -38,17 +38,55 @@ class LoadedDeck:
 def load_deck(path: str | Path) -> LoadedDeck:
     path = Path(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as exc:
         raise DeckError(((), f"cannot read deck file: {exc.strerror or exc}"), source=str(path)) from None
+    if len(raw) > MAX_DECK_BYTES:
+        raise DeckError(((), f"the deck is {len(raw)} bytes; a deck is a short text (at most {MAX_DECK_BYTES})"),
+                        source=str(path))
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise DeckError(((), f"the deck is not UTF-8 text (byte {exc.start})"), source=str(path),
+                        lines=[line]) from None
     return load_deck_text(text, path)
+
+
+MAX_DECK_BYTES = 1_000_000  # a deck is text written by hand; meshes and images are separate files
+MAX_EXPANDED_NODES = 100_000  # values a deck may hold once aliases are expanded (no alias bombs)
+
+
+def _expanded_size(node, memo: dict) -> int:
+    """Number of YAML values under `node` with every alias expanded (memoized per node, so an
+    alias bomb is measured without being built)."""
+    if node is None:
+        return 0
+    key = id(node)
+    if key in memo:
+        return memo[key]
+    memo[key] = 1  # cycles count once
+    if isinstance(node, yaml.MappingNode):
+        n = 1 + sum(_expanded_size(k, memo) + _expanded_size(v, memo) for k, v in node.value)
+    elif isinstance(node, yaml.SequenceNode):
+        n = 1 + sum(_expanded_size(v, memo) for v in node.value)
+    else:
+        n = 1
+    memo[key] = n
+    return n
 
 
 def load_deck_text(text: str, path: Path) -> LoadedDeck:
     source = str(path)
     try:
         root = yaml.compose(text, Loader=yaml.SafeLoader)
+        size = _expanded_size(root, {})
+        if size > MAX_EXPANDED_NODES:
+            raise DeckError(((), f"the deck's YAML aliases (*name) expand to {size:.3g} values; at most "
+                                 f"{MAX_EXPANDED_NODES} are read"), source=source)
         data = yaml.safe_load(text)
+    except RecursionError:
+        raise DeckError(((), "the deck is nested too deeply to read"), source=source) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None

@@ -136,3 +136,19 @@ def test_absurd_step_or_output_counts_are_refused_with_the_estimate(tmp_path):
     result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet"])
     assert result.exit_code == 2, result.output
     assert "output.history_interval: about 1e+299 outputs" in " ".join(result.output.split())
+
+
+@pytest.mark.parametrize("content,words", [
+    (b"title: caf\xe9\n", "not UTF-8"),
+    (("a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1]\n" + "".join(
+        f"{c}: &{c} [" + ", ".join(f"*{p}" for _ in range(9)) + "]\n"
+        for p, c in zip("abcdefgh", "bcdefghi"))).encode(), "aliases (*name) expand to"),
+    (("x: " + "[" * 5000 + "]" * 5000 + "\n").encode(), "nested too deeply"),
+], ids=["latin-1", "alias bomb", "deep nesting"])
+def test_unreadable_decks_are_one_line_errors(tmp_path, content, words):
+    deck = tmp_path / "bad.yaml"
+    deck.write_bytes(content)
+    for command in ("check", "run"):
+        result = CliRunner().invoke(app, [command, str(deck)])
+        assert result.exit_code == 2, result.output
+        assert words in result.output and "Traceback" not in result.output
