@@ -84,6 +84,10 @@ def run(
     except DeckError as exc:
         err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
+    except (OSError, ValueError) as exc:  # the folder: not creatable, a file in the way, a NUL in the path
+        err.print(f"mpmsim: cannot write the output folder {str(directory)!r}: {_reason(exc)}", highlight=False,
+                  soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
     st, end = sim.state, scene.deck.time.end
     tu = _units(scene).time
     progress = None
@@ -123,6 +127,10 @@ def run(
         err.print(f"[bold red]mpmsim: run stopped[/]: {exc}", highlight=False, soft_wrap=True)
         err.print(f"output so far (including the failing state) is in {directory}", highlight=False)
         raise typer.Exit(EXIT_UNSTABLE) from None
+    except OSError as exc:  # a write failed mid-run (disk full, folder removed): earlier files are whole
+        err.print(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {_reason(exc)}; the files "
+                  f"written before are whole, in {directory}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_UNSTABLE) from None
     except KeyboardInterrupt as exc:  # caught here: the command-line framework would swallow it
         what, code = ("terminated", 143) if isinstance(exc, Terminated) else ("interrupted", 130)
         err.print(f"mpmsim: {what} at step {st.step}, t = {st.t:.6g} {tu}; the history and the VTU files "
@@ -135,6 +143,13 @@ def run(
     _timing_table(result, sim)
     out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
     out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
+
+
+def _reason(exc: BaseException) -> str:
+    """An OS error in a few words (no traceback, no errno number)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror + (f" ({exc.filename})" if exc.filename else "")
+    return str(exc)
 
 
 class Terminated(KeyboardInterrupt):

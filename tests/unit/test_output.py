@@ -306,3 +306,28 @@ def test_an_output_interval_far_below_the_step_records_every_step_and_ends():
     sim = simulate(d)
     assert sim.state.step == 40
     assert len(sim.history.rows) == 41
+
+
+@pytest.mark.parametrize("where", ["file in the way", "nul byte", "unwritable"])
+def test_an_unusable_output_folder_is_a_one_line_error(tmp_path, where):
+    import os
+
+    deck = Path(__file__).resolve().parents[2] / "inputs" / "fem_blocks_2d.yaml"
+    if where == "file in the way":
+        out = tmp_path / "f"
+        out.write_text("x")
+    elif where == "nul byte":  # in the deck's output.directory (the command line refuses it itself)
+        text = deck.read_text() + '\n  directory: "a\\0b"\n'
+        text = text.replace("output: {vtu_interval: 0.002, history_interval: 0.0005}\n",
+                            "output:\n  vtu_interval: 0.002\n")
+        deck = tmp_path / "nul.yaml"
+        deck.write_text(text)
+        out = None
+    else:  # a folder below a regular file cannot be made, by root or anyone
+        (tmp_path / "plain").write_text("x")
+        out = tmp_path / "plain" / "sub"
+    args = ["run", str(deck), "--quiet"] + (["--out", str(out)] if out is not None else [])
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert "cannot write the output folder" in result.output and "Traceback" not in result.output
+    assert len(result.output.strip().splitlines()) <= 2
