@@ -141,6 +141,8 @@ def run(
     if quiet:
         return
     _timing_table(result, sim)
+    for line in getattr(sim.integrator, "report", lambda: [])():
+        out.print(line, highlight=False)
     out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
     out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
 

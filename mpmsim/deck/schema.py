@@ -505,6 +505,24 @@ class Time(Strict):
     dt: float | None = Field(default=None, gt=0, description="Fixed time step instead of the CFL rule.")
 
 
+class Implicit(Strict):
+    """Implicit integration of FEM bodies (docs/bfemp.md): each step minimises the incremental
+    potential with projected Newton; FEM bodies meet through a log barrier."""
+
+    scheme: Literal["backward_euler", "newmark"] = Field(
+        default="newmark", description="backward_euler (zeta, beta, gamma = 1, 1/2, 1) or midpoint newmark "
+        "(1/2, 1/4, 1/2).")
+    newton_tolerance: float = Field(
+        default=1e-5, gt=0, description="Newton stops when max |p| / dt falls below this (velocity unit).")
+    max_newton_iterations: int = Field(default=100, ge=1, le=10000, description="Newton iterations per step.")
+    dhat: float | None = Field(
+        default=None, gt=0, description="Barrier distance (length unit): bodies push apart closer than this. "
+        "Needed with two or more FEM bodies.")
+    kappa: float | None = Field(
+        default=None, gt=0, description="Barrier stiffness (stress unit). Default: 1e-3 x the largest E of the "
+        "FEM materials.")
+
+
 class Update(Strict):
     """Particle update and stress-update order (see docs/timestep.md)."""
 
@@ -619,8 +637,11 @@ class Deck(Strict):
     artificial_viscosity: ArtificialViscosity | None = Field(
         default=None, description="Shock artificial viscosity {A1, A2, materials} (Eq. 52). Default: none.")
     contact: Contact = Field(default_factory=Contact, description="Multimaterial contact settings.")
-    integrator: Literal["explicit"] = Field(
-        default="explicit", description="Time integration: explicit (the MPM step as a list of tasks).")
+    integrator: Literal["explicit", "implicit"] = Field(
+        default="explicit", description="Time integration: explicit (the MPM step as a list of tasks) or implicit "
+        "(FEM bodies: an incremental potential minimised by Newton, barrier contact; see `implicit`).")
+    implicit: Implicit | None = Field(
+        default=None, description="Settings of integrator: implicit (docs/bfemp.md).")
     time: Time
     update: Update = Field(default_factory=Update)
     output: Output = Field(default_factory=Output)

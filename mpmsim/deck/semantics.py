@@ -38,6 +38,22 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
                                    f"particle bodies; the deck has {len(fem)} FEM and {len(particle_bodies)} particle "
                                    "bodies")
     problems += _check_fem_bodies(deck, fem, base_dir)
+    if deck.integrator == "implicit":
+        if particle_bodies:
+            add(["integrator"], f"implicit integration of particle bodies (bodies.{particle_bodies[0]}) is not "
+                                "available yet: use integrator: explicit")
+        if not fem:
+            add(["integrator"], "implicit integration needs an FEM body (discretization: fem)")
+        if deck.time.dt is None:
+            add(["time", "dt"], "implicit integration takes a fixed time step: give time.dt")
+        if len(fem) > 1 and (deck.implicit is None or deck.implicit.dhat is None):
+            add(["implicit", "dhat"], "two or more FEM bodies meet through the barrier: give implicit.dhat")
+        if deck.contact.augury is not None:
+            add(["contact", "augury"], "augury contact is explicit; implicit integration uses the barrier")
+        if deck.dim == 3 and len(fem) > 1:
+            add(["integrator"], "implicit barrier contact between FEM bodies is 2D for now")
+    elif deck.implicit is not None:
+        add(["implicit"], "settings for integrator: implicit, but the deck's integrator is explicit")
     # grid
     cs = deck.grid.cell_size if deck.grid is not None else 1.0
     if not isinstance(cs, list) and cs <= 0:

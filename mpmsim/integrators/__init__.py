@@ -12,9 +12,9 @@ writes history and output. An integrator may read and change any state array; it
 leave the state consistent at the end of `advance` (positions, velocities and stresses at
 t + dt).
 
-Integrators: `explicit` (explicit MPM, the step as a task list; explicit.py). New methods
-(an FEM explicit step, an implicit incremental-potential solve) are new classes here and
-an entry in `make_integrator`.
+Integrators: `explicit` (explicit MPM and FEM, the step as a task list; explicit.py) and
+`implicit` (FEM bodies, incremental potential and barrier contact; implicit.py). A new method
+is a new class here and an entry in `make_integrator`.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ class Integrator:
 def make_integrator(scene) -> Integrator:
     """The deck's integrator for this scene."""
     from .explicit import ExplicitMPM
+    from .implicit import ImplicitFEM
 
-    kinds = {"explicit": ExplicitMPM}
+    kinds = {"explicit": ExplicitMPM, "implicit": ImplicitFEM}
     return kinds[scene.deck.integrator](scene)
