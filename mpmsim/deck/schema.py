@@ -521,6 +521,10 @@ class Implicit(Strict):
     kappa: float | None = Field(
         default=None, gt=0, description="Barrier stiffness (stress unit). Default: 1e-3 x the largest E of the "
         "FEM materials.")
+    friction_velocity: float = Field(
+        default=1e-3, gt=0, description="eps_v (velocity unit): slip slower than this is smoothed static friction "
+        "(a sticking body creeps below it). Friction coefficients come from contact.default and contact.pairs "
+        "(law: coulomb).")
 
 
 class Update(Strict):

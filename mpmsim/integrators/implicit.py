@@ -17,6 +17,12 @@ never from an all-pairs loop. A node near a corner of the other body counts the 
 both of its edges (the paper's (deg - 1) point-point correction is not applied): the barrier is
 stiffer there, never weaker.
 
+Friction (Coulomb mu from contact.default / contact.pairs) is lagged and smoothed as in IPC:
+at the step's start each contact within dhat fixes its normal force lambda = w_p (-b'(d)), its
+sliding direction and closest-point parameter; the step adds D = sum mu lambda f0(|u|), u the
+tangential slip over the step, f0 the mollifier with eps = friction_velocity * dt (below which
+friction is smoothed static friction). One lag per step.
+
 Projected Newton: element and pair Hessians projected to PSD, H = M + c (K + B) on the free
 degrees of freedom (held components move to their target and are eliminated), solved with
 scipy's sparse LU (splu). Line search: alpha = min(1, alpha_CCD, alpha_inversion) (additive CCD
@@ -35,7 +41,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from ..barrier import point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs, triangle_step_bound
+from numba import njit
+
+from ..barrier import (barrier_normal_force, point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs,
+                       point_edge_distance, point_edge_friction, point_edge_friction_frame, triangle_step_bound)
 from ..deck.schema import Implicit
 from ..errors import InstabilityError
 from ..fem import elements
@@ -52,6 +61,45 @@ def boundary_weights(x: np.ndarray, facets: np.ndarray, boundary: np.ndarray) ->
     np.add.at(w, facets[:, 0], 0.5 * length)
     np.add.at(w, facets[:, 1], 0.5 * length)
     return w[boundary]
+
+
+@njit(cache=True)
+def lag_friction(x, boundary, facets, pairs, weights, pair_mu, dhat, kappa, tau, r, mu_lambda):
+    """Lagged friction frames at the step's start: for each pair, the sliding direction tau,
+    the closest-point parameter r and mu lambda, lambda = w_p (-b'(d)) the pair's normal force."""
+    y = np.empty(6)
+    t = np.empty(2)
+    for k in range(pairs.shape[0]):
+        i = boundary[pairs[k, 0]]
+        a = facets[pairs[k, 1], 0]
+        b = facets[pairs[k, 1], 1]
+        y[0], y[1], y[2], y[3], y[4], y[5] = x[i, 0], x[i, 1], x[a, 0], x[a, 1], x[b, 0], x[b, 1]
+        d = point_edge_distance(y)
+        r[k] = point_edge_friction_frame(y, t)
+        tau[k, 0], tau[k, 1] = t[0], t[1]
+        mu_lambda[k] = pair_mu[k] * weights[pairs[k, 0]] * barrier_normal_force(d, dhat, kappa) if d < dhat else 0.0
+
+
+@njit(cache=True)
+def friction_pairs(x, x0, boundary, facets, pairs, tau, r, mu_lambda, eps, grads, hessians):
+    """Lagged friction pseudo-potential sum_k mu lambda_k f0(|u_k|) of the step's slips (x - x0),
+    with each pair's gradient (6,) and PSD Hessian (6, 6)."""
+    dz = np.empty(6)
+    total = 0.0
+    for k in range(pairs.shape[0]):
+        if mu_lambda[k] == 0.0:
+            grads[k, :] = 0.0
+            hessians[k, :, :] = 0.0
+            continue
+        i = boundary[pairs[k, 0]]
+        a = facets[pairs[k, 1], 0]
+        b = facets[pairs[k, 1], 1]
+        for c in range(2):
+            dz[c] = x[i, c] - x0[i, c]
+            dz[2 + c] = x[a, c] - x0[a, c]
+            dz[4 + c] = x[b, c] - x0[b, c]
+        total += point_edge_friction(dz, tau[k], r[k], mu_lambda[k], eps, grads[k], hessians[k])
+    return total
 
 
 def check_initial_gaps(scene, dhat: float) -> None:
@@ -95,6 +143,14 @@ class ImplicitFEM(Integrator):
         self.kappa = imp.kappa if imp.kappa is not None else 1e-3 * young
         if self.dhat is not None:
             check_initial_gaps(scene, self.dhat)
+        self.eps_v = imp.friction_velocity
+        c = deck.contact
+        self.mu = np.full((len(mats.deformable),) * 2, c.default.friction if c.default.law == "coulomb" else 0.0)
+        index = {name: k for k, name in enumerate(mats.deformable)}
+        for pair in c.pairs:
+            if all(m in index for m in pair.between):
+                a, b = (index[m] for m in pair.between)
+                self.mu[a, b] = self.mu[b, a] = pair.friction if pair.law == "coulomb" else 0.0
         self.dt = deck.time.dt
         self.gravity = np.zeros(scene.dim)
         if deck.gravity:
@@ -105,6 +161,7 @@ class ImplicitFEM(Integrator):
                      ("barrier contact", f"log barrier between FEM bodies, dhat {self.dhat:g}, kappa {self.kappa:g}"
                       if self.dhat else "one FEM body: no contact")]
         self.started = False
+        self.friction = None
 
     # ----------------------------------------------------------------------------- pieces
     def stable_dt(self, state) -> float:
@@ -119,8 +176,10 @@ class ImplicitFEM(Integrator):
         self.contact = self.dhat is not None and len(fem.infos) > 1 and dim == 2
         if self.contact:
             self.weights = boundary_weights(fem.X, fem.facets, fem.boundary)
-            edge_body = fem.node_body[fem.facets[:, 0]]
-            self.edge_body = edge_body
+            self.edge_body = fem.node_body[fem.facets[:, 0]]
+            node_mat = np.zeros(fem.n, dtype=np.int64)
+            node_mat[fem.cells.ravel()] = np.repeat(fem.cell_mat, fem.cells.shape[1])
+            self.node_mat = node_mat
         # a^0: the mechanical acceleration at the initial state
         f = np.zeros_like(fem.x)
         elements.internal_forces(fem.x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props, f)
@@ -154,7 +213,16 @@ class ImplicitFEM(Integrator):
         if k:
             phi = point_edge_barrier_pairs(x[fem.boundary], x, fem.facets, pairs, self.dhat, self.kappa,
                                            self.weights, gb, Hb, True)
-        E = 0.5 * float(dx @ (self.M * dx)) + c * (psi + phi - grav)
+        fr = self.friction
+        nf = len(fr[0]) if fr is not None else 0
+        gf = np.zeros((nf, 6))
+        Hf = np.zeros((nf, 6, 6))
+        dfr = 0.0
+        if nf:
+            fpairs, tau, r, mu_lambda = fr
+            dfr = friction_pairs(x, self.x_start, fem.boundary, fem.facets, fpairs, tau, r, mu_lambda,
+                                 self.eps_v * self.dt_step, gf, Hf)
+        E = 0.5 * float(dx @ (self.M * dx)) + c * (psi + phi + dfr - grav)
         if not want_derivatives or not np.isfinite(E):
             return E, None, None
         n, d = x.shape
@@ -165,15 +233,29 @@ class ImplicitFEM(Integrator):
         elements.element_hessians(x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props,
                                   True, local)
         H = elements.assemble_hessian(fem.cells, c * local, n)
-        if k:
-            nodes = np.stack([fem.boundary[pairs[:, 0]], fem.facets[pairs[:, 1], 0], fem.facets[pairs[:, 1], 1]], 1)
-            dofs = (nodes[:, :, None] * 2 + np.arange(2)[None, None, :]).reshape(k, 6)
-            np.add.at(g, dofs.ravel(), c * gb.ravel())
+        for prs, gl, Hl in ((pairs, gb, Hb), (fr[0] if nf else pairs[:0], gf, Hf)):
+            if not len(prs):
+                continue
+            nodes = np.stack([fem.boundary[prs[:, 0]], fem.facets[prs[:, 1], 0], fem.facets[prs[:, 1], 1]], 1)
+            dofs = (nodes[:, :, None] * 2 + np.arange(2)[None, None, :]).reshape(len(prs), 6)
+            np.add.at(g, dofs.ravel(), c * gl.ravel())
             rows = np.repeat(dofs, 6, axis=1).ravel()
             cols = np.tile(dofs, (1, 6)).ravel()
-            H = H + sp.csr_matrix((c * Hb.ravel(), (rows, cols)), shape=H.shape)
+            H = H + sp.csr_matrix((c * Hl.ravel(), (rows, cols)), shape=H.shape)
         H = H + sp.diags(self.M)
         return E, g, H.tocsr()
+
+    def _lag(self, fem, x):
+        """(pairs, tau, r, mu lambda) of the contacts within dhat at the step's start (lagged
+        friction: frames and normal forces held through the step's Newton solve)."""
+        pairs = self._pairs(fem, x, np.zeros_like(x))
+        k = len(pairs)
+        if not k:
+            return None
+        mu = self.mu[self.node_mat[fem.boundary[pairs[:, 0]]], self.node_mat[fem.facets[pairs[:, 1], 0]]]
+        tau, r, mu_lambda = np.zeros((k, 2)), np.zeros(k), np.zeros(k)
+        lag_friction(x, fem.boundary, fem.facets, pairs, self.weights, mu, self.dhat, self.kappa, tau, r, mu_lambda)
+        return pairs, tau, r, mu_lambda
 
     def _step_bound(self, fem, x, p, pairs) -> tuple[float, bool]:
         """Largest alpha in (0, 1] keeping every node 10% of its distance off every edge (CCD)
@@ -199,6 +281,8 @@ class ImplicitFEM(Integrator):
         xt = xn + dt * vn + self.zeta * (1.0 - 2.0 * self.beta) * dt * dt * an
         x = xn.copy()
         x[fem.held] = (xn + dt * fem.held_velocity)[fem.held]
+        self.x_start, self.dt_step = xn, dt
+        self.friction = self._lag(fem, xn) if self.contact and self.mu.any() else None
         free = self.free
         halvings = 0
         ccd_limited = False
