@@ -52,6 +52,7 @@ from . import Integrator
 
 SCHEMES = {"backward_euler": (1.0, 0.5, 1.0), "newmark": (0.5, 0.25, 0.5)}
 PARTS = ("assemble", "solve", "ccd", "line search")
+SPRING_START, SPRING_MAX = 1e2, 1e12  # prescribed-motion spring stiffness relative to the inertia term
 
 
 def boundary_weights(x: np.ndarray, facets: np.ndarray, boundary: np.ndarray) -> np.ndarray:
@@ -162,6 +163,7 @@ class ImplicitFEM(Integrator):
                       if self.dhat else "one FEM body: no contact")]
         self.started = False
         self.friction = None
+        self.spring = None  # (moving components, their targets, stiffness) during a step
 
     # ----------------------------------------------------------------------------- pieces
     def stable_dt(self, state) -> float:
@@ -223,6 +225,11 @@ class ImplicitFEM(Integrator):
             dfr = friction_pairs(x, self.x_start, fem.boundary, fem.facets, fpairs, tau, r, mu_lambda,
                                  self.eps_v * self.dt_step, gf, Hf)
         E = 0.5 * float(dx @ (self.M * dx)) + c * (psi + phi + dfr - grav)
+        spring = self.spring
+        if spring is not None:
+            moving, target, k = spring
+            off = np.where(moving, x - target, 0.0).ravel()
+            E += 0.5 * k * float(off @ (self.M * off))
         if not want_derivatives or not np.isfinite(E):
             return E, None, None
         n, d = x.shape
@@ -243,6 +250,9 @@ class ImplicitFEM(Integrator):
             cols = np.tile(dofs, (1, 6)).ravel()
             H = H + sp.csr_matrix((c * Hl.ravel(), (rows, cols)), shape=H.shape)
         H = H + sp.diags(self.M)
+        if spring is not None:
+            g += k * self.M * off
+            H = H + sp.diags(k * self.M * moving.ravel())
         return E, g, H.tocsr()
 
     def _lag(self, fem, x):
@@ -272,18 +282,9 @@ class ImplicitFEM(Integrator):
         return alpha, limited
 
     # ----------------------------------------------------------------------------- the step
-    def advance(self, state, dt: float) -> float:
+    def _newton(self, state, x, xt, free, dt):
+        """Projected Newton from x on the free DOFs; returns (x, iterations, halvings, CCD-limited)."""
         fem = state.fem
-        if not self.started:
-            self._setup(state)
-        self.c = 2.0 * self.zeta * self.beta * dt * dt
-        xn, vn, an = fem.x.copy(), fem.v.copy(), fem.a.copy()
-        xt = xn + dt * vn + self.zeta * (1.0 - 2.0 * self.beta) * dt * dt * an
-        x = xn.copy()
-        x[fem.held] = (xn + dt * fem.held_velocity)[fem.held]
-        self.x_start, self.dt_step = xn, dt
-        self.friction = self._lag(fem, xn) if self.contact and self.mu.any() else None
-        free = self.free
         halvings = 0
         ccd_limited = False
         for it in range(1, self.max_iterations + 1):
@@ -298,7 +299,7 @@ class ImplicitFEM(Integrator):
             p = p.reshape(x.shape)
             self.timers["solve"] += wallclock.perf_counter() - t0
             if np.abs(p).max() / dt < self.tolerance:
-                break
+                return x, it, halvings, ccd_limited
             t0 = wallclock.perf_counter()
             swept = self._pairs(fem, x, p) if self.contact else pairs
             alpha, limited = self._step_bound(fem, x, p, swept)
@@ -314,12 +315,56 @@ class ImplicitFEM(Integrator):
                 halvings += 1
             self.timers["line search"] += wallclock.perf_counter() - t0
             x = trial
-        else:
-            names = " and ".join(f"'{b.name}'" for b in fem.infos)
-            raise InstabilityError(
-                f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: Newton did not converge in "
-                f"{self.max_iterations} iterations (bodies {names}; last max|p|/dt = {np.abs(p).max() / dt:.3g}); "
-                "try a smaller time.dt or a larger implicit.newton_tolerance", state.t, state.step)
+        names = " and ".join(f"'{b.name}'" for b in fem.infos)
+        raise InstabilityError(
+            f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: Newton did not converge in "
+            f"{self.max_iterations} iterations (bodies {names}; last max|p|/dt = {np.abs(p).max() / dt:.3g}); "
+            "try a smaller time.dt or a larger implicit.newton_tolerance", state.t, state.step)
+
+    def advance(self, state, dt: float) -> float:
+        """One step. Fixed components stay put (eliminated). Components moving at a prescribed
+        velocity are not moved to their target by fiat (that could push them through another
+        body): a spring 1/2 k m |x - target|^2 pulls them there inside the Newton solve, with the
+        CCD line search watching, and k grows tenfold until they are within 1e-6 of their move
+        (or of newton_tolerance x dt, what Newton resolves)."""
+        fem = state.fem
+        if not self.started:
+            self._setup(state)
+        self.c = 2.0 * self.zeta * self.beta * dt * dt
+        xn, vn, an = fem.x.copy(), fem.v.copy(), fem.a.copy()
+        xt = xn + dt * vn + self.zeta * (1.0 - 2.0 * self.beta) * dt * dt * an
+        moving = fem.held & (fem.held_velocity != 0.0)
+        fixed = fem.held & ~moving
+        target = xn + dt * fem.held_velocity
+        free = ~fixed.ravel()
+        self.x_start, self.dt_step = xn, dt
+        self.friction = self._lag(fem, xn) if self.contact and self.mu.any() else None
+        x = xn.copy()
+        its = halvings = 0
+        ccd_limited = False
+        k = SPRING_START
+        # reached: within 1e-6 of the move, or of what Newton's tolerance resolves
+        reach = max(1e-6 * (float(np.abs(target - xn)[moving].max()) if moving.any() else 0.0),
+                    self.tolerance * dt)
+        while True:
+            self.spring = (moving, target, k) if moving.any() else None
+            x, n_it, n_half, limited = self._newton(state, x, xt, free, dt)
+            its, halvings, ccd_limited = its + n_it, halvings + n_half, ccd_limited or limited
+            if self.spring is None or np.abs(x - target)[moving].max() <= reach:
+                break
+            if k >= SPRING_MAX:
+                names = ", ".join(f"'{fem.infos[b].name}'" for b in np.unique(fem.node_body[moving.any(axis=1)]))
+                raise InstabilityError(
+                    f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: the prescribed motion of {names} "
+                    f"could not be reached (off by {np.abs(x - target)[moving].max():.3g}; something blocks it)",
+                    state.t, state.step)
+            k *= 10.0
+        self.spring = None
+        if moving.any():  # work of the prescribed motion: the constraint force (gradient / c) times the move
+            pairs = self._pairs(fem, x, np.zeros_like(x)) if self.contact else np.zeros((0, 2), np.int64)
+            _, g, _ = self._energy(state, x, xt, pairs, True)
+            force = g.reshape(x.shape) / self.c
+            state.work_in += float(np.sum(np.where(moving, force * (x - xn), 0.0)))
         a_new = (x - xt) / self.c
         a_new[fem.held] = 0.0
         fem.v[:] = vn + dt * ((1.0 - self.gamma) * an + self.gamma * a_new)
@@ -327,7 +372,7 @@ class ImplicitFEM(Integrator):
         fem.a[:] = a_new
         state.work_in += float(np.sum(fem.mass[:, None] * self.gravity[None, :] * (x - xn)))
         fem.x[:] = x
-        self.stats.append((it, halvings, int(ccd_limited)))
+        self.stats.append((its, halvings, int(ccd_limited)))
         return dt
 
     def report(self) -> list[str]:

@@ -166,3 +166,41 @@ def test_block_on_a_slope_slides_at_the_coulomb_rate_or_creeps_when_friction_hol
     late = t > 0.1
     creep = np.polyfit(t[late], s[late], 1)[0]
     assert creep == pytest.approx(1e-3 * (1.0 - np.sqrt(1.0 - np.tan(th) / 0.8)), rel=0.10)
+
+
+def pushed(ceiling: bool = False):
+    """A wall (every node moving up at 1 m/s) pushes a free block (no gravity, dt = 10 ms);
+    with `ceiling`, a fixed slab above blocks the way (the wall would need to pass y = 0.3)."""
+    d = deck(gravity=None, time={"end": 0.35 if ceiling else 0.2, "dt": 0.01})
+    d["bodies"][0]["constraints"] = [{"region": {"min": [-2.0, -1.0], "max": [2.0, 1.0]}, "velocity": [0.0, 1.0]}]
+    d["bodies"][1]["velocity"] = [0.0, 0.0]
+    d["bodies"][1]["min"], d["bodies"][1]["max"] = [-0.2, 0.02], [0.2, 0.22]
+    if ceiling:
+        d["bodies"].append({"name": "ceiling", "shape": "rectangle", "min": [-1.0, 0.3], "max": [1.0, 0.4],
+                            "material": "soft", "discretization": "fem", "element_size": 0.1,
+                            "constraints": [{"region": {"min": [-2.0, 0.25], "max": [2.0, 0.5]}}]})
+    d["implicit"] = {"scheme": "backward_euler", "dhat": 0.005}
+    return Simulation(build_scene(deck_from(d)), threads=1)
+
+
+def test_a_moving_wall_reaches_its_prescribed_motion_and_pushes_without_crossing():
+    """The wall's nodes are pulled to their targets by a spring stiffened until reached (within
+    newton_tolerance x dt each step), so the block is pushed through contact, never crossed: after
+    0.2 s the wall moved 0.2 and the block went at least as far (measured 0.207: it was struck
+    and bounced slightly ahead). Against a fixed ceiling the motion cannot be completed: the run
+    stops cleanly (here Newton stalls with the block crushed, before the spring gives up)."""
+    from mpmsim.solver import InstabilityError
+
+    sim = pushed()
+    f = sim.state.fem
+    x0 = f.x.copy()
+    while sim.state.t < sim.end * (1 - 1e-9):
+        sim.step()
+        assert boundary_gap(f.x, f.facets, f.node_body, 0, 1) > 0.0
+    wall = f.node_body == 0
+    assert np.abs(f.x[wall] - x0[wall] - [0.0, 0.2]).max() < 20 * 1e-5 * 0.01  # 20 steps within tol x dt
+    lift = f.x[~wall, 1].mean() - x0[~wall, 1].mean()
+    assert lift > 0.2 - 0.02  # at least the wall's move less the starting gap: pushed, not crossed
+    assert f.v[~wall, 1].mean() >= 1.0 - 1e-6  # moving at least with the wall
+    with pytest.raises(InstabilityError, match="could not be reached|did not converge"):
+        pushed(ceiling=True).run()  # measured: Newton stalls at step 27 with the block crushed
