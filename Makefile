@@ -28,6 +28,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/column.py
 	$(BIN)/python bench/column.py --deck bench/two_blocks.yaml --matrix-steps 0
 	$(BIN)/python bench/fem_contact.py speed
+	$(BIN)/python bench/implicit.py
 
 # FEM bodies with APIC augury contact: two blocks (conservation, gap, energy), the ramp, where
 # contact fails (chart in docs/figures/), speed; about 10 minutes on one core
