@@ -157,7 +157,7 @@ class ImplicitFEM(Integrator):
         if deck.gravity:
             self.gravity[:] = deck.gravity
         self.timers = {p: 0.0 for p in PARTS}
-        self.stats: list[tuple[int, int, int, bool]] = []  # per step: Newton its, halvings, CCD-limited
+        self.stats: list[tuple[int, int, int]] = []  # per step: Newton iterations, halvings, CCD-limited
         self.plan = [("newton", f"{imp.scheme} incremental potential, projected Newton, sparse LU"),
                      ("barrier contact", f"log barrier between FEM bodies, dhat {self.dhat:g}, kappa {self.kappa:g}"
                       if self.dhat else "one FEM body: no contact")]
@@ -174,7 +174,6 @@ class ImplicitFEM(Integrator):
         dim = fem.x.shape[1]
         self.dim = dim
         self.M = np.repeat(fem.mass, dim)
-        self.free = ~fem.held.ravel()
         self.contact = self.dhat is not None and len(fem.infos) > 1 and dim == 2
         if self.contact:
             self.weights = boundary_weights(fem.X, fem.facets, fem.boundary)
@@ -227,9 +226,9 @@ class ImplicitFEM(Integrator):
         E = 0.5 * float(dx @ (self.M * dx)) + c * (psi + phi + dfr - grav)
         spring = self.spring
         if spring is not None:
-            moving, target, k = spring
+            moving, target, ks = spring
             off = np.where(moving, x - target, 0.0).ravel()
-            E += 0.5 * k * float(off @ (self.M * off))
+            E += 0.5 * ks * float(off @ (self.M * off))
         if not want_derivatives or not np.isfinite(E):
             return E, None, None
         n, d = x.shape
@@ -251,8 +250,8 @@ class ImplicitFEM(Integrator):
             H = H + sp.csr_matrix((c * Hl.ravel(), (rows, cols)), shape=H.shape)
         H = H + sp.diags(self.M)
         if spring is not None:
-            g += k * self.M * off
-            H = H + sp.diags(k * self.M * moving.ravel())
+            g += ks * self.M * off
+            H = H + sp.diags(ks * self.M * moving.ravel())
         return E, g, H.tocsr()
 
     def _lag(self, fem, x):
