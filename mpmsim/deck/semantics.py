@@ -169,6 +169,9 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
                 add(path + ["z_range"], f"a '{shape}' in a 3d deck needs z_range: [z0, z1] to extrude it")
             elif len(body.z_range) != 2 or body.z_range[1] <= body.z_range[0]:
                 add(path + ["z_range"], "z_range must be [z0, z1] with z1 > z0")
+        if body.clip is not None:  # a box in the scene's space
+            vec(path + ["clip", "min"], body.clip.min)
+            vec(path + ["clip", "max"], body.clip.max)
         pdim = 2 if shape in SHAPES_2D else 3
         for key in ("min", "max", "center", "semi_axes", "origin"):
             if hasattr(body, key):

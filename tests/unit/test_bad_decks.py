@@ -30,6 +30,10 @@ CASES = [
     ("negative modulus", [("K: 100.0", "K: -100.0")], "materials.block.K", 7, "greater than 0"),
     ("NaN modulus", [("K: 100.0", "K: .nan")], "materials.block.K", 7, "finite number"),
     ("infinite modulus", [("K: 100.0", "K: .inf")], "materials.block.K", 7, "finite number"),
+    ("clip box of the wrong dimension", [("max: [4, 4], material: block}", "max: [4, 4], material: block, "
+                                          "clip: {min: [0, 0, 0], max: [1, 1, 1]}}")],
+     "bodies.0.clip.min", 9, "2 components"),
+    ("absurd magnitude", [("K: 100.0", "K: 1.0e300")], "materials.block.K", 7, "beyond +-1e+30"),
     ("zero cell size", [("  cell_size: 1.0", "  cell_size: 0")], "grid.cell_size", 4, "must be > 0"),
     ("wrong type", [("K: 100.0", "K: stiff")], "materials.block.K", 7, "number"),
     ("unknown material type", [("type: neo_hookean", "type: neo_hokean")], "materials.block", 7, "neo_hookean"),
