@@ -4,6 +4,7 @@
     python bench/fem_contact.py stability   # where contact fails: impact speed x mesh, chart
     python bench/fem_contact.py ramp        # block on a 30 degree ramp against the analytic slide
     python bench/fem_contact.py speed       # element-steps/s of the FEM update, augury cost per node
+    python bench/fem_contact.py sliding     # loss of sliding speed per step between two long node rows
     python bench/fem_contact.py all
 
 Every run is one thread; results go to results/fem_contact/*.json and the charts to
@@ -188,6 +189,37 @@ def ramp() -> list[dict]:
     return rows
 
 
+# ------------------------------------------------------------------------------------ sliding
+def sliding_loss(offset: float, apic: bool, iterations: int, h: float = 0.5) -> float:
+    """Fraction of the relative tangential speed one augury correction (tau = dt) removes
+    between two long rows of boundary nodes in contact (spacing h, augury cell h / 2 as in the
+    ramp test, equal masses, frictionless), the upper row shifted by `offset` and sliding at
+    unit speed over the lower; measured on the middle half of the rows."""
+    from mpmsim.augury import BSPLINE2, AuguryGrid, augury_correction
+
+    s = np.arange(-20, 21) * h
+    k = len(s)
+    x = np.r_[np.c_[s + offset, np.zeros(k)], np.c_[s, np.zeros(k)]]
+    v = np.zeros((2 * k, 2))
+    v[:k, 0] = 1.0
+    normal = np.zeros((2 * k, 2))
+    normal[:k, 1], normal[k:, 1] = -1.0, 1.0
+    acc, _ = augury_correction(x, np.ones(2 * k), v, np.zeros((2 * k, 2, 2)), normal, np.zeros(2 * k),
+                               AuguryGrid(0.5 * h, BSPLINE2, apic), iterations, 1.0)
+    mid = slice(k // 4, k - k // 4)
+    return float(1.0 - ((1.0 + acc[:k][mid, 0]) - acc[k:][mid, 0]).mean())
+
+
+def sliding() -> list[dict]:
+    rows = []
+    for transfer in ("pic", "apic"):
+        for n in (1, 2, 4, 8):
+            loss = [sliding_loss(f * 0.5, transfer == "apic", n) for f in (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)]
+            rows.append({"transfer": transfer, "N": n, "offset_over_h": [0.0, 0.1, 0.2, 0.3, 0.4, 0.5], "loss": loss})
+            print(f"{transfer:4s} N={n}: " + " ".join(f"{v:.4f}" for v in loss), flush=True)
+    return rows
+
+
 # ------------------------------------------------------------------------------------ speed
 def speed() -> dict:
     """Per-task cost of the 2D blocks at h = 0.0625 (9216 triangles) after a compiling step."""
@@ -218,7 +250,7 @@ def save(name: str, data) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["blocks", "stability", "ramp", "speed", "all"])
+    ap.add_argument("what", choices=["blocks", "stability", "ramp", "speed", "sliding", "all"])
     what = ap.parse_args().what
     import numba
 
@@ -229,6 +261,8 @@ def main() -> None:
         save("blocks", blocks())
     if what in ("ramp", "all"):
         save("ramp", ramp())
+    if what in ("sliding", "all"):
+        save("sliding", sliding())
     if what in ("stability", "all"):
         rows = stability()
         save("stability", rows)
