@@ -40,14 +40,18 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     problems += _check_fem_bodies(deck, fem, base_dir)
     if deck.integrator == "implicit":
         if particle_bodies:
-            add(["integrator"], f"implicit integration of particle bodies (bodies.{particle_bodies[0]}) is not "
-                                "available yet: use integrator: explicit")
-        if not fem:
-            add(["integrator"], "implicit integration needs an FEM body (discretization: fem)")
+            if deck.update.scheme not in ("pic", "flip", "apic"):
+                add(["update", "scheme"], f"implicit particle bodies take pic, flip or apic transfers, not "
+                                          f"{deck.update.scheme}")
+            if deck.shape_function in ("cpdi", "cpdi_q", "b2cpdi"):
+                add(["shape_function"], "implicit particle bodies take a tensor-product shape function "
+                                        "(linear, gimp, bspline2, bspline3)")
+            if deck.dim == 3 and fem:
+                add(["integrator"], "implicit barrier contact between particles and FEM bodies is 2D for now")
         if deck.time.dt is None:
             add(["time", "dt"], "implicit integration takes a fixed time step: give time.dt")
-        if len(fem) > 1 and (deck.implicit is None or deck.implicit.dhat is None):
-            add(["implicit", "dhat"], "two or more FEM bodies meet through the barrier: give implicit.dhat")
+        if (len(fem) > 1 or (fem and particle_bodies)) and (deck.implicit is None or deck.implicit.dhat is None):
+            add(["implicit", "dhat"], "bodies meet through the barrier: give implicit.dhat")
         if deck.contact.augury is not None:
             add(["contact", "augury"], "augury contact is explicit; implicit integration uses the barrier")
         if deck.dim == 3 and len(fem) > 1:
@@ -235,8 +239,13 @@ def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple,
             if body.shape == "mesh":
                 add(path + ["discretization"], "a mesh file makes an FEM body: set discretization: fem")
             mat = deck.materials.get(body.material)
-            if mat is not None and mat.type == "compressible_neo_hookean":
-                add(path + ["material"], "compressible_neo_hookean is for FEM bodies; particles use neo_hookean")
+            if deck.integrator == "implicit":
+                if mat is not None and mat.type not in FEM_MATERIALS:
+                    add(path + ["material"], f"implicit particle bodies use {' or '.join(FEM_MATERIALS)}, "
+                                             f"not {mat.type}")
+            elif mat is not None and mat.type == "compressible_neo_hookean":
+                add(path + ["material"], "compressible_neo_hookean is for FEM bodies and implicit particle bodies; "
+                                         "explicit particles use neo_hookean")
             continue
         if body.shape not in FEM_SHAPES:
             add(path + ["shape"], f"an FEM body is one of {', '.join(sorted(FEM_SHAPES))}, not '{body.shape}'")

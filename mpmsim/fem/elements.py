@@ -59,6 +59,10 @@ __all__ = [
     "first_piola",
     "internal_forces",
     "lumped_masses",
+    "point_energies",
+    "point_forces",
+    "point_hessians",
+    "point_states",
     "project_psd",
     "reference_geometry",
     "stable_time_step",
@@ -283,6 +287,48 @@ def first_bad(bad):
 # ----------------------------------------------------------------------------- chunk bodies
 # Each kernel below runs its chunk body once (small meshes) or over chunks in prange; a body
 # allocates its scratch once and returns the first element of its range with J <= 0 (-1: none).
+@njit(cache=True, inline="always")
+def local_forces(P, g, vol, out):
+    """out[n, a] = -vol sum_b P_ab g_{n,b}: the nodal forces of one element (or MPM particle)
+    with shape-function gradients g (nodes, d) and first Piola stress P."""
+    d = P.shape[0]
+    for n in range(g.shape[0]):
+        for a in range(d):
+            s = 0.0
+            for b in range(d):
+                s += P[a, b] * g[n, b]
+            out[n, a] = -vol * s
+
+
+@njit(cache=True, inline="always")
+def local_hessian(C, g, vol, T, H):
+    """H[n*d + a, q*d + c] = vol sum_{b,e} g_{n,b} C[a*d+b, c*d+e] g_{q,e}: the Hessian of one
+    element's (or MPM particle's) energy, node-major, exactly symmetric; T (d*d, nodes*d)
+    scratch."""
+    nn, d = g.shape
+    k = nn * d
+    # T[(a,b), (q,c)] = sum_e' C[a*d+b, c*d+e'] g[q, e']
+    for r in range(d * d):
+        for q in range(nn):
+            for c in range(d):
+                s = 0.0
+                for ep in range(d):
+                    s += C[r, c * d + ep] * g[q, ep]
+                T[r, q * d + c] = s
+    for n in range(nn):
+        for a in range(d):
+            for col in range(k):
+                s = 0.0
+                for b in range(d):
+                    s += g[n, b] * T[a * d + b, col]
+                H[n * d + a, col] = vol * s
+    for i in range(k):  # exact symmetry (the two triangles differ in rounding)
+        for j in range(i + 1, k):
+            v = 0.5 * (H[i, j] + H[j, i])
+            H[i, j] = v
+            H[j, i] = v
+
+
 @njit(cache=True)
 def _energies_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, out, start, stop):
     d = x.shape[1]
@@ -311,12 +357,7 @@ def _forces_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, fe, start, stop
         J = first_piola(code[mt], props[mt], F, P, Finv)
         if not (J > 0.0) and bad < 0:
             bad = e
-        for n in range(d + 1):
-            for a in range(d):
-                s = 0.0
-                for b in range(d):
-                    s += P[a, b] * g[n, b]
-                fe[e, n, a] = -vol0[e] * s
+        local_forces(P, g, vol0[e], fe[e])
     return bad
 
 
@@ -360,29 +401,9 @@ def _hessians_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, project, out,
         J = stress_tangent(code[mt], props[mt], F, C, Finv)
         if not (J > 0.0) and bad < 0:
             bad = e
-        # T[(a,b), (q,c)] = sum_e' C[a*d+b, c*d+e'] g[q, e']
-        for r in range(d * d):
-            for q in range(d + 1):
-                for c in range(d):
-                    s = 0.0
-                    for ep in range(d):
-                        s += C[r, c * d + ep] * g[q, ep]
-                    T[r, q * d + c] = s
-        H = out[e]
-        for n in range(d + 1):
-            for a in range(d):
-                for col in range(k):
-                    s = 0.0
-                    for b in range(d):
-                        s += g[n, b] * T[a * d + b, col]
-                    H[n * d + a, col] = vol0[e] * s
-        for i in range(k):  # exact symmetry (the two triangles differ in rounding)
-            for j in range(i + 1, k):
-                v = 0.5 * (H[i, j] + H[j, i])
-                H[i, j] = v
-                H[j, i] = v
+        local_hessian(C, g, vol0[e], T, out[e])
         if project:
-            project_psd(H)
+            project_psd(out[e])
     return bad
 
 
@@ -607,6 +628,101 @@ def lumped_masses(cells, vol0, cell_mat, density, n_nodes):
         for n in range(k):
             mass[cells[e, n]] += share
     return mass
+
+
+# ----------------------------------------------------------------------------- MPM particles as elements
+# An implicit MPM step moves the active grid nodes by u_i with the particles' weights frozen at
+# the step's start: F_p = [I + sum_i u_i grad w_ip^T] F_p^n = F_p^n + sum_k u_{node(p,k)} G_pk^T
+# with G_pk = F_p^n^T grad w_ip. So a particle is an element whose nodes are its grid nodes and
+# whose shape-function gradients are G_pk, with vol0_p its initial volume: the same local
+# forces and Hessians as a simplex (local_forces, local_hessian).
+@njit(cache=True, inline="always")
+def point_F(u, nodes, G, F0, p, F):
+    """F = F0_p + sum_k u[nodes[p, k]] G[p, k]^T into F (d, d)."""
+    d = F.shape[0]
+    for a in range(d):
+        for b in range(d):
+            s = F0[p, a, b]
+            for k in range(nodes.shape[1]):
+                s += u[nodes[p, k], a] * G[p, k, b]
+            F[a, b] = s
+
+
+@njit(cache=True)
+def point_energies(u, nodes, G, F0, vol0, mat, code, props, out):
+    """out[p] = vol0_p psi(F_p(u)) (inf when a neo-Hookean particle inverts). Returns the
+    first particle with J <= 0 (-1: none)."""
+    d = u.shape[1]
+    F = np.empty((d, d))
+    bad = -1
+    for p in range(nodes.shape[0]):
+        point_F(u, nodes, G, F0, p, F)
+        if not (det_minus_one(F) > -1.0) and bad < 0:
+            bad = p
+        out[p] = vol0[p] * energy_density(code[mat[p]], props[mat[p]], F)
+    return bad
+
+
+@njit(cache=True)
+def point_forces(u, nodes, G, F0, vol0, mat, code, props, f):
+    """Grid-node forces f = -d(sum_p vol0_p psi(F_p))/du into f (n_nodes, d) (overwritten),
+    summed in particle order. Returns the first particle with J <= 0 (-1: none)."""
+    d = u.shape[1]
+    K = nodes.shape[1]
+    work = np.empty((3, d, d))
+    F, P, Finv = work[0], work[1], work[2]
+    fe = np.empty((K, d))
+    f[:] = 0.0
+    bad = -1
+    for p in range(nodes.shape[0]):
+        point_F(u, nodes, G, F0, p, F)
+        mt = mat[p]
+        J = first_piola(code[mt], props[mt], F, P, Finv)
+        if not (J > 0.0) and bad < 0:
+            bad = p
+        local_forces(P, G[p], vol0[p], fe)
+        for k in range(K):
+            for a in range(d):
+                f[nodes[p, k], a] += fe[k, a]
+    return bad
+
+
+@njit(cache=True)
+def point_hessians(u, nodes, G, F0, vol0, mat, code, props, project, out):
+    """Local Hessians out[p] (K d, K d) of each particle's energy over its grid nodes
+    (node-major), projected to PSD when asked. Returns the first particle with J <= 0."""
+    d = u.shape[1]
+    K = nodes.shape[1]
+    work = np.empty((2, d, d))
+    F, Finv = work[0], work[1]
+    C = np.empty((d * d, d * d))
+    T = np.empty((d * d, K * d))
+    bad = -1
+    for p in range(nodes.shape[0]):
+        point_F(u, nodes, G, F0, p, F)
+        mt = mat[p]
+        J = stress_tangent(code[mt], props[mt], F, C, Finv)
+        if not (J > 0.0) and bad < 0:
+            bad = p
+        local_hessian(C, G[p], vol0[p], T, out[p])
+        if project:
+            project_psd(out[p])
+    return bad
+
+
+@njit(cache=True)
+def point_states(u, nodes, G, F0, mat, code, props, F_out, cauchy):
+    """Each particle's F (into F_out (n, d, d)) and Cauchy stress (Voigt, into cauchy (n, 6))
+    after the grid moved by u."""
+    d = u.shape[1]
+    work = np.empty((2, d, d))
+    P, Finv = work[0], work[1]
+    for p in range(nodes.shape[0]):
+        F = F_out[p]
+        point_F(u, nodes, G, F0, p, F)
+        mt = mat[p]
+        J = first_piola(code[mt], props[mt], F, P, Finv)
+        cauchy_from_piola(code[mt], props[mt], F, P, J, cauchy[p])
 
 
 # ----------------------------------------------------------------------------- assembly (setup / implicit)

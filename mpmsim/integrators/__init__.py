@@ -38,7 +38,7 @@ class Integrator:
 def make_integrator(scene) -> Integrator:
     """The deck's integrator for this scene."""
     from .explicit import ExplicitMPM
-    from .implicit import ImplicitFEM
+    from .implicit import ImplicitStep
 
-    kinds = {"explicit": ExplicitMPM, "implicit": ImplicitFEM}
+    kinds = {"explicit": ExplicitMPM, "implicit": ImplicitStep}
     return kinds[scene.deck.integrator](scene)

@@ -36,6 +36,8 @@ contact.
 from __future__ import annotations
 
 import time as wallclock
+from types import SimpleNamespace
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -43,12 +45,13 @@ from scipy.sparse.linalg import splu
 
 from numba import njit
 
-from ..barrier import (barrier_normal_force, point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs,
+from ..barrier import (barrier_normal_force, det_step_bound, point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs,
                        point_edge_distance, point_edge_friction, point_edge_friction_frame, triangle_step_bound)
 from ..deck.schema import Implicit
 from ..errors import InstabilityError
 from ..fem import elements
 from . import Integrator
+from .implicit_mpm import GridUnknowns
 
 SCHEMES = {"backward_euler": (1.0, 0.5, 1.0), "newmark": (0.5, 0.25, 0.5)}
 PARTS = ("assemble", "solve", "ccd", "line search")
@@ -104,13 +107,13 @@ def friction_pairs(x, x0, boundary, facets, pairs, tau, r, mu_lambda, eps, grads
 
 
 def check_initial_gaps(scene, dhat: float) -> None:
-    """Deck error when two FEM bodies start closer than dhat (the barrier would start infinite
-    or already pushing)."""
+    """Deck error when two FEM bodies, or a particle and an FEM body, start closer than dhat
+    (the barrier would start infinite or already pushing)."""
     from ..deck.loader import raise_at
     from ..fem.probes import boundary_gap
 
     fem = scene.fem
-    if fem.points.shape[1] != 2:
+    if fem is None or fem.points.shape[1] != 2:
         return
     problems = []
     n = len(fem.infos)
@@ -121,12 +124,70 @@ def check_initial_gaps(scene, dhat: float) -> None:
                 problems.append((("implicit", "dhat"), f"bodies '{fem.infos[a].name}' and '{fem.infos[b].name}' "
                                  f"start {gap:.4g} apart, not farther than dhat = {dhat:g}: move them apart "
                                  "or lower dhat"))
+    seed = scene.deformable if scene.has_particles else None
+    if seed is not None and len(seed.x):
+        x = seed.x
+        pairs = point_edge_candidates(x, np.zeros_like(x), fem.points, np.zeros_like(fem.points), fem.facets, dhat,
+                                      np.full(len(x), -1, np.int64))
+        y = np.empty(6)
+        for q, e in pairs:
+            a, b = fem.facets[e]
+            y[:] = (*x[q], *fem.points[a], *fem.points[b])
+            d = point_edge_distance(y)
+            if d <= dhat:
+                problems.append((("implicit", "dhat"), f"a particle of '{scene.deck.bodies[seed.body[q]].name}' at "
+                                 f"{x[q].round(6).tolist()} starts {d:.4g} from the boundary of "
+                                 f"'{fem.infos[fem.node_body[a]].name}', not farther than dhat = {dhat:g}: move "
+                                 "the bodies apart or lower dhat"))
+                break
     if problems:
         raise_at(problems, scene.loaded)
 
 
-class ImplicitFEM(Integrator):
-    """`integrator: implicit`: the incremental-potential step above, for scenes of FEM bodies."""
+def assemble(nodes: np.ndarray, local: np.ndarray, n_nodes: int, dim: int):
+    """Sparse (CSR) n_nodes*dim square matrix from local node-major Hessians local (m, k d, k d)
+    over node lists nodes (m, k) (duplicates summed)."""
+    m, k = nodes.shape
+    dofs = (nodes[:, :, None] * dim + np.arange(dim)[None, None, :]).reshape(m, k * dim)
+    rows = np.repeat(dofs, k * dim, axis=1).ravel()
+    cols = np.tile(dofs, (1, k * dim)).ravel()
+    n = n_nodes * dim
+    return sp.csr_matrix((np.asarray(local).ravel(), (rows, cols)), shape=(n, n))
+
+
+def empty_fem(dim: int) -> SimpleNamespace:
+    """A scene without FEM bodies, as the implicit step reads one."""
+    z = np.zeros((0, dim))
+    return SimpleNamespace(X=z, x=z.copy(), v=z.copy(), a=z.copy(), mass=np.zeros(0), held=np.zeros((0, dim), bool),
+                           held_velocity=z.copy(), cells=np.zeros((0, dim + 1), np.int64),
+                           Dm_inv=np.zeros((0, dim, dim)), vol0=np.zeros(0), cell_mat=np.zeros(0, np.int64),
+                           facets=np.zeros((0, dim), np.int64), boundary=np.zeros(0, np.int64),
+                           node_body=np.zeros(0, np.int64), infos=[], n=0)
+
+
+class ContactPoints(NamedTuple):
+    """The points that meet FEM boundary edges through the barrier, for one step: FEM boundary
+    nodes and MPM particles. A point's position is sum_k w[q, k] y[node[q, k]] + offset[q] over
+    the unknowns y (an FEM node: itself; a particle: its frozen grid weights)."""
+
+    node: np.ndarray  # (n, K) unknown (row of y) of each entry
+    w: np.ndarray  # (n, K)
+    offset: np.ndarray  # (n, d)
+    body: np.ndarray  # (n,) body (FEM rows in infos; particle bodies after them)
+    vertex: np.ndarray  # (n,) the point's FEM node index (-1 for particles): no pair with its own edges
+    weight: np.ndarray  # (n,) barrier weight w_p (boundary length share; particle width)
+    mat: np.ndarray  # (n,) material (friction)
+
+    def positions(self, y: np.ndarray) -> np.ndarray:
+        return np.einsum("qk,qkc->qc", self.w, y[self.node]) + self.offset
+
+    def moves(self, p: np.ndarray) -> np.ndarray:
+        return np.einsum("qk,qkc->qc", self.w, p[self.node])
+
+
+class ImplicitStep(Integrator):
+    """`integrator: implicit`: the incremental-potential step above, for FEM bodies and MPM
+    particle bodies (implicit_mpm.GridUnknowns)."""
 
     name = "implicit"
 
@@ -139,11 +200,11 @@ class ImplicitFEM(Integrator):
         self.max_iterations = imp.max_newton_iterations
         self.dhat = imp.dhat
         mats = scene.materials
-        used = sorted(set(int(c) for c in scene.fem.cell_mat))
+        used = set(int(c) for c in scene.fem.cell_mat) if scene.fem is not None else set()
+        used |= {mats.deformable.index(b.material) for b in deck.bodies
+                 if b.discretization == "particles" and b.material in mats.deformable}
         young = max(float(deck.materials[mats.deformable[m]].E) for m in used)
         self.kappa = imp.kappa if imp.kappa is not None else 1e-3 * young
-        if self.dhat is not None:
-            check_initial_gaps(scene, self.dhat)
         self.eps_v = imp.friction_velocity
         c = deck.contact
         self.mu = np.full((len(mats.deformable),) * 2, c.default.friction if c.default.law == "coulomb" else 0.0)
@@ -158,9 +219,19 @@ class ImplicitFEM(Integrator):
             self.gravity[:] = deck.gravity
         self.timers = {p: 0.0 for p in PARTS}
         self.stats: list[tuple[int, int, int]] = []  # per step: Newton iterations, halvings, CCD-limited
-        self.plan = [("newton", f"{imp.scheme} incremental potential, projected Newton, sparse LU"),
-                     ("barrier contact", f"log barrier between FEM bodies, dhat {self.dhat:g}, kappa {self.kappa:g}"
-                      if self.dhat else "one FEM body: no contact")]
+        n_fem = len(scene.fem.infos) if scene.fem is not None else 0
+        self.grid = GridUnknowns(deck.update.scheme) if scene.has_particles else None
+        bodies = n_fem + (1 if self.grid is not None else 0)
+        self.contact = self.dhat is not None and n_fem >= 1 and bodies > 1 and scene.dim == 2
+        if self.dhat is not None:
+            check_initial_gaps(scene, self.dhat)
+        what = "FEM bodies" if self.grid is None else ("particle bodies" if not n_fem else "FEM and particle bodies")
+        self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, sparse LU"),
+                     ("barrier contact", f"log barrier on FEM boundary edges, dhat {self.dhat:g}, kappa {self.kappa:g}"
+                      if self.contact else "no contact")]
+        if self.grid is not None:
+            self.plan.insert(0, ("grid unknowns", f"particles -> active grid nodes ({deck.update.scheme} transfers), "
+                                                  "weights frozen over the step"))
         self.started = False
         self.friction = None
         self.spring = None  # (moving components, their targets, stiffness) during a step
@@ -170,155 +241,243 @@ class ImplicitFEM(Integrator):
         return self.dt
 
     def _setup(self, state) -> None:
-        fem, m = state.fem, state.materials
-        dim = fem.x.shape[1]
+        dim = state.dim
         self.dim = dim
-        self.M = np.repeat(fem.mass, dim)
-        self.contact = self.dhat is not None and len(fem.infos) > 1 and dim == 2
+        fem = state.fem if state.fem is not None else empty_fem(dim)
+        self.fem = fem
+        m = state.materials
+        self.n_fem_bodies = len(fem.infos)
         if self.contact:
-            self.weights = boundary_weights(fem.X, fem.facets, fem.boundary)
             self.edge_body = fem.node_body[fem.facets[:, 0]]
             node_mat = np.zeros(fem.n, dtype=np.int64)
             node_mat[fem.cells.ravel()] = np.repeat(fem.cell_mat, fem.cells.shape[1])
             self.node_mat = node_mat
+            self.boundary_weight = boundary_weights(fem.X, fem.facets, fem.boundary)
         # a^0: the mechanical acceleration at the initial state
         f = np.zeros_like(fem.x)
         elements.internal_forces(fem.x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props, f)
-        fem.a[:] = f / fem.mass[:, None] + self.gravity
+        fem.a[:] = f / fem.mass[:, None] + self.gravity if fem.n else 0.0
         fem.a[fem.held] = 0.0
+        if self.grid is not None:
+            grid = self.grid
+            grid.begin(state)
+            fg = grid.forces(np.zeros_like(grid.X), m)
+            a_grid = np.where(grid.mass[:, None] > 0.0, fg / np.maximum(grid.mass, 1e-300)[:, None], 0.0) + self.gravity
+            grid.a = np.einsum("pk,pkc->pc", grid.S, a_grid[grid.nodes])
+            grid.begin(state)  # the grid's a^n from these
         self.started = True
 
-    def _pairs(self, fem, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """Point-edge pairs of different bodies whose swept boxes over x -> x + p come within dhat."""
+    def _points(self, state) -> ContactPoints | None:
+        """This step's contact points (FEM boundary nodes, then particles)."""
+        if not self.contact:
+            return None
+        fem, d = self.fem, self.dim
         b = fem.boundary
-        pairs = point_edge_candidates(x[b], p[b], x, p, fem.facets, self.dhat, b)
+        grid = self.grid
+        K = grid.S.shape[1] if grid is not None else 1
+        nb = len(b)
+        node = np.zeros((nb, K), np.int64)
+        w = np.zeros((nb, K))
+        node[:, 0], w[:, 0] = b, 1.0
+        parts = [(node, w, np.zeros((nb, d)), fem.node_body[b], b, self.boundary_weight, self.node_mat[b])]
+        if grid is not None:
+            P = state.particles
+            off = grid.x0 - np.einsum("pk,pkc->pc", grid.S, grid.X[grid.nodes])
+            width = P.vol0 ** (1.0 / d) if d == 2 else P.vol0 ** (2.0 / 3.0)
+            parts.append((fem.n + grid.nodes, grid.S, off, self.n_fem_bodies + np.zeros(P.n, np.int64),
+                          np.full(P.n, -1, np.int64), width, P.mat))
+        return ContactPoints(*(np.concatenate([q[k] for q in parts]) for k in range(7)))
+
+    def _pairs(self, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Point-edge pairs (k, 2) of different bodies whose swept boxes over y -> y + p come
+        within dhat."""
+        fem, pts = self.fem, self.points
+        nf = fem.n
+        pairs = point_edge_candidates(pts.positions(y), pts.moves(p), y[:nf], p[:nf], fem.facets, self.dhat,
+                                      pts.vertex)
         if len(pairs):
-            keep = fem.node_body[b[pairs[:, 0]]] != self.edge_body[pairs[:, 1]]
-            pairs = pairs[keep]
+            pairs = pairs[pts.body[pairs[:, 0]] != self.edge_body[pairs[:, 1]]]
         return pairs
 
-    def _energy(self, state, x, xt, pairs, want_derivatives):
-        """E(x) (inf if an element inverted or a pair touched), and when asked its gradient
-        (n*d,) and PSD-projected Hessian (CSR)."""
-        fem, m = state.fem, state.materials
-        c = self.c
-        dx = (x - xt).ravel()
+    def _pair_terms(self, point, others, gl, Hl, g, n_y):
+        """Add c times pair terms to g and return their Hessian (CSR): local gradients gl
+        (k, (1 + s) d) and Hessians Hl over (point, s FEM nodes `others` (k, s)), the point's
+        part mapped to the unknowns through its weights."""
+        pts, d, c = self.points, self.dim, self.c
+        K = pts.node.shape[1]
+        k, s = others.shape
+        nodes = np.concatenate([pts.node[point], others], axis=1)  # (k, K + s)
+        wts = np.concatenate([pts.w[point], np.ones((k, s))], axis=1)
+        block = np.r_[np.zeros(K, np.int64), 1 + np.arange(s)]
+        G = gl.reshape(k, 1 + s, d)[:, block, :] * wts[:, :, None]
+        np.add.at(g.reshape(-1, d), nodes, c * G)
+        H4 = Hl.reshape(k, 1 + s, d, 1 + s, d)[:, block][:, :, :, block]  # (k, K+s, d, K+s, d)
+        H4 = H4 * (wts[:, :, None, None, None] * wts[:, None, None, :, None])
+        return assemble(nodes, c * H4.reshape(k, (K + s) * d, (K + s) * d), n_y, d)
+
+    def _energy(self, state, y, yt, pairs, want_derivatives):
+        """E(y) (inf if an element or particle inverted or a pair touched), and when asked its
+        gradient (n*d,) and PSD-projected Hessian (CSR)."""
+        fem, m, grid = self.fem, state.materials, self.grid
+        c, nf, d = self.c, self.fem.n, self.dim
+        yf = y[:nf]
+        dx = (y - yt).ravel()
         e_int = np.empty(len(fem.cells))
-        elements.element_energies(x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props, e_int)
+        elements.element_energies(yf, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props, e_int)
         psi = float(e_int.sum())
-        grav = float(np.sum(fem.mass[:, None] * self.gravity[None, :] * x))
+        if grid is not None:
+            psi += grid.energy(y[nf:] - grid.X, m)
+        grav = float(np.sum(self.mass[:, None] * self.gravity[None, :] * y))
         k = len(pairs)
-        gb = np.zeros((k, 6))
-        Hb = np.zeros((k, 6, 6))
+        gb, Hb = np.zeros((k, 6)), np.zeros((k, 6, 6))
         phi = 0.0
+        pts = self.points
         if k:
-            phi = point_edge_barrier_pairs(x[fem.boundary], x, fem.facets, pairs, self.dhat, self.kappa,
-                                           self.weights, gb, Hb, True)
+            phi = point_edge_barrier_pairs(pts.positions(y), yf, fem.facets, pairs, self.dhat, self.kappa,
+                                           pts.weight, gb, Hb, True)
         fr = self.friction
-        nf = len(fr[0]) if fr is not None else 0
-        gf = np.zeros((nf, 6))
-        Hf = np.zeros((nf, 6, 6))
+        nf_pairs = len(fr[0]) if fr is not None else 0
+        gf, Hf = np.zeros((nf_pairs, 6)), np.zeros((nf_pairs, 6, 6))
         dfr = 0.0
-        if nf:
+        if nf_pairs:
             fpairs, tau, r, mu_lambda = fr
-            dfr = friction_pairs(x, self.x_start, fem.boundary, fem.facets, fpairs, tau, r, mu_lambda,
-                                 self.eps_v * self.dt_step, gf, Hf)
+            ext, ext0, ids = self._extended(y)
+            dfr = friction_pairs(ext, ext0, ids, fem.facets, fpairs, tau, r, mu_lambda, self.eps_v * self.dt_step,
+                                 gf, Hf)
         E = 0.5 * float(dx @ (self.M * dx)) + c * (psi + phi + dfr - grav)
         spring = self.spring
         if spring is not None:
             moving, target, ks = spring
-            off = np.where(moving, x - target, 0.0).ravel()
+            off = np.where(moving, y - target, 0.0).ravel()
             E += 0.5 * ks * float(off @ (self.M * off))
         if not want_derivatives or not np.isfinite(E):
             return E, None, None
-        n, d = x.shape
-        f = np.zeros_like(x)
-        elements.internal_forces(x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props, f)
-        g = self.M * dx + c * (-f - fem.mass[:, None] * self.gravity[None, :]).ravel()
-        local = np.zeros((len(fem.cells), (d + 1) * d, (d + 1) * d))
-        elements.element_hessians(x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props,
-                                  True, local)
-        H = elements.assemble_hessian(fem.cells, c * local, n)
-        for prs, gl, Hl in ((pairs, gb, Hb), (fr[0] if nf else pairs[:0], gf, Hf)):
-            if not len(prs):
-                continue
-            nodes = np.stack([fem.boundary[prs[:, 0]], fem.facets[prs[:, 1], 0], fem.facets[prs[:, 1], 1]], 1)
-            dofs = (nodes[:, :, None] * 2 + np.arange(2)[None, None, :]).reshape(len(prs), 6)
-            np.add.at(g, dofs.ravel(), c * gl.ravel())
-            rows = np.repeat(dofs, 6, axis=1).ravel()
-            cols = np.tile(dofs, (1, 6)).ravel()
-            H = H + sp.csr_matrix((c * Hl.ravel(), (rows, cols)), shape=H.shape)
-        H = H + sp.diags(self.M)
+        n_y = len(y)
+        f = np.zeros_like(y)
+        elements.internal_forces(yf, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props, f[:nf])
+        blocks = []
+        if len(fem.cells):
+            local = np.zeros((len(fem.cells), (d + 1) * d, (d + 1) * d))
+            elements.element_hessians(yf, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props,
+                                      True, local)
+            blocks.append(assemble(fem.cells, c * local, n_y, d))
+        if grid is not None:
+            u = y[nf:] - grid.X
+            f[nf:] = grid.forces(u, m)
+            blocks.append(assemble(nf + grid.nodes, c * grid.hessians(u, m), n_y, d))
+        g = self.M * dx + c * (-f - self.mass[:, None] * self.gravity[None, :]).ravel()
+        terms = [(pairs, fem.facets[pairs[:, 1]], gb, Hb)]
+        if nf_pairs:
+            terms.append((fr[0], fem.facets[fr[0][:, 1]], gf, Hf))
+        for prs, others, gl, Hl in terms:
+            if len(prs):
+                blocks.append(self._pair_terms(prs[:, 0], others, gl, Hl, g, n_y))
+        H = sp.diags(self.M).tocsr()
+        for blk in blocks:
+            H = H + blk
         if spring is not None:
             g += ks * self.M * off
             H = H + sp.diags(ks * self.M * moving.ravel())
         return E, g, H.tocsr()
 
-    def _lag(self, fem, x):
+    def _extended(self, y):
+        """(FEM nodes then contact points) now and at the step's start, and the points' rows:
+        the layout the friction kernels read (points by row, edges by FEM node)."""
+        nf = self.fem.n
+        ext = np.concatenate([y[:nf], self.points.positions(y)])
+        ext0 = np.concatenate([self.y_start[:nf], self.points.positions(self.y_start)])
+        return ext, ext0, nf + np.arange(len(self.points.node))
+
+    def _lag(self, y):
         """(pairs, tau, r, mu lambda) of the contacts within dhat at the step's start (lagged
         friction: frames and normal forces held through the step's Newton solve)."""
-        pairs = self._pairs(fem, x, np.zeros_like(x))
+        pairs = self._pairs(y, np.zeros_like(y))
         k = len(pairs)
         if not k:
             return None
-        mu = self.mu[self.node_mat[fem.boundary[pairs[:, 0]]], self.node_mat[fem.facets[pairs[:, 1], 0]]]
+        fem, pts = self.fem, self.points
+        mu = self.mu[pts.mat[pairs[:, 0]], self.node_mat[fem.facets[pairs[:, 1], 0]]]
         tau, r, mu_lambda = np.zeros((k, 2)), np.zeros(k), np.zeros(k)
-        lag_friction(x, fem.boundary, fem.facets, pairs, self.weights, mu, self.dhat, self.kappa, tau, r, mu_lambda)
+        ext, _, ids = self._extended(y)
+        lag_friction(ext, ids, fem.facets, pairs, pts.weight, mu, self.dhat, self.kappa, tau, r, mu_lambda)
         return pairs, tau, r, mu_lambda
 
-    def _step_bound(self, fem, x, p, pairs) -> tuple[float, bool]:
-        """Largest alpha in (0, 1] keeping every node 10% of its distance off every edge (CCD)
-        and every triangle's det F > 0; and whether CCD limited it."""
+    def _step_bound(self, y, p, pairs) -> tuple[float, bool]:
+        """Largest alpha in (0, 1] keeping every point 10% of its distance off every edge (CCD)
+        and every triangle's and particle's det F > 0; and whether CCD limited it."""
+        fem, grid, nf = self.fem, self.grid, self.fem.n
         alpha = 1.0
         if len(fem.cells) and self.dim == 2:
-            alpha = min(alpha, triangle_step_bound(x, p, fem.cells))
+            alpha = min(alpha, triangle_step_bound(y[:nf], p[:nf], fem.cells))
+        if grid is not None:
+            A = grid.deformation(y[nf:] - grid.X)
+            B = grid.deformation(p[nf:]) - grid.F0
+            alpha = min(alpha, det_step_bound(A, B))
         limited = False
         if len(pairs):
-            b = fem.boundary
-            a_ccd = point_edge_ccd_pairs(x[b], p[b], x, p, fem.facets, pairs)
+            pts = self.points
+            a_ccd = point_edge_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], fem.facets, pairs)
             if a_ccd < alpha:
                 alpha, limited = a_ccd, True
         return alpha, limited
 
+    def _step_size(self, p: np.ndarray) -> float:
+        """max |p| over the FEM nodes and over the particles (a particle moves by sum_i w_ip p_i;
+        a grid node's own move means nothing where it weighs little)."""
+        nf, grid = self.fem.n, self.grid
+        size = float(np.abs(p[:nf]).max()) if nf else 0.0
+        if grid is not None:
+            size = max(size, float(np.abs(np.einsum("pk,pkc->pc", grid.S, p[nf:][grid.nodes])).max()))
+        return size
+
     # ----------------------------------------------------------------------------- the step
-    def _newton(self, state, x, xt, free, dt):
-        """Projected Newton from x on the free DOFs; returns (x, iterations, halvings, CCD-limited)."""
-        fem = state.fem
+    def _newton(self, state, y, yt, free, dt):
+        """Projected Newton from y on the free DOFs; returns (y, iterations, halvings, CCD-limited)."""
         halvings = 0
         ccd_limited = False
+        none = np.zeros((0, 2), np.int64)
         for it in range(1, self.max_iterations + 1):
             t0 = wallclock.perf_counter()
-            pairs = self._pairs(fem, x, np.zeros_like(x)) if self.contact else np.zeros((0, 2), np.int64)
-            E, g, H = self._energy(state, x, xt, pairs, True)
+            pairs = self._pairs(y, np.zeros_like(y)) if self.contact else none
+            E, g, H = self._energy(state, y, yt, pairs, True)
             self.timers["assemble"] += wallclock.perf_counter() - t0
             t0 = wallclock.perf_counter()
-            p = np.zeros(x.size)
+            p = np.zeros(y.size)
             Hf = H[free][:, free].tocsc()
             p[free] = splu(Hf).solve(-g[free])
-            p = p.reshape(x.shape)
+            p = p.reshape(y.shape)
             self.timers["solve"] += wallclock.perf_counter() - t0
-            if np.abs(p).max() / dt < self.tolerance:
-                return x, it, halvings, ccd_limited
+            if self._step_size(p) / dt < self.tolerance:
+                # converged: the last Newton step is below the tolerance; take it when it is
+                # feasible as a whole (it squares the residual: momentum to round-off)
+                swept = self._pairs(y, p) if self.contact else pairs
+                if self._step_bound(y, p, swept)[0] >= 1.0:
+                    y = y + p
+                return y, it, halvings, ccd_limited
             t0 = wallclock.perf_counter()
-            swept = self._pairs(fem, x, p) if self.contact else pairs
-            alpha, limited = self._step_bound(fem, x, p, swept)
+            swept = self._pairs(y, p) if self.contact else pairs
+            alpha, limited = self._step_bound(y, p, swept)
             ccd_limited |= limited
             self.timers["ccd"] += wallclock.perf_counter() - t0
             t0 = wallclock.perf_counter()
             while True:
-                trial = x + alpha * p
-                E_trial, _, _ = self._energy(state, trial, xt, swept, False)
+                trial = y + alpha * p
+                E_trial, _, _ = self._energy(state, trial, yt, swept, False)
                 if E_trial <= E or alpha < 1e-12:
                     break
                 alpha *= 0.5
                 halvings += 1
             self.timers["line search"] += wallclock.perf_counter() - t0
-            x = trial
-        names = " and ".join(f"'{b.name}'" for b in fem.infos)
+            y = trial
+        names = self._body_names(state)
         raise InstabilityError(
             f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: Newton did not converge in "
-            f"{self.max_iterations} iterations (bodies {names}; last max|p|/dt = {np.abs(p).max() / dt:.3g}); "
+            f"{self.max_iterations} iterations (bodies {names}; last max|p|/dt = {self._step_size(p) / dt:.3g}); "
             "try a smaller time.dt or a larger implicit.newton_tolerance", state.t, state.step)
+
+    def _body_names(self, state) -> str:
+        infos = list(self.fem.infos) + (list(state.particles.infos) if self.grid is not None else [])
+        return " and ".join(f"'{b.name}'" for b in infos)
 
     def advance(self, state, dt: float) -> float:
         """One step. Fixed components stay put (eliminated). Components moving at a prescribed
@@ -326,51 +485,71 @@ class ImplicitFEM(Integrator):
         body): a spring 1/2 k m |x - target|^2 pulls them there inside the Newton solve, with the
         CCD line search watching, and k grows tenfold until they are within 1e-6 of their move
         (or of newton_tolerance x dt, what Newton resolves)."""
-        fem = state.fem
         if not self.started:
             self._setup(state)
+        elif self.grid is not None:
+            self.grid.begin(state)
+        fem, grid, d = self.fem, self.grid, self.dim
+        nf = fem.n
         self.c = 2.0 * self.zeta * self.beta * dt * dt
-        xn, vn, an = fem.x.copy(), fem.v.copy(), fem.a.copy()
-        xt = xn + dt * vn + self.zeta * (1.0 - 2.0 * self.beta) * dt * dt * an
-        moving = fem.held & (fem.held_velocity != 0.0)
-        fixed = fem.held & ~moving
-        target = xn + dt * fem.held_velocity
+        h2 = self.zeta * (1.0 - 2.0 * self.beta) * dt * dt
+        # the unknowns: FEM nodes, then the particles' active grid nodes
+        if grid is not None:
+            yn = np.concatenate([fem.x, grid.X])
+            vn = np.concatenate([fem.v, grid.v])
+            an = np.concatenate([fem.a, grid.a_grid])
+            self.mass = np.concatenate([fem.mass, grid.mass])
+            held = np.concatenate([fem.held, np.zeros((grid.n, d), bool)])
+            held_velocity = np.concatenate([fem.held_velocity, np.zeros((grid.n, d))])
+        else:
+            yn, vn, an = fem.x.copy(), fem.v.copy(), fem.a.copy()
+            self.mass, held, held_velocity = fem.mass, fem.held, fem.held_velocity
+        self.M = np.repeat(self.mass, d)
+        yt = yn + dt * vn + h2 * an
+        moving = held & (held_velocity != 0.0)
+        fixed = held & ~moving
+        target = yn + dt * held_velocity
         free = ~fixed.ravel()
-        self.x_start, self.dt_step = xn, dt
-        self.friction = self._lag(fem, xn) if self.contact and self.mu.any() else None
-        x = xn.copy()
+        self.y_start, self.dt_step = yn, dt
+        self.points = self._points(state)
+        self.friction = self._lag(yn) if self.contact and self.mu.any() else None
+        y = yn.copy()
         its = halvings = 0
         ccd_limited = False
         k = SPRING_START
-        # reached: within 1e-6 of the move, or of what Newton's tolerance resolves
-        reach = max(1e-6 * (float(np.abs(target - xn)[moving].max()) if moving.any() else 0.0),
+        reach = max(1e-6 * (float(np.abs(target - yn)[moving].max()) if moving.any() else 0.0),
                     self.tolerance * dt)
         while True:
             self.spring = (moving, target, k) if moving.any() else None
-            x, n_it, n_half, limited = self._newton(state, x, xt, free, dt)
+            y, n_it, n_half, limited = self._newton(state, y, yt, free, dt)
             its, halvings, ccd_limited = its + n_it, halvings + n_half, ccd_limited or limited
-            if self.spring is None or np.abs(x - target)[moving].max() <= reach:
+            if self.spring is None or np.abs(y - target)[moving].max() <= reach:
                 break
             if k >= SPRING_MAX:
-                names = ", ".join(f"'{fem.infos[b].name}'" for b in np.unique(fem.node_body[moving.any(axis=1)]))
+                names = ", ".join(f"'{fem.infos[b].name}'" for b in np.unique(fem.node_body[moving[:nf].any(axis=1)]))
                 raise InstabilityError(
                     f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: the prescribed motion of {names} "
-                    f"could not be reached (off by {np.abs(x - target)[moving].max():.3g}; something blocks it)",
+                    f"could not be reached (off by {np.abs(y - target)[moving].max():.3g}; something blocks it)",
                     state.t, state.step)
             k *= 10.0
         self.spring = None
         if moving.any():  # work of the prescribed motion: the constraint force (gradient / c) times the move
-            pairs = self._pairs(fem, x, np.zeros_like(x)) if self.contact else np.zeros((0, 2), np.int64)
-            _, g, _ = self._energy(state, x, xt, pairs, True)
-            force = g.reshape(x.shape) / self.c
-            state.work_in += float(np.sum(np.where(moving, force * (x - xn), 0.0)))
-        a_new = (x - xt) / self.c
-        a_new[fem.held] = 0.0
-        fem.v[:] = vn + dt * ((1.0 - self.gamma) * an + self.gamma * a_new)
-        fem.v[fem.held] = fem.held_velocity[fem.held]
-        fem.a[:] = a_new
-        state.work_in += float(np.sum(fem.mass[:, None] * self.gravity[None, :] * (x - xn)))
-        fem.x[:] = x
+            pairs = self._pairs(y, np.zeros_like(y)) if self.contact else np.zeros((0, 2), np.int64)
+            _, g, _ = self._energy(state, y, yt, pairs, True)
+            force = g.reshape(y.shape) / self.c
+            state.work_in += float(np.sum(np.where(moving, force * (y - yn), 0.0)))
+        a_new = (y - yt) / self.c
+        a_new[held] = 0.0
+        v_new = vn + dt * ((1.0 - self.gamma) * an + self.gamma * a_new)
+        v_new[held] = held_velocity[held]
+        # gravity's work on the FEM nodes and the particles
+        state.work_in += float(np.sum(fem.mass[:, None] * self.gravity[None, :] * (y[:nf] - yn[:nf])))
+        fem.v[:], fem.a[:], fem.x[:] = v_new[:nf], a_new[:nf], y[:nf]
+        if grid is not None:
+            P = state.particles
+            x_before = P.x.copy()
+            grid.finish(state, y[nf:] - grid.X, v_new[nf:], a_new[nf:])
+            state.work_in += float(np.sum(P.mass[:, None] * self.gravity[None, :] * (P.x - x_before)))
         self.stats.append((its, halvings, int(ccd_limited)))
         return dt
 
@@ -384,4 +563,3 @@ class ImplicitFEM(Integrator):
         ccd = sum(s[2] for s in self.stats)
         return [f"Newton: {len(its)} steps, {its.mean():.2f} iterations per step (max {its.max()}), "
                 f"{halv} line-search halvings, {ccd} CCD-limited steps"]
-

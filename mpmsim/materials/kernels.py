@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from . import ANISOTROPIC, MIE_GRUNEISEN, NEO_HOOKEAN
+from . import ANISOTROPIC, COMPRESSIBLE_NH, MIE_GRUNEISEN, NEO_HOOKEAN
 
 # Voigt slot of tensor component (a, b)
 VOIGT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2]], dtype=np.int64)
@@ -239,9 +239,23 @@ def constitutive_update(code, props, F3, L, dt, s, W, A, Ai, Q, eos):
 
 
 @njit(cache=True, inline="always")
+def compressible_nh_energy(lam, mu, F3, J):
+    """psi = mu/2 (tr F^T F - 3) - mu ln J + lam/2 (ln J)^2 per reference volume (the model of
+    FEM bodies and of particles under the implicit integrator; plane strain: F33 = 1)."""
+    i1 = 0.0
+    for a in range(3):
+        for b in range(3):
+            i1 += F3[a, b] * F3[a, b]
+    lnJ = np.log(J)
+    return 0.5 * mu * (i1 - 3.0) - mu * lnJ + 0.5 * lam * lnJ * lnJ
+
+
+@njit(cache=True, inline="always")
 def energy_density(code, props, F3, s, J):
     """Strain energy per *current* volume (Mie–Grüneisen: its shear part; the volumetric part
     is in the internal energy U)."""
+    if code == COMPRESSIBLE_NH:
+        return compressible_nh_energy(props[0], props[1], F3, J) / J
     if code == NEO_HOOKEAN:
         return neo_hookean_energy(props[0], props[1], F3) / J
     if code == MIE_GRUNEISEN:

@@ -1,0 +1,195 @@
+"""MPM particles in the implicit step (BFEMP, ../shared/papers/bfemp-barrier-mpm-fem.txt): the
+unknowns of a particle body are the positions y_i of the active grid nodes, with the particles'
+weights w_ip and gradients grad w_ip frozen at the step's start (their positions x_p^n).
+
+    grid mass       m_i = sum_p w_ip m_p
+    grid velocity   m_i v_i = sum_p w_ip m_p [v_p + B_p D_p^-1 (X_i - x_p)]   (APIC; PIC/FLIP: no B)
+    grid accel.     m_i a_i = sum_p w_ip m_p a_p                               (Newmark's a^n)
+    particle        x_p(y) = x_p^n + sum_i w_ip (y_i - X_i),
+                    F_p(y) = F_p^n + sum_i (y_i - X_i) (F_p^nT grad w_ip)^T   (fem.elements point_*)
+
+with D_p = sum_i w_ip (X_i - x_p)(X_i - x_p)^T from the same weights (h^2/4 I for quadratic
+B-splines), so the APIC transfers conserve angular momentum for any tensor shape function.
+After the Newton solve the grid's new velocity and acceleration go back to the particles:
+PIC v_p = sum w v_i; FLIP v_p += sum w (v_i - v_i^n); APIC also B_p = sum w v_i (X_i - x_p)^T;
+a_p = sum w a_i; positions and F follow the grid's motion.
+
+The grid has no walls here: particle bodies meet FEM bodies only through the barrier (the
+grid's boundary conditions are an explicit-solver feature).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..fem import elements
+
+TRANSFERS = ("pic", "flip", "apic")
+WEIGHT_FLOOR = 1e-10  # grid weights below this are dropped (begin)
+
+
+@njit(cache=True)
+def grid_transfer(nodes, S, x, X, mass, v, B, a, apic, gm, gv, ga, Dinv):
+    """Particle -> grid: masses gm, velocities gv and accelerations ga of the active nodes
+    (nodes: local node index per entry); Dinv (n, d, d) the particles' APIC inertia inverses."""
+    n, K = S.shape
+    d = x.shape[1]
+    gm[:] = 0.0
+    gv[:] = 0.0
+    ga[:] = 0.0
+    D = np.zeros((d, d))
+    r = np.zeros(d)
+    for p in range(n):
+        if apic:
+            D[:] = 0.0
+            for k in range(K):
+                for c in range(d):
+                    r[c] = X[nodes[p, k], c] - x[p, c]
+                for c in range(d):
+                    for e in range(d):
+                        D[c, e] += S[p, k] * r[c] * r[e]
+            Dinv[p] = np.linalg.inv(D)
+        for k in range(K):
+            w = S[p, k]
+            if w == 0.0:
+                continue
+            i = nodes[p, k]
+            wm = w * mass[p]
+            gm[i] += wm
+            for c in range(d):
+                s = v[p, c]
+                if apic:
+                    for e in range(d):
+                        for f in range(d):
+                            s += B[p, c, e] * Dinv[p, e, f] * (X[i, f] - x[p, f])
+                gv[i, c] += wm * s
+                ga[i, c] += wm * a[p, c]
+    for i in range(gm.shape[0]):
+        if gm[i] > 0.0:
+            for c in range(d):
+                gv[i, c] /= gm[i]
+                ga[i, c] /= gm[i]
+
+
+@njit(cache=True)
+def particle_update(nodes, S, x, X, u, v_new, v_old, a_new, flip, apic, xp, vp, Bp, ap):
+    """Grid -> particle after the solve: positions follow the grid's motion u, velocities by
+    PIC / FLIP / APIC, accelerations by interpolation."""
+    n, K = S.shape
+    d = x.shape[1]
+    for p in range(n):
+        for c in range(d):
+            dx = 0.0
+            vi = 0.0
+            dv = 0.0
+            ai = 0.0
+            for k in range(K):
+                i = nodes[p, k]
+                w = S[p, k]
+                dx += w * u[i, c]
+                vi += w * v_new[i, c]
+                dv += w * (v_new[i, c] - v_old[i, c])
+                ai += w * a_new[i, c]
+                if apic:
+                    if k == 0:
+                        for e in range(d):
+                            Bp[p, c, e] = 0.0
+                    for e in range(d):
+                        Bp[p, c, e] += w * v_new[i, c] * (X[i, e] - x[p, e])
+            xp[p, c] = x[p, c] + dx
+            vp[p, c] = vp[p, c] + dv if flip else vi
+            ap[p, c] = ai
+
+
+class GridUnknowns:
+    """The particle bodies' share of one implicit step: set up by `begin` (shape functions,
+    active nodes, grid masses and velocities), read by the integrator's energy, and closed by
+    `finish` (particles updated from the solved grid motion)."""
+
+    def __init__(self, transfer: str):
+        self.transfer = transfer
+        self.a = None  # (n, d) particle accelerations (Newmark's a^n, interpolated back each step)
+
+    def begin(self, state) -> None:
+        P = state.particles
+        shape = state.shape
+        grid = state.grid
+        (_, _), (bad, _) = shape.compute(P.x, P.F, P.semi, grid, state.nchunk, state.sd)
+        if bad >= 0:
+            raise ValueError(f"particle {bad} at {P.x[bad]} left the grid")
+        sd = state.sd
+        # entries of negligible weight (a particle almost 1.5 cells from a B-spline node) would
+        # make nodes of ~zero mass and an ill-conditioned Newton system: drop them, then restore
+        # sum_k w = 1 and sum_k grad w = 0 (momentum and rigid motions stay exact)
+        keep = sd.S > WEIGHT_FLOOR
+        S = np.where(keep, sd.S, 0.0)
+        S /= S.sum(axis=1, keepdims=True)
+        grad = np.where(keep[:, :, None], sd.G, 0.0)
+        grad -= S[:, :, None] * grad.sum(axis=1, keepdims=True)
+        flat = sd.nodes
+        active = np.unique(flat[S != 0.0])
+        local = np.searchsorted(active, flat)
+        local[S == 0.0] = 0
+        d = P.x.shape[1]
+        sx, sy = int(grid.view.shape[0]), int(grid.view.shape[1])
+        ijk = np.stack([active % sx, (active // sx) % sy, active // (sx * sy)], axis=1).astype(float)
+        origin, h = np.asarray(grid.view.origin, dtype=float), np.asarray(grid.view.h, dtype=float)
+        self.X = origin[None, :d] + ijk[:, :d] * h[None, :d]
+        self.nodes, self.S = local, S
+        self.G = np.einsum("pba,pkb->pka", P.F, grad)  # F^nT grad w
+        self.F0 = P.F.copy()
+        self.vol0, self.mat = P.vol0, P.mat
+        self.x0 = P.x.copy()
+        n_g = len(active)
+        self.mass = np.zeros(n_g)
+        self.v = np.zeros((n_g, d))
+        self.a_grid = np.zeros((n_g, d))
+        apic = self.transfer == "apic" and P.affine
+        self.Dinv = np.zeros((P.n, d, d))
+        B = P.B if P.affine else np.zeros((P.n, d, d))
+        if self.a is None:
+            self.a = np.zeros_like(P.x)
+        grid_transfer(local, S, P.x, self.X, P.mass, P.v, B, self.a, apic, self.mass, self.v, self.a_grid, self.Dinv)
+
+    @property
+    def n(self) -> int:
+        return len(self.mass)
+
+    # --- energy pieces (u: grid displacement y - X)
+    def energy(self, u, materials) -> float:
+        out = np.empty(len(self.S))
+        elements.point_energies(u, self.nodes, self.G, self.F0, self.vol0, self.mat, materials.type_code,
+                                materials.props, out)
+        return float(out.sum())
+
+    def forces(self, u, materials) -> np.ndarray:
+        f = np.zeros_like(u)
+        elements.point_forces(u, self.nodes, self.G, self.F0, self.vol0, self.mat, materials.type_code,
+                              materials.props, f)
+        return f
+
+    def hessians(self, u, materials) -> np.ndarray:
+        K, d = self.S.shape[1], u.shape[1]
+        out = np.zeros((len(self.S), K * d, K * d))
+        elements.point_hessians(u, self.nodes, self.G, self.F0, self.vol0, self.mat, materials.type_code,
+                                materials.props, True, out)
+        return out
+
+    def positions(self, u) -> np.ndarray:
+        """Particle positions x_p(y)."""
+        return self.x0 + np.einsum("pk,pkc->pc", self.S, u[self.nodes])
+
+    def deformation(self, u) -> np.ndarray:
+        """F_p(y) (n, d, d)."""
+        return self.F0 + np.einsum("pka,pkb->pab", u[self.nodes], self.G)
+
+    def finish(self, state, u, v_new, a_new) -> None:
+        P = state.particles
+        apic = self.transfer == "apic" and P.affine
+        B = P.B if P.affine else np.zeros((P.n, u.shape[1], u.shape[1]))
+        particle_update(self.nodes, self.S, self.x0, self.X, u, v_new, self.v, a_new, self.transfer == "flip", apic,
+                        P.x, P.v, B, self.a)
+        m = state.materials
+        elements.point_states(u, self.nodes, self.G, self.F0, P.mat, m.type_code, m.props, P.F, P.stress)
+        P.vol[:] = P.vol0 * np.linalg.det(P.F)
