@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
+from mpmsim.errors import DeckError
 from mpmsim.fem import elements
 from mpmsim.materials import COMPRESSIBLE_NH, LINEAR_ELASTIC
 from mpmsim.scene import build_scene
@@ -190,10 +191,11 @@ def test_rings_conserve_momentum_and_no_particle_ever_enters_the_fem_ring(transf
 
 
 # ------------------------------------------------------------------------ any time step
-@pytest.mark.parametrize("fraction", [1e-1, 1e-2, 1e-3])
+@pytest.mark.parametrize("fraction", [1e-1, 1e-2, 1e-3, 1e-4])
 def test_a_fast_mpm_block_never_crosses_an_fem_wall_at_any_time_step(fraction):
-    """An MPM block at 20 m/s at a thin held FEM wall, time steps from 1e-3 to 1e-1 of the
-    time the block needs to cross the wall (T = 2.5 ms): no particle inside the wall at any
+    """An MPM block at 20 m/s at a thin held FEM wall, time steps from 1e-4 to 1e-1 of the
+    time the block needs to cross the wall (T = 2.6 ms; the outermost particles start 2 mm
+    off the wall, dhat 1 mm; at most 400 steps): no particle inside the wall at any
     step, none beyond the wall's held back face (no tunnelling), and the block stopped and
     turned back."""
     T = (0.002 + 0.05) / 20.0
@@ -203,10 +205,10 @@ def test_a_fast_mpm_block_never_crosses_an_fem_wall_at_any_time_step(fraction):
         "shape_function": "bspline2", "update": {"scheme": "apic"},
         "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
         "bodies": [
-            {"name": "wall", "shape": "rectangle", "min": [0.0, -0.15], "max": [0.05, 0.15], "material": "m",
+            {"name": "wall", "shape": "rectangle", "min": [-0.003, -0.15], "max": [0.047, 0.15], "material": "m",
              "discretization": "fem", "element_size": 0.025,
              "constraints": [{"region": {"min": [0.04, -1.0], "max": [1.0, 1.0]}}]},
-            {"name": "block", "shape": "rectangle", "min": [-0.1075, -0.05], "max": [-0.0075, 0.05],
+            {"name": "block", "shape": "rectangle", "min": [-0.1, -0.05], "max": [-0.004, 0.05],
              "material": "m", "velocity": [20.0, 0.0]},
         ],
         "integrator": "implicit",
@@ -216,9 +218,49 @@ def test_a_fast_mpm_block_never_crosses_an_fem_wall_at_any_time_step(fraction):
     sim = simulation(d)
     st = sim.state
     P, f = st.particles, st.fem
+    front = -1.0
     while st.t < sim.end * (1 - 1e-12):
         sim.step()
         assert not inside_fem(P.x, f.x, f.cells).any(), f"inside the wall at t = {st.t}"
-        assert P.x[:, 0].max() < 0.05, f"through the wall at t = {st.t}"  # its held back face
+        assert P.x[:, 0].max() < 0.047, f"through the wall at t = {st.t}"  # its held back face
+        front = max(front, P.x[:, 0].max())
+    assert front > -0.003 - 1e-3  # the block reached the barrier (within dhat of the wall's face)
     if fraction >= 1e-2:
         assert P.v[:, 0].mean() < 0.0  # stopped and turned back
+
+
+def test_the_thickness_scales_masses_forces_and_the_barrier_alike():
+    """2D: masses, strain energies, gravity and the barrier (kappa x contact length x
+    thickness) all scale with the thickness, so the motion does not depend on it."""
+    runs = []
+    for thickness in (1.0, 2.5):
+        d = load("implicit_mpm_slope_2d.yaml", thickness=thickness)
+        d["time"] = {"end": 0.06, "dt": 2e-3}
+        sim = simulation(d)
+        sim.run()
+        runs.append((sim.state.particles.x.copy(), sim.state.fem.x.copy()))
+    assert np.abs(runs[0][0] - runs[1][0]).max() < 1e-9
+    assert np.abs(runs[0][1] - runs[1][1]).max() < 1e-9
+
+
+@pytest.mark.parametrize("change,path,words", [
+    ({"update": {"scheme": "xpic", "order": 2}}, "update.scheme", "pic, flip or apic"),
+    ({"shape_function": "cpdi"}, "shape_function", "tensor-product shape function"),
+    ({"materials": {"stiff": {"type": "neo_hookean", "K": 1e7, "G": 4e6, "density": 1000.0}}},
+     "bodies.1.material", "compressible_neo_hookean"),
+    ({"implicit": {"scheme": "backward_euler"}}, "implicit.dhat", "give implicit.dhat"),
+], ids=["xpic", "cpdi", "explicit material", "no dhat"])
+def test_implicit_particle_decks_refuse_what_the_step_cannot_do(change, path, words):
+    d = load("implicit_mpm_slope_2d.yaml", **change)
+    with pytest.raises(DeckError) as err:
+        build_scene(deck_from(d))
+    text = " ".join(str(err.value).split())
+    assert path in text and words in text
+
+
+def test_a_particle_closer_than_dhat_to_an_fem_body_is_a_deck_error():
+    d = load("implicit_mpm_slope_2d.yaml")
+    d["implicit"]["dhat"] = 0.02  # the lowest particles start 12.5 mm - 10 mm = 2.5 mm above the slab
+    with pytest.raises(DeckError) as err:
+        simulation(d)
+    assert "a particle of 'block'" in str(err.value) and "not farther than dhat" in str(err.value)
