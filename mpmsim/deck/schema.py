@@ -539,10 +539,10 @@ class Implicit(Strict):
     max_newton_iterations: int = Field(default=100, ge=1, le=10000, description="Newton iterations per step.")
     dhat: float | None = Field(
         default=None, gt=0, description="Barrier distance (length unit): bodies push apart closer than this. "
-        "Needed with two or more FEM bodies.")
+        "Needed with two or more FEM bodies, or FEM and particle bodies.")
     kappa: float | None = Field(
         default=None, gt=0, description="Barrier stiffness (stress unit). Default: 1e-3 x the largest E of the "
-        "FEM materials.")
+        "bodies' materials; hard impacts of particle bodies need more (docs/bfemp.md).")
     friction_velocity: float = Field(
         default=1e-3, gt=0, description="eps_v (velocity unit): slip slower than this is smoothed static friction "
         "(a sticking body creeps below it). Friction coefficients come from contact.default and contact.pairs "
@@ -665,7 +665,8 @@ class Deck(Strict):
     contact: Contact = Field(default_factory=Contact, description="Multimaterial contact settings.")
     integrator: Literal["explicit", "implicit"] = Field(
         default="explicit", description="Time integration: explicit (the MPM step as a list of tasks) or implicit "
-        "(FEM bodies: an incremental potential minimised by Newton, barrier contact; see `implicit`).")
+        "(FEM and particle bodies: an incremental potential minimised by Newton, barrier contact on FEM "
+        "boundaries; see `implicit`).")
     implicit: Implicit | None = Field(
         default=None, description="Settings of integrator: implicit (docs/bfemp.md).")
     time: Time
