@@ -132,3 +132,85 @@ def point_edge_barrier_pairs(points, verts, edges, pairs, dhat, kappa, weights, 
         y[5] = verts[b, 1]
         total += point_edge_barrier(y, dhat, kappa * weights[i], grads[k], hessians[k], project)
     return total
+
+
+@njit(cache=True)
+def point_node_barrier_pairs(points, verts, edges, node_edges, pairs, dhat, kappa, weights, node_weight, others,
+                             grads, hessians):
+    """The boundary-node correction of BFEMP (Eq. 31): -sum w_p (deg_v - 1) b(|p - v|) over
+    point-node pairs (k, 2) = (point index, vertex index); node_weight (n_verts,) = deg - 1,
+    node_edges (n_verts, 2) the two boundary edges at each vertex (into edges). Returns the
+    (negative) total; fills others (k, 3) = (v, n1, n2) (v and the far ends of its two edges),
+    and over the local points (p, v, n1, n2) each pair's gradient grads (k, 8) and Hessian
+    hessians (k, 8, 8).
+
+    The Hessian is PSD(H1 + H2 - Hv) - H1 - H2, with H1, H2 the PSD-projected Hessians of the
+    point's barrier against the two edges at v (the point-edge terms add exactly those) and Hv
+    that of b(|p - v|): the three terms together contribute the projection of their sum. Where
+    the point sees v as an end of an edge (a straight or convex boundary) the sum is already
+    PSD and this is just -Hv, exact; where it sees both edges from their middles (a boundary
+    bent inwards) the projection keeps Newton's matrix PSD without losing the curvature."""
+    y4 = np.empty(4)
+    y6 = np.empty(6)
+    g4 = np.empty(4)
+    g6 = np.empty(6)
+    H4 = np.empty((4, 4))
+    H6 = np.empty((6, 6))
+    M = np.empty((8, 8))
+    S = np.empty((8, 8))
+    slots = np.empty(3, dtype=np.int64)
+    total = 0.0
+    for k in range(pairs.shape[0]):
+        i = pairs[k, 0]
+        v = pairs[k, 1]
+        others[k, 0] = v
+        for c in range(2):
+            j = node_edges[v, c]
+            others[k, 1 + c] = edges[j, 1] if edges[j, 0] == v else edges[j, 0]
+        s = weights[i] * node_weight[v]
+        y4[0], y4[1], y4[2], y4[3] = points[i, 0], points[i, 1], verts[v, 0], verts[v, 1]
+        total -= point_point_barrier(y4, dhat, kappa * s, g4, H4, True)
+        grads[k, :] = 0.0
+        for a in range(4):
+            grads[k, a] = -g4[a]
+        M[:, :] = 0.0
+        S[:, :] = 0.0
+        for a in range(4):
+            for b in range(4):
+                M[a, b] -= H4[a, b]
+        # the two point-edge terms at v, as the point-edge kernel projects them
+        for c in range(2):
+            j = node_edges[v, c]
+            ea, eb = edges[j, 0], edges[j, 1]
+            slots[0] = 0
+            slots[1] = 1 if ea == v else 2 + c
+            slots[2] = 1 if eb == v else 2 + c
+            y6[0], y6[1] = points[i, 0], points[i, 1]
+            y6[2], y6[3], y6[4], y6[5] = verts[ea, 0], verts[ea, 1], verts[eb, 0], verts[eb, 1]
+            point_edge_barrier(y6, dhat, kappa * weights[i], g6, H6, True)
+            for a in range(3):
+                for b in range(3):
+                    for da in range(2):
+                        for db in range(2):
+                            h = H6[2 * a + da, 2 * b + db]
+                            M[2 * slots[a] + da, 2 * slots[b] + db] += h
+                            S[2 * slots[a] + da, 2 * slots[b] + db] += h
+        project_psd(M)
+        for a in range(8):
+            for b in range(8):
+                hessians[k, a, b] = M[a, b] - S[a, b]
+    return total
+
+
+@njit(cache=True)
+def vertex_edges(edges, n_verts):
+    """(n_verts, 2) the (at most two) boundary edges at each vertex, -1 where none."""
+    out = np.full((n_verts, 2), -1, dtype=np.int64)
+    for j in range(edges.shape[0]):
+        for c in range(2):
+            v = edges[j, c]
+            if out[v, 0] < 0:
+                out[v, 0] = j
+            elif out[v, 1] < 0:
+                out[v, 1] = j
+    return out

@@ -20,15 +20,17 @@ the lengths of its two boundary edges) or the particle's width (the square root 
 initial area), times the thickness; so kappa is a pressure. A particle's
 position is linear in its grid nodes, so its pair gradient and Hessian reach them through its
 weights (J^T H J stays PSD). The pairs come from a spatial hash of the step's swept boxes, never
-from an all-pairs loop. A point near a corner of the other body counts the corner through both
-of its edges: the paper's (deg - 1) point-point correction is not applied. Measured with it:
-Newton stalls where a pressed face bends inwards (a point then sees both edges from their
-middles, and the subtracted vertex term no longer cancels one of them: a 20 m/s block on a
-wall at dt = T/10 did not converge in 100 iterations, 4-15 without), and a 4 m/s FEM block
-collision under midpoint Newmark gained 12% energy (3% without).
+from an all-pairs loop. The paper's (deg - 1) correction subtracts w_p (deg_v - 1) b(|p - v|) for each
+boundary vertex v within dhat of the point (pairs from the same hash): where the point sees v
+as an end of its edges (a straight or convex boundary) the barrier is then exactly b(distance
+to the boundary), not twice it. Its Hessian is PSD(H1 + H2 - Hv) - H1 - H2 (H1, H2 the projected
+Hessians of the two point-edge terms at v): exact where the sum is already PSD, and it keeps
+Newton's matrix PSD where an inward-bent boundary lets the point see both edges from their
+middles (barrier.potential.point_node_barrier_pairs).
 
 Friction (Coulomb mu from contact.default / contact.pairs) is lagged and smoothed as in IPC:
-at the step's start each contact within dhat fixes its normal force lambda = w_p (-b'(d)), its
+at the step's start each contact within dhat fixes its normal force lambda = w_p (-b'(d)) (less
+the correction's share where the contact's closest point is a vertex: _corrected_share), its
 sliding direction and closest-point parameter; the step adds D = sum mu lambda f0(|u|), u the
 tangential slip over the step (a particle's: the interpolated grid motion), f0 the mollifier
 with eps = friction_velocity * dt (below which friction is smoothed static friction). One lag
@@ -58,8 +60,9 @@ from scipy.sparse.linalg import splu
 
 from numba import njit
 
-from ..barrier import (barrier_normal_force, det_step_bound, point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs,
+from ..barrier import (barrier_normal_force, correction_nodes, det_step_bound, point_node_candidates, point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs,
                        point_edge_distance, point_edge_friction, point_edge_friction_frame, triangle_step_bound)
+from ..barrier.potential import point_node_barrier_pairs, vertex_edges
 from ..deck.schema import Implicit
 from ..errors import InstabilityError
 from ..fem import elements
@@ -178,6 +181,13 @@ def empty_fem(dim: int) -> SimpleNamespace:
                            node_body=np.zeros(0, np.int64), infos=[], n=0)
 
 
+class Pairs(NamedTuple):
+    """Barrier pairs of one evaluation."""
+
+    edge: np.ndarray  # (k, 2) (contact point, FEM boundary edge)
+    node: np.ndarray  # (k, 2) (contact point, FEM boundary vertex) of the (deg - 1) correction
+
+
 class ContactPoints(NamedTuple):
     """The points that meet FEM boundary edges through the barrier, for one step: FEM boundary
     nodes and MPM particles. A point's position is sum_k w[q, k] y[node[q, k]] + offset[q] over
@@ -268,6 +278,12 @@ class ImplicitStep(Integrator):
             self.node_mat = node_mat
             # contact areas: boundary length share x thickness (2D)
             self.boundary_weight = boundary_weights(fem.X, fem.facets, fem.boundary) * self.thickness
+            # the (deg - 1) correction at boundary vertices
+            nodes, deg_minus_one = correction_nodes(fem.facets, fem.n)
+            self.corr_nodes = nodes
+            self.node_weight = np.zeros(fem.n)
+            self.node_weight[nodes] = deg_minus_one
+            self.node_edges = vertex_edges(fem.facets, fem.n)
         # a^0: the mechanical acceleration at the initial state
         f = np.zeros_like(fem.x)
         elements.internal_forces(fem.x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props, f)
@@ -304,16 +320,19 @@ class ImplicitStep(Integrator):
                           np.full(P.n, -1, np.int64), width, P.mat))
         return ContactPoints(*(np.concatenate([q[k] for q in parts]) for k in range(7)))
 
-    def _pairs(self, y: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """Point-edge pairs (k, 2) of different bodies whose swept boxes over y -> y + p come
-        within dhat."""
+    def _pairs(self, y: np.ndarray, p: np.ndarray) -> Pairs:
+        """Point-edge pairs, and point-vertex pairs of the (deg - 1) correction, of different
+        bodies whose swept boxes over y -> y + p come within dhat."""
         fem, pts = self.fem, self.points
         nf = fem.n
-        pairs = point_edge_candidates(pts.positions(y), pts.moves(p), y[:nf], p[:nf], fem.facets, self.dhat,
-                                      pts.vertex)
-        if len(pairs):
-            pairs = pairs[pts.body[pairs[:, 0]] != self.edge_body[pairs[:, 1]]]
-        return pairs
+        z, dz = pts.positions(y), pts.moves(p)
+        edges = point_edge_candidates(z, dz, y[:nf], p[:nf], fem.facets, self.dhat, pts.vertex)
+        if len(edges):
+            edges = edges[pts.body[edges[:, 0]] != self.edge_body[edges[:, 1]]]
+        nodes = point_node_candidates(z, dz, y[:nf], p[:nf], self.corr_nodes, self.dhat, pts.vertex)
+        if len(nodes):
+            nodes = nodes[pts.body[nodes[:, 0]] != fem.node_body[nodes[:, 1]]]
+        return Pairs(edges, nodes)
 
     def _pair_terms(self, point, others, gl, Hl, g, n_y):
         """Add c times pair terms to g and return their Hessian (CSR): local gradients gl
@@ -344,13 +363,17 @@ class ImplicitStep(Integrator):
         if grid is not None:
             psi += grid.energy(y[nf:] - grid.X, m)
         grav = float(np.sum(self.mass[:, None] * self.gravity[None, :] * y))
-        k = len(pairs)
-        gb, Hb = np.zeros((k, 6)), np.zeros((k, 6, 6))
+        pe, pn = pairs
+        gb, Hb = np.zeros((len(pe), 6)), np.zeros((len(pe), 6, 6))
+        gn, Hn, vn = np.zeros((len(pn), 8)), np.zeros((len(pn), 8, 8)), np.zeros((len(pn), 3), np.int64)
         phi = 0.0
         pts = self.points
-        if k:
-            phi = point_edge_barrier_pairs(pts.positions(y), yf, fem.facets, pairs, self.dhat, self.kappa,
-                                           pts.weight, gb, Hb, True)
+        if len(pe):
+            z = pts.positions(y)
+            phi = point_edge_barrier_pairs(z, yf, fem.facets, pe, self.dhat, self.kappa, pts.weight, gb, Hb, True)
+            if len(pn):
+                phi += point_node_barrier_pairs(z, yf, fem.facets, self.node_edges, pn, self.dhat, self.kappa,
+                                                pts.weight, self.node_weight, vn, gn, Hn)
         fr = self.friction
         nf_pairs = len(fr[0]) if fr is not None else 0
         gf, Hf = np.zeros((nf_pairs, 6)), np.zeros((nf_pairs, 6, 6))
@@ -382,7 +405,7 @@ class ImplicitStep(Integrator):
             f[nf:] = grid.forces(u, m)
             blocks.append(assemble(nf + grid.nodes, c * grid.hessians(u, m), n_y, d))
         g = self.M * dx + c * (-f - self.mass[:, None] * self.gravity[None, :]).ravel()
-        terms = [(pairs, fem.facets[pairs[:, 1]], gb, Hb)]
+        terms = [(pe, fem.facets[pe[:, 1]], gb, Hb), (pn, vn, gn, Hn)]
         if nf_pairs:
             terms.append((fr[0], fem.facets[fr[0][:, 1]], gf, Hf))
         for prs, others, gl, Hl in terms:
@@ -407,7 +430,7 @@ class ImplicitStep(Integrator):
     def _lag(self, y):
         """(pairs, tau, r, mu lambda) of the contacts within dhat at the step's start (lagged
         friction: frames and normal forces held through the step's Newton solve)."""
-        pairs = self._pairs(y, np.zeros_like(y))
+        pairs = self._pairs(y, np.zeros_like(y)).edge
         k = len(pairs)
         if not k:
             return None
@@ -416,7 +439,27 @@ class ImplicitStep(Integrator):
         tau, r, mu_lambda = np.zeros((k, 2)), np.zeros(k), np.zeros(k)
         ext, _, ids = self._extended(y)
         lag_friction(ext, ids, fem.facets, pairs, pts.weight, mu, self.dhat, self.kappa, tau, r, mu_lambda)
+        mu_lambda *= self._corrected_share(ext[ids], ext, pairs)
         return pairs, tau, r, mu_lambda
+
+    def _corrected_share(self, z, x, pairs) -> np.ndarray:
+        """The (deg - 1) correction in the friction's normal forces: a pair whose closest point
+        is an edge's end v shares that vertex's barrier with the point's other m_v pairs that
+        see v as an end, and the correction takes deg_v - 1 of them away: each keeps
+        (m_v - deg_v + 1) / m_v of its normal force (0 on a straight face, 1/2 at a convex
+        corner). Pairs that see their edge from the middle keep all of it."""
+        e0, e1 = x[self.fem.facets[pairs[:, 1], 0]], x[self.fem.facets[pairs[:, 1], 1]]
+        e = e1 - e0
+        t = np.einsum("kc,kc->k", z[pairs[:, 0]] - e0, e) / np.einsum("kc,kc->k", e, e)
+        end = np.where(t < 0.0, self.fem.facets[pairs[:, 1], 0], np.where(t > 1.0, self.fem.facets[pairs[:, 1], 1], -1))
+        share = np.ones(len(pairs))
+        at_end = end >= 0
+        if at_end.any():
+            key = pairs[at_end, 0] * (self.fem.n + 1) + end[at_end]
+            _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+            m = counts[inverse].astype(float)
+            share[at_end] = np.maximum(m - self.node_weight[end[at_end]], 0.0) / m
+        return share
 
     def _step_bound(self, y, p, pairs) -> tuple[float, bool]:
         """Largest alpha in (0, 1] keeping every point 10% of its distance off every edge (CCD)
@@ -430,9 +473,9 @@ class ImplicitStep(Integrator):
             B = grid.deformation(p[nf:]) - grid.F0
             alpha = min(alpha, det_step_bound(A, B))
         limited = False
-        if len(pairs):
+        if len(pairs.edge):
             pts = self.points
-            a_ccd = point_edge_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], fem.facets, pairs)
+            a_ccd = point_edge_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], fem.facets, pairs.edge)
             if a_ccd < alpha:
                 alpha, limited = a_ccd, True
         return alpha, limited
@@ -451,7 +494,7 @@ class ImplicitStep(Integrator):
         """Projected Newton from y on the free DOFs; returns (y, iterations, halvings, CCD-limited)."""
         halvings = 0
         ccd_limited = False
-        none = np.zeros((0, 2), np.int64)
+        none = Pairs(np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64))
         for it in range(1, self.max_iterations + 1):
             t0 = wallclock.perf_counter()
             pairs = self._pairs(y, np.zeros_like(y)) if self.contact else none
@@ -550,7 +593,8 @@ class ImplicitStep(Integrator):
             k *= 10.0
         self.spring = None
         if moving.any():  # work of the prescribed motion: the constraint force (gradient / c) times the move
-            pairs = self._pairs(y, np.zeros_like(y)) if self.contact else np.zeros((0, 2), np.int64)
+            pairs = self._pairs(y, np.zeros_like(y)) if self.contact else Pairs(np.zeros((0, 2), np.int64),
+                                                                                 np.zeros((0, 2), np.int64))
             _, g, _ = self._energy(state, y, yt, pairs, True)
             force = g.reshape(y.shape) / self.c
             state.work_in += float(np.sum(np.where(moving, force * (y - yn), 0.0)))

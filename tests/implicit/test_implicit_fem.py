@@ -95,11 +95,13 @@ def test_no_step_ever_crosses_whatever_the_time_step(fraction):
 
 
 def test_free_collision_conserves_linear_momentum_to_the_newton_tolerance():
-    """Two free blocks (no gravity, nothing held) collide, midpoint Newmark: total momentum to
-    1e-8 relative (measured 1.5e-13; 5 Newton iterations per step, 7 CCD-limited steps)."""
+    """Two free blocks (no gravity, nothing held) meet at 2 m/s, midpoint Newmark: total
+    momentum to 1e-8 relative. (At 4 m/s the trapezoidal rule gains energy in the stiff
+    barrier, as it does in any stiff contact, and the stability check stops the run:
+    docs/bfemp.md.)"""
     d = deck(gravity=None, time={"end": 0.1, "dt": 0.002})
     d["bodies"][0].pop("constraints")
-    d["bodies"][0]["velocity"] = [0.0, 1.0]
+    d["bodies"][0]["velocity"] = [0.0, -1.0]
     d["implicit"] = {"scheme": "newmark", "dhat": 0.01, "newton_tolerance": 1e-7}
     sim = Simulation(build_scene(deck_from(d)), threads=1)
     f = sim.state.fem
