@@ -134,10 +134,9 @@ def inertia_inverse(weight, r, Di):
 
 
 @njit(cache=True)
-def transfer(m, v, B, apic, node, weight, r, Di, n_nodes, out_v, out_B):
-    """One grid transfer H: particles -> grid -> particles (Eqs. 10, 17-20; PIC without B),
-    through the particles' entries (particle_entries) and inertia inverses (inertia_inverse).
-    The results go to out_v, out_B (out_B untouched for PIC)."""
+def to_grid(m, v, B, apic, node, weight, r, Di, n_nodes):
+    """Particles -> grid: node masses and velocities, m_i v_i = sum_p N_ip m_p [v_p + B_p
+    D_p^-1 (x_i - x_p)] (PIC without B), through the particles' entries and inertia inverses."""
     n, K, dim = r.shape
     gm = np.zeros(n_nodes)
     gp = np.zeros((n_nodes, dim))
@@ -162,6 +161,16 @@ def transfer(m, v, B, apic, node, weight, r, Di, n_nodes, out_v, out_B):
         if gm[i] > 0.0:
             for a in range(dim):
                 gp[i, a] /= gm[i]
+    return gm, gp
+
+
+@njit(cache=True)
+def transfer(m, v, B, apic, node, weight, r, Di, n_nodes, out_v, out_B):
+    """One grid transfer H: particles -> grid -> particles (Eqs. 10, 17-20; PIC without B),
+    through the particles' entries (particle_entries) and inertia inverses (inertia_inverse).
+    The results go to out_v, out_B (out_B untouched for PIC)."""
+    n, K, dim = r.shape
+    gm, gp = to_grid(m, v, B, apic, node, weight, r, Di, n_nodes)
     for p in range(n):
         for a in range(dim):
             out_v[p, a] = 0.0

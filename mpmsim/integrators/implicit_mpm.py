@@ -23,53 +23,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..augury import inertia_inverse, to_grid
 from ..fem import elements
 
 TRANSFERS = ("pic", "flip", "apic")
 WEIGHT_FLOOR = 1e-10  # grid weights below this are dropped (begin)
-
-
-@njit(cache=True)
-def grid_transfer(nodes, S, x, X, mass, v, B, a, apic, gm, gv, ga, Dinv):
-    """Particle -> grid: masses gm, velocities gv and accelerations ga of the active nodes
-    (nodes: local node index per entry); Dinv (n, d, d) the particles' APIC inertia inverses."""
-    n, K = S.shape
-    d = x.shape[1]
-    gm[:] = 0.0
-    gv[:] = 0.0
-    ga[:] = 0.0
-    D = np.zeros((d, d))
-    r = np.zeros(d)
-    for p in range(n):
-        if apic:
-            D[:] = 0.0
-            for k in range(K):
-                for c in range(d):
-                    r[c] = X[nodes[p, k], c] - x[p, c]
-                for c in range(d):
-                    for e in range(d):
-                        D[c, e] += S[p, k] * r[c] * r[e]
-            Dinv[p] = np.linalg.inv(D)
-        for k in range(K):
-            w = S[p, k]
-            if w == 0.0:
-                continue
-            i = nodes[p, k]
-            wm = w * mass[p]
-            gm[i] += wm
-            for c in range(d):
-                s = v[p, c]
-                if apic:
-                    for e in range(d):
-                        for f in range(d):
-                            s += B[p, c, e] * Dinv[p, e, f] * (X[i, f] - x[p, f])
-                gv[i, c] += wm * s
-                ga[i, c] += wm * a[p, c]
-    for i in range(gm.shape[0]):
-        if gm[i] > 0.0:
-            for c in range(d):
-                gv[i, c] /= gm[i]
-                ga[i, c] /= gm[i]
 
 
 @njit(cache=True)
@@ -142,15 +100,16 @@ class GridUnknowns:
         self.vol0, self.mat = P.vol0, P.mat
         self.x0 = P.x.copy()
         n_g = len(active)
-        self.mass = np.zeros(n_g)
-        self.v = np.zeros((n_g, d))
-        self.a_grid = np.zeros((n_g, d))
         apic = self.transfer == "apic" and P.affine
-        self.Dinv = np.zeros((P.n, d, d))
+        r = self.X[local] - P.x[:, None, :]
+        Dinv = np.zeros((P.n, 3, 3))
+        if apic:
+            inertia_inverse(S, r, Dinv)
         B = P.B if P.affine else np.zeros((P.n, d, d))
         if self.a is None:
             self.a = np.zeros_like(P.x)
-        grid_transfer(local, S, P.x, self.X, P.mass, P.v, B, self.a, apic, self.mass, self.v, self.a_grid, self.Dinv)
+        self.mass, self.v = to_grid(P.mass, P.v, B, apic, local, S, r, Dinv, n_g)
+        _, self.a_grid = to_grid(P.mass, self.a, B, False, local, S, r, Dinv, n_g)
 
     @property
     def n(self) -> int:
