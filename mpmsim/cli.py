@@ -258,7 +258,12 @@ def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None
     out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
               highlight=False)
     P = state.particles
-    if scene.has_particles:
+    if scene.has_particles and d.integrator == "implicit":
+        out.print(f"cost: {steps} Newton solves over {P.n} particles' grid nodes"
+                  + (f" and {state.fem.n} FEM nodes" if state.fem is not None else "")
+                  + "; each takes a few iterations (docs/bfemp.md: ~50 ms per iteration for 1000 particles "
+                  "on one thread)", highlight=False)
+    elif scene.has_particles:
         ps = steps * P.n
         out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
                   f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
@@ -300,7 +305,8 @@ def _describe_fem(scene, state, u) -> None:
         held = int(np.sum(fem.held[fem.node_body == row].any(axis=1)))
         out.print(f"FEM body '{info.name}': {nodes} nodes, {cells} {kind}" + (f", {held} held nodes" if held else ""),
                   highlight=False)
-    out.print(f"FEM boundary nodes (augury particles): {len(fem.boundary)}", highlight=False)
+    role = "barrier contact points" if scene.deck.integrator == "implicit" else "augury particles"
+    out.print(f"FEM boundary nodes ({role}): {len(fem.boundary)}", highlight=False)
     a = scene.deck.contact.augury
     if a is not None:
         out.print(f"augury contact: {a.transfer.upper()}, grid {a.cell_size:g} {u.length}, {a.kernel}, "
