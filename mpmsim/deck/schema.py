@@ -547,6 +547,11 @@ class Implicit(Strict):
         default=1e-3, gt=0, description="eps_v (velocity unit): slip slower than this is smoothed static friction "
         "(a sticking body creeps below it). Friction coefficients come from contact.default and contact.pairs "
         "(law: coulomb).")
+    friction_lags: int = Field(
+        default=1, ge=1, le=100, description="Friction lags per step (the paper's outer loop): after Newton "
+        "converges, the friction's normal forces and sliding frames are taken again at the new positions and "
+        "Newton reruns, until it converges at once or this many lags were taken. 1: lagged once, at the step's "
+        "start.")
 
 
 class Update(Strict):

@@ -229,6 +229,7 @@ class ImplicitStep(Integrator):
         young = max(float(deck.materials[mats.deformable[m]].E) for m in used)
         self.kappa = imp.kappa if imp.kappa is not None else 1e-3 * young
         self.eps_v = imp.friction_velocity
+        self.friction_lags = imp.friction_lags
         c = deck.contact
         self.mu = np.full((len(mats.deformable),) * 2, c.default.friction if c.default.law == "coulomb" else 0.0)
         index = {name: k for k, name in enumerate(mats.deformable)}
@@ -242,7 +243,7 @@ class ImplicitStep(Integrator):
         if deck.gravity:
             self.gravity[:] = deck.gravity
         self.timers = {p: 0.0 for p in PARTS}
-        self.stats: list[tuple[int, int, int]] = []  # per step: Newton iterations, halvings, CCD-limited
+        self.stats: list[tuple[int, int, int, int]] = []  # per step: Newton iterations, halvings, CCD-limited, lags
         n_fem = len(scene.fem.infos) if scene.fem is not None else 0
         self.grid = GridUnknowns(deck.update.scheme) if scene.has_particles else None
         bodies = n_fem + (1 if self.grid is not None else 0)
@@ -578,10 +579,18 @@ class ImplicitStep(Integrator):
         k = SPRING_START
         reach = max(1e-6 * (float(np.abs(target - yn)[moving].max()) if moving.any() else 0.0),
                     self.tolerance * dt)
+        lags = 0
         while True:
             self.spring = (moving, target, k) if moving.any() else None
             y, n_it, n_half, limited = self._newton(state, y, yt, free, dt)
             its, halvings, ccd_limited = its + n_it, halvings + n_half, ccd_limited or limited
+            if self.friction is not None and lags + 1 < self.friction_lags and not (lags and n_it == 1):
+                # the outer friction loop: normal forces and frames again at the new positions,
+                # until Newton converges at once under them
+                lags += 1
+                self.friction = self._lag(y)
+                if self.friction is not None:
+                    continue
             if self.spring is None or np.abs(y - target)[moving].max() <= reach:
                 break
             if k >= SPRING_MAX:
@@ -610,7 +619,7 @@ class ImplicitStep(Integrator):
             x_before = P.x.copy()
             grid.finish(state, y[nf:] - grid.X, v_new[nf:], a_new[nf:])
             state.work_in += float(np.sum(P.mass[:, None] * self.gravity[None, :] * (P.x - x_before)))
-        self.stats.append((its, halvings, int(ccd_limited)))
+        self.stats.append((its, halvings, int(ccd_limited), lags + 1))
         return dt
 
     def report(self) -> list[str]:
@@ -621,5 +630,9 @@ class ImplicitStep(Integrator):
         its = np.array([s[0] for s in self.stats])
         halv = sum(s[1] for s in self.stats)
         ccd = sum(s[2] for s in self.stats)
-        return [f"Newton: {len(its)} steps, {its.mean():.2f} iterations per step (max {its.max()}), "
-                f"{halv} line-search halvings, {ccd} CCD-limited steps"]
+        line = (f"Newton: {len(its)} steps, {its.mean():.2f} iterations per step (max {its.max()}), "
+                f"{halv} line-search halvings, {ccd} CCD-limited steps")
+        lags = np.array([s[3] for s in self.stats])
+        if self.friction_lags > 1:
+            line += f", {lags.mean():.2f} friction lags per step (max {lags.max()})"
+        return [line]
