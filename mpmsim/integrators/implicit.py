@@ -60,8 +60,10 @@ from scipy.sparse.linalg import splu
 
 from numba import njit
 
-from ..barrier import (barrier_normal_force, correction_nodes, det_step_bound, point_node_candidates, point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs,
-                       point_edge_distance, point_edge_friction, point_edge_friction_frame, triangle_step_bound)
+from ..barrier import (barrier_normal_force, box_pairs, correction_nodes, det_step_bound, point_boxes,
+                       point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs, point_edge_distance,
+                       point_edge_friction, point_edge_friction_frame, point_node_candidates, simplex_boxes,
+                       triangle_step_bound)
 from ..barrier.potential import point_node_barrier_pairs, vertex_edges
 from ..deck.schema import Implicit
 from ..errors import InstabilityError
@@ -141,6 +143,13 @@ def check_initial_gaps(scene, dhat: float) -> None:
                                  f"start {gap:.4g} apart, not farther than dhat = {dhat:g}: move them apart "
                                  "or lower dhat"))
     seed = scene.deformable if scene.has_particles else None
+    if seed is not None and len(seed.x) and len(fem.cells):
+        inside = particles_inside(seed.x, fem.points, fem.cells)
+        if len(inside):
+            q, e = inside[0]
+            problems.append((("bodies",), f"{len(inside)} particle(s) of '{scene.deck.bodies[seed.body[q]].name}' start "
+                             f"inside FEM body '{fem.infos[fem.cell_body[e]].name}' (first at "
+                             f"{seed.x[q].round(6).tolist()}): the bodies overlap"))
     if seed is not None and len(seed.x):
         x = seed.x
         pairs = point_edge_candidates(x, np.zeros_like(x), fem.points, np.zeros_like(fem.points), fem.facets, dhat,
@@ -158,6 +167,23 @@ def check_initial_gaps(scene, dhat: float) -> None:
                 break
     if problems:
         raise_at(problems, scene.loaded)
+
+
+def particles_inside(x: np.ndarray, verts: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(particle, triangle) pairs (k, 2) with the particle strictly inside the triangle (2D),
+    candidates from the spatial hash of their boxes."""
+    z = np.zeros_like(x)
+    lo, hi = point_boxes(x, z)
+    tlo, thi = simplex_boxes(verts, np.zeros_like(verts), cells, 0.0)
+    pairs = box_pairs(lo, hi, tlo, thi, np.full(len(x), -1, np.int64), cells)
+    if not len(pairs):
+        return pairs
+    a, b, c = (verts[cells[pairs[:, 1], k]] for k in range(3))
+    v0, v1, r = b - a, c - a, x[pairs[:, 0]] - a
+    det = v0[:, 0] * v1[:, 1] - v0[:, 1] * v1[:, 0]
+    s = (r[:, 0] * v1[:, 1] - r[:, 1] * v1[:, 0]) / det
+    t = (v0[:, 0] * r[:, 1] - v0[:, 1] * r[:, 0]) / det
+    return pairs[(s > 0.0) & (t > 0.0) & (s + t < 1.0)]
 
 
 def assemble(nodes: np.ndarray, local: np.ndarray, n_nodes: int, dim: int):

@@ -306,3 +306,11 @@ def test_brazilian_disk_between_fem_plates_has_the_elastic_centre_stresses():
     assert load_p > 0.0 and sxx > 0.0 > syy
     assert sxx / syy == pytest.approx(-1.0 / 3.0, rel=0.10)
     assert sxx == pytest.approx(2.0 * load_p / (np.pi * 0.2), rel=0.15)
+
+
+def test_particles_that_start_inside_an_fem_body_are_a_deck_error():
+    d = load("implicit_mpm_slope_2d.yaml")
+    d["bodies"][1]["min"], d["bodies"][1]["max"] = [0.3, -0.05], [0.5, 0.15]  # sunk 5 cm into the slab
+    with pytest.raises(DeckError) as err:
+        simulation(d)
+    assert "start inside FEM body 'slope'" in str(err.value) and "overlap" in str(err.value)
