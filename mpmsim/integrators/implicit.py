@@ -186,15 +186,13 @@ def particles_inside(x: np.ndarray, verts: np.ndarray, cells: np.ndarray) -> np.
     return pairs[(s > 0.0) & (t > 0.0) & (s + t < 1.0)]
 
 
-def assemble(nodes: np.ndarray, local: np.ndarray, n_nodes: int, dim: int):
-    """Sparse (CSR) n_nodes*dim square matrix from local node-major Hessians local (m, k d, k d)
-    over node lists nodes (m, k) (duplicates summed)."""
+def triplets(nodes: np.ndarray, local: np.ndarray, dim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rows, cols, values) of local node-major Hessians local (m, k d, k d) over node lists
+    nodes (m, k), for one sparse matrix built from all of them (duplicates summed)."""
     m, k = nodes.shape
     dofs = (nodes[:, :, None] * dim + np.arange(dim)[None, None, :]).reshape(m, k * dim)
-    rows = np.repeat(dofs, k * dim, axis=1).ravel()
-    cols = np.tile(dofs, (1, k * dim)).ravel()
-    n = n_nodes * dim
-    return sp.csr_matrix((np.asarray(local).ravel(), (rows, cols)), shape=(n, n))
+    return (np.repeat(dofs, k * dim, axis=1).ravel(), np.tile(dofs, (1, k * dim)).ravel(),
+            np.asarray(local).ravel())
 
 
 def empty_fem(dim: int) -> SimpleNamespace:
@@ -361,8 +359,8 @@ class ImplicitStep(Integrator):
             nodes = nodes[pts.body[nodes[:, 0]] != fem.node_body[nodes[:, 1]]]
         return Pairs(edges, nodes)
 
-    def _pair_terms(self, point, others, gl, Hl, g, n_y):
-        """Add c times pair terms to g and return their Hessian (CSR): local gradients gl
+    def _pair_terms(self, point, others, gl, Hl, g):
+        """Add c times pair terms to g and return their Hessian (triplets): local gradients gl
         (k, (1 + s) d) and Hessians Hl over (point, s FEM nodes `others` (k, s)), the point's
         part mapped to the unknowns through its weights."""
         pts, d, c = self.points, self.dim, self.c
@@ -375,7 +373,7 @@ class ImplicitStep(Integrator):
         np.add.at(g.reshape(-1, d), nodes, c * G)
         H4 = Hl.reshape(k, 1 + s, d, 1 + s, d)[:, block][:, :, :, block]  # (k, K+s, d, K+s, d)
         H4 = H4 * (wts[:, :, None, None, None] * wts[:, None, None, :, None])
-        return assemble(nodes, c * H4.reshape(k, (K + s) * d, (K + s) * d), n_y, d)
+        return triplets(nodes, c * H4.reshape(k, (K + s) * d, (K + s) * d), d)
 
     def _energy(self, state, y, yt, pairs, want_derivatives):
         """E(y) (inf if an element or particle inverted or a pair touched), and when asked its
@@ -426,25 +424,26 @@ class ImplicitStep(Integrator):
             local = np.zeros((len(fem.cells), (d + 1) * d, (d + 1) * d))
             elements.element_hessians(yf, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat, m.type_code, m.props,
                                       True, local)
-            blocks.append(assemble(fem.cells, c * local, n_y, d))
+            blocks.append(triplets(fem.cells, c * local, d))
         if grid is not None:
             u = y[nf:] - grid.X
             f[nf:] = grid.forces(u, m)
-            blocks.append(assemble(nf + grid.nodes, c * grid.hessians(u, m), n_y, d))
+            blocks.append(triplets(nf + grid.nodes, c * grid.hessians(u, m), d))
         g = self.M * dx + c * (-f - self.mass[:, None] * self.gravity[None, :]).ravel()
         terms = [(pe, fem.facets[pe[:, 1]], gb, Hb), (pn, vn, gn, Hn)]
         if nf_pairs:
             terms.append((fr[0], fem.facets[fr[0][:, 1]], gf, Hf))
         for prs, others, gl, Hl in terms:
             if len(prs):
-                blocks.append(self._pair_terms(prs[:, 0], others, gl, Hl, g, n_y))
-        H = sp.diags(self.M).tocsr()
-        for blk in blocks:
-            H = H + blk
+                blocks.append(self._pair_terms(prs[:, 0], others, gl, Hl, g))
+        diag = self.M + (ks * self.M * moving.ravel() if spring is not None else 0.0)
         if spring is not None:
             g += ks * self.M * off
-            H = H + sp.diags(ks * self.M * moving.ravel())
-        return E, g, H.tocsr()
+        n = n_y * d
+        every = np.arange(n)
+        blocks.append((every, every, diag))
+        rows, cols, vals = (np.concatenate([b[i] for b in blocks]) for i in range(3))
+        return E, g, sp.coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
 
     def _extended(self, y):
         """(FEM nodes then contact points) now and at the step's start, and the points' rows:
