@@ -124,4 +124,28 @@ def evaluate(metric, history: dict, reference: dict | None, analytic) -> float:
         return abs(period(history["time"], column(history, metric.column)) / expected - 1.0)
     if kind == "energy_change":
         return energy_change(sum(column(history, c) for c in metric.columns), metric.at)
+    if kind == "acceleration_error":
+        expected = analytic.values[metric.expected] if isinstance(metric.expected, str) else float(metric.expected)
+        candidates = [metric.column] if isinstance(metric.column, str) else metric.column
+        for k, expr in enumerate(candidates):
+            try:
+                y = column(history, expr)
+                break
+            except KeyError:
+                if k == len(candidates) - 1:
+                    raise
+        return abs(acceleration(history["time"], y, metric.range, metric.of == "velocity") / expected - 1.0)
     raise ValueError(f"unknown metric type {kind}")
+
+
+def acceleration(t: np.ndarray, y: np.ndarray, window=None, velocity: bool = False) -> float:
+    """The acceleration of a position (twice the leading coefficient of the parabola fitted by
+    least squares) or velocity (the slope of the fitted line) y(t) over the window [a, b] (all
+    times when None); nan with too few samples."""
+    lo, hi = window if window is not None else (-np.inf, np.inf)
+    keep = (t >= lo) & (t <= hi)
+    if keep.sum() < 3:
+        return float("nan")
+    if velocity:
+        return float(np.polyfit(t[keep], y[keep], 1)[0])
+    return float(2.0 * np.polyfit(t[keep], y[keep], 2)[0])

@@ -107,7 +107,18 @@ class EnergyChange(MetricBase):
     at: Literal["end", "max"] = Field(default="end", description="|E(end) - E(0)| / E(0), or the max over time.")
 
 
-Metric = Annotated[Union[MaxRelError, PeriodError, EnergyChange], Field(discriminator="type")]
+class AccelerationError(MetricBase):
+    type: Literal["acceleration_error"]
+    column: str | list[str] = Field(description="A position or velocity column (or expression), or a list of them "
+                                    "of which the first that a run's history has is used.")
+    of: Literal["position", "velocity"] = Field(
+        default="position", description="What the column is: a parabola (position) or a line (velocity) in time "
+        "is fitted to it.")
+    range: tuple[float, float] | None = Field(default=None, description="Only times in [a, b].")
+    expected: str | float = Field(description="The exact acceleration, or the name of an analytic value.")
+
+
+Metric = Annotated[Union[MaxRelError, PeriodError, EnergyChange, AccelerationError], Field(discriminator="type")]
 
 
 class Sweep(Strict):

@@ -14,7 +14,7 @@ from mpmsim.errors import DeckError
 from mpmsim.sweep import load_sweep, run_sweep
 from mpmsim.sweep.chart import pareto_front
 from mpmsim.sweep.matrix import expand
-from mpmsim.sweep.metrics import max_rel_error, period
+from mpmsim.sweep.metrics import acceleration, max_rel_error, period
 from mpmsim.sweep.report import read_csv
 
 from ..conftest import ROOT
@@ -126,6 +126,12 @@ def test_metric_helpers():
     t = np.linspace(0, 2, 2001)
     assert period(t, np.cos(2 * np.pi * t / 0.7)) == pytest.approx(0.7, rel=1e-4)
     assert pareto_front([(1, 5), (2, 1), (3, 3), (4, 0.5)]) == [(1, 5), (2, 1), (4, 0.5)]
+    # acceleration from a position (parabola) or a velocity (line) in a time window
+    t = np.linspace(0.0, 1.0, 101)
+    x = 0.3 + 2.0 * t + 0.5 * 4.0 * t**2 + np.where(t < 0.2, 1.0, 0.0)  # a jump outside the window
+    assert acceleration(t, x, (0.3, 1.0)) == pytest.approx(4.0, rel=1e-10)
+    assert acceleration(t, 2.0 + 4.0 * t, None, velocity=True) == pytest.approx(4.0, rel=1e-10)
+    assert math.isnan(acceleration(t, x, (2.0, 3.0)))
 
 
 @pytest.mark.parametrize("change, where", [
