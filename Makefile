@@ -61,7 +61,7 @@ examples: $(STAMP)
 # error against cost: every sweep in inputs/sweeps/ (resumes; results/sweeps/<name>/), its CSV
 # and charts copied to docs/figures/sweep_<name>*
 JOBS   ?= 2
-SWEEPS := column bar augury side_by_side
+SWEEPS := column bar augury side_by_side side_by_side_rings
 sweeps: $(STAMP)
 	@for s in $(SWEEPS); do \
 		NUMBA_NUM_THREADS=1 $(BIN)/mpmsim sweep inputs/sweeps/$$s.yaml --jobs $(JOBS) || exit 1; \
