@@ -24,9 +24,9 @@ import numpy as np
 from numba import njit
 
 from ..augury import inertia_inverse, to_grid
+from ..errors import InstabilityError
 from ..fem import elements
 
-TRANSFERS = ("pic", "flip", "apic")
 WEIGHT_FLOOR = 1e-10  # grid weights below this are dropped (begin)
 
 
@@ -75,7 +75,10 @@ class GridUnknowns:
         grid = state.grid
         (_, _), (bad, _) = shape.compute(P.x, P.F, P.semi, grid, state.nchunk, state.sd)
         if bad >= 0:
-            raise ValueError(f"particle {bad} at {P.x[bad]} left the grid")
+            raise InstabilityError(
+                f"stopped at step {state.step + 1}, t = {state.t:.6g}: a particle of "
+                f"'{P.infos[P.local_body[bad]].name}' at {np.round(P.x[bad], 6).tolist()} left the grid "
+                "(make grid.domain larger)", state.t, state.step)
         sd = state.sd
         # entries of negligible weight (a particle almost 1.5 cells from a B-spline node) would
         # make nodes of ~zero mass and an ill-conditioned Newton system: drop them, then restore

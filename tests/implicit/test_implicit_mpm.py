@@ -321,3 +321,13 @@ def test_particles_that_start_inside_an_fem_body_are_a_deck_error():
     with pytest.raises(DeckError) as err:
         simulation(d)
     assert "start inside FEM body 'slope'" in str(err.value) and "overlap" in str(err.value)
+
+
+def test_a_particle_leaving_the_grid_stops_the_run_naming_the_body():
+    from mpmsim.errors import InstabilityError
+
+    sim = simulation(falling_block("backward_euler", 0.05, end=1.5))  # falls out through y = -3 near t = 1.1 s
+    with pytest.raises(InstabilityError) as err:
+        sim.run()
+    assert "a particle of 'block'" in str(err.value) and "left the grid" in str(err.value)
+    assert 1.0 < err.value.time < 1.3
