@@ -331,3 +331,24 @@ def test_a_particle_leaving_the_grid_stops_the_run_naming_the_body():
         sim.run()
     assert "a particle of 'block'" in str(err.value) and "left the grid" in str(err.value)
     assert 1.0 < err.value.time < 1.3
+
+
+def test_a_sine_wave_fem_wall_pushes_an_mpm_box_without_letting_a_particle_in():
+    """inputs/implicit_sine_wall_2d.yaml to 0.2 s: the wall (a mesh file with a sine-wave face)
+    moves 0.1 m left as a prescribed motion (reached within Newton's resolution), no particle
+    is inside the wall or the floor after any step, and the box is pushed along (the wall meets
+    it at about 0.05 s: measured 0.07 m)."""
+    from mpmsim.scene import build_scene
+
+    d = load("implicit_sine_wall_2d.yaml")
+    d["time"]["end"] = 0.2
+    sim = Simulation(build_scene(deck_from(d, ROOT / "inputs")), threads=1)
+    st = sim.state
+    P, f = st.particles, st.fem
+    wall = f.node_body == 1
+    x0, w0 = P.x[:, 0].mean(), f.x[wall, 0].copy()
+    while st.t < sim.end * (1 - 1e-12):
+        sim.step()
+        assert not inside_fem(P.x, f.x, f.cells).any(), f"a particle entered an FEM body at t = {st.t}"
+    assert np.abs(f.x[wall, 0] - (w0 - 0.5 * st.t)).max() < 1e-6
+    assert P.x[:, 0].mean() - x0 < -0.05
