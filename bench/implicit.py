@@ -1,10 +1,10 @@
 """The implicit step with barrier contact: cost per step (`make bench`).
 
-    python bench/implicit.py [--h 0.025] [--rings-end 0.1]
+    python bench/implicit.py [--h 0.025] [--rings-end 0.1] [--threads 1 2]
     python bench/implicit.py --column       # MPM column settling on an FEM floor: refinement
 
 inputs/implicit_blocks_2d.yaml (FEM on FEM) at element size h, and inputs/implicit_rings_2d.yaml
-(an MPM ring against an FEM ring), one thread: DOFs, Newton iterations per step and the time per
+(an MPM ring against an FEM ring), on 1 and 2 threads: DOFs, Newton iterations per step and the time per
 step split into assembly, sparse solve, CCD and line search, after a first (compiling) step.
 """
 
@@ -27,8 +27,9 @@ from mpmsim.scene import build_scene  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
 
 
-def measure(name: str, d: dict) -> None:
-    sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=1)
+def measure(name: str, d: dict, threads: int = 1) -> None:
+    numba.set_num_threads(threads)
+    sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=threads)
     sim.step()
     sim.reset_timers()
     first = len(sim.integrator.stats)
@@ -51,7 +52,7 @@ def measure(name: str, d: dict) -> None:
         dofs += grid.X.size
     print(f"{name}: {', '.join(parts)}, {dofs} free DOFs (last step), {steps} steps, {its / steps:.2f} Newton "
           f"iterations per step, {wall / steps * 1e3:.1f} ms per step ({wall / its * 1e3:.1f} ms per Newton "
-          "iteration), one thread")
+          f"iteration), {threads} thread(s)")
     for part, sec in sim.integrator.timers.items():
         print(f"  {part:12s} {sec / steps * 1e3:8.2f} ms/step  {100 * sec / wall:5.1f}%")
 
@@ -123,6 +124,7 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.025, help="element size of the blocks (default 0.025)")
     ap.add_argument("--rings-end", type=float, default=0.1, help="end time of the rings run (default 0.1 s)")
     ap.add_argument("--column", action="store_true", help="the column refinement study instead")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
     args = ap.parse_args()
     numba.set_num_threads(1)
     if args.column:
@@ -132,11 +134,12 @@ def main() -> None:
     for b in d["bodies"]:
         b["element_size"] = args.h
     d["output"] = {"history_interval": d["time"]["end"]}
-    measure(f"implicit blocks, h = {args.h:g}", d)
-    d = yaml.safe_load((ROOT / "inputs" / "implicit_rings_2d.yaml").read_text())
-    d["time"]["end"] = args.rings_end
-    d["output"] = {"history_interval": args.rings_end}
-    measure("implicit rings (MPM ring against FEM ring)", d)
+    rings = yaml.safe_load((ROOT / "inputs" / "implicit_rings_2d.yaml").read_text())
+    rings["time"]["end"] = args.rings_end
+    rings["output"] = {"history_interval": args.rings_end}
+    for threads in args.threads:
+        measure(f"implicit blocks, h = {args.h:g}", d, threads)
+        measure("implicit rings (MPM ring against FEM ring)", rings, threads)
 
 
 if __name__ == "__main__":
