@@ -446,12 +446,11 @@ class ImplicitStep(Integrator):
         return E, g, sp.coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
 
     def _extended(self, y):
-        """(FEM nodes then contact points) now and at the step's start, and the points' rows:
-        the layout the friction kernels read (points by row, edges by FEM node)."""
+        """(FEM nodes then contact points) now and at the step's start (kept by `advance`), and
+        the points' rows: the layout the friction kernels read (points by row, edges by FEM node)."""
         nf = self.fem.n
         ext = np.concatenate([y[:nf], self.points.positions(y)])
-        ext0 = np.concatenate([self.y_start[:nf], self.points.positions(self.y_start)])
-        return ext, ext0, nf + np.arange(len(self.points.node))
+        return ext, self.ext_start, nf + np.arange(len(self.points.node))
 
     def _lag(self, y):
         """(pairs, tau, r, mu lambda) of the contacts within dhat at the step's start (lagged
@@ -595,8 +594,10 @@ class ImplicitStep(Integrator):
         fixed = held & ~moving
         target = yn + dt * held_velocity
         free = ~fixed.ravel()
-        self.y_start, self.dt_step = yn, dt
+        self.dt_step = dt
         self.points = self._points(state)
+        if self.points is not None:
+            self.ext_start = np.concatenate([yn[:nf], self.points.positions(yn)])
         self.friction = self._lag(yn) if self.contact and self.mu.any() else None
         y = yn.copy()
         its = halvings = 0
