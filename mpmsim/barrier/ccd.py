@@ -189,8 +189,8 @@ def point_edge_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
         # ones stop once the distance would fall below eta d0
         if d_next < gap and toc > 0.0:
             return toc
-        if t_next >= t_max:
-            return t_max if d_next >= gap else toc
+        if t_next >= t_max:  # (a capped first advance is safe even where round-off puts d_next at gap)
+            return t_max
         toc = t_next
         d = d_next
         it += 1
@@ -225,8 +225,8 @@ def point_point_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
         d_next = np.sqrt(rx * rx + ry * ry)
         if d_next < gap and toc > 0.0:
             return toc
-        if t_next >= t_max:
-            return t_max if d_next >= gap else toc
+        if t_next >= t_max:  # (a capped first advance is safe even where round-off puts d_next at gap)
+            return t_max
         toc = t_next
         d = d_next
         it += 1

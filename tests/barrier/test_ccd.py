@@ -122,3 +122,22 @@ def test_batched_ccd_is_the_minimum_over_pairs():
     edges = np.array([[k, n + k] for k in range(n)], dtype=np.int64)
     pairs = np.array([[k, k] for k in range(n)], dtype=np.int64)
     assert point_edge_ccd_pairs(pts, dpts, verts, dverts, edges, pairs, ETA) == pytest.approx(tois.min(), rel=1e-12)
+
+
+def test_a_capped_first_advance_is_never_forfeited():
+    """A pair capped at exactly its own CCD time (another pair, e.g. the coincident corner of a
+    neighbouring particle, set the running minimum): at that time round-off puts the distance a
+    hair below eta d0, but the first advance is safe by the bounds and must be returned whole,
+    as the uncapped call does, not as 0 (which stalled Newton on an MPM column's corners)."""
+    y = np.array([0.05000000000000368, -0.0013500000004642394, 0.10000000000003421, -0.003000000000489901,
+                  0.05000000000001589, -0.0030000000004653726])
+    dy = np.array([-2.4553563986396292e-11, -9.998650000084448, 2.536058665942328e-10, -3.628407413070593e-09,
+                   1.1781148872020606e-10, -3.4467401455006574e-09])
+    t = point_edge_ccd(y, dy, ETA)
+    assert t == pytest.approx((1 - ETA) * 0.00165 / 9.99865, rel=1e-9)
+    assert point_edge_ccd(y, dy, ETA, t) == t
+    pts, dpts = np.stack([y[:2], y[:2]]), np.stack([dy[:2], dy[:2]])
+    verts, dverts = np.stack([y[2:4], y[4:6]]), np.stack([dy[2:4], dy[4:6]])
+    edges = np.array([[0, 1]], dtype=np.int64)
+    pairs = np.array([[0, 0], [1, 0]], dtype=np.int64)
+    assert point_edge_ccd_pairs(pts, dpts, verts, dverts, edges, pairs, ETA) == t
