@@ -57,14 +57,16 @@ def measure(name: str, d: dict, threads: int = 1) -> None:
         print(f"  {part:12s} {sec / steps * 1e3:8.2f} ms/step  {100 * sec / wall:5.1f}%")
 
 
-def column_deck(h: float, per_direction: int, steps: int = 12) -> dict:
-    """A 0.2 x 1 MPM column (nu = 0, E 1e6, rho 1000, g 10) 3 mm above a stiff FEM floor,
-    backward Euler with dt = 1 s: a few steps reach the static state."""
+def column_deck(h: float, per_direction: int, steps: int = 12, E: float = 1e6, contact: str = "corners",
+                shift: float = 0.0, tolerance: float = 1e-7) -> dict:
+    """A 0.2 x 1 MPM column (nu = 0, E, rho 1000, g 10) 3 mm above a stiff FEM floor, backward
+    Euler with dt = 1 s: a few steps reach the static state. `contact`: implicit.particle_contact;
+    `shift`: the grid moved up by this fraction of a cell (0: the column's ends on grid lines)."""
     return {
         "title": "column", "units": "SI", "analysis": "plane_strain",
-        "grid": {"cell_size": h, "domain": {"min": [-0.4, -0.2], "max": [0.4, 1.4]}},
+        "grid": {"cell_size": h, "domain": {"min": [-0.4, -0.2 + shift * h], "max": [0.4, 1.4 + shift * h]}},
         "shape_function": "bspline2", "update": {"scheme": "apic"}, "particles_per_direction": per_direction,
-        "materials": {"column": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.0, "density": 1000.0},
+        "materials": {"column": {"type": "compressible_neo_hookean", "E": E, "nu": 0.0, "density": 1000.0},
                       "floor": {"type": "compressible_neo_hookean", "E": 1e10, "nu": 0.3, "density": 1000.0}},
         "bodies": [{"name": "floor", "shape": "rectangle", "min": [-0.3, -0.1], "max": [0.3, -0.003],
                     "material": "floor", "discretization": "fem", "element_size": 0.05,
@@ -72,7 +74,8 @@ def column_deck(h: float, per_direction: int, steps: int = 12) -> dict:
                    {"name": "column", "shape": "rectangle", "min": [-0.1, 0.0], "max": [0.1, 1.0],
                     "material": "column"}],
         "gravity": [0.0, -10.0], "integrator": "implicit",
-        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "kappa": 1e8, "newton_tolerance": 1e-7},
+        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "kappa": 1e8, "newton_tolerance": tolerance,
+                     "particle_contact": contact},
         "time": {"end": float(steps), "dt": 1.0},
     }
 
@@ -88,18 +91,19 @@ def column_exact(Y, H=1.0, rho=1000.0, g=10.0, E=1e6):
     return np.interp(Y, Ys, y)
 
 
-def column_errors(h: float, per_direction: int) -> dict:
+def column_errors(h: float, per_direction: int, **options) -> dict:
     """Settlement of the top particle row and centre of mass, both relative to the bottom row
-    (the barrier's gap drops out), against column_exact."""
-    d = column_deck(h, per_direction)
+    (the barrier's gap drops out), against column_exact; `options` go to column_deck."""
+    d = column_deck(h, per_direction, **options)
+    E = d["materials"]["column"]["E"]
     sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "column.yaml")), threads=1)
     P = sim.state.particles
     Y = P.x[:, 1].copy()
     sim.run()
     bottom, top = np.isclose(Y, Y.min()), np.isclose(Y, Y.max())
     y_bottom = P.x[bottom, 1].mean()
-    exact_top = column_exact(Y.max()) - column_exact(Y.min())
-    exact_com = (column_exact(Y) - column_exact(Y.min())).mean()
+    exact_top = column_exact(Y.max(), E=E) - column_exact(Y.min(), E=E)
+    exact_com = (column_exact(Y, E=E) - column_exact(Y.min(), E=E)).mean()
     settlement = (Y.max() - Y.min()) - (P.x[top, 1].mean() - y_bottom)
     exact_settlement = (Y.max() - Y.min()) - exact_top
     return {"h": h, "per_direction": per_direction, "particles": P.n, "settlement": settlement,
@@ -108,15 +112,22 @@ def column_errors(h: float, per_direction: int) -> dict:
 
 
 def column_study() -> None:
-    print("MPM column on an FEM floor (rho g H^2 / 2E = 5 mm): errors against the exact static column")
-    for per_direction in (2, 3, 4):
-        rows = [column_errors(h, per_direction) for h in (0.1, 0.05, 0.025)]
-        for a, b in zip(rows, rows[1:] + [None]):
-            order = "" if b is None else f"  order to next: settlement {np.log2(abs(a['settlement_error'] / b['settlement_error'])):.2f}, " \
-                f"com {np.log2(abs(a['com_error'] / b['com_error'])):.2f}"
-            print(f"  {per_direction ** 2:2d} per cell, h = {a['h']:<6g}: settlement {a['settlement'] * 1e3:.4f} mm "
-                  f"(exact {a['exact_settlement'] * 1e3:.4f}), error {a['settlement_error'] * 1e6:+.2f} um, "
-                  f"centre of mass {a['com_error'] * 1e6:+.2f} um{order}")
+    """Errors and orders for 4/9/16 particles per cell at h = 0.1, 0.05, 0.025: particle
+    contact at the centres and at the corners, E = 1e7 and 1e6 (settlement 0.5 and 5 mm), the
+    column's ends on grid lines and half a cell off them."""
+    cases = [(1e7, "centres", 0.0), (1e7, "corners", 0.0), (1e7, "corners", 0.5), (1e6, "corners", 0.0)]
+    for E, contact, shift in cases:
+        print(f"MPM column on an FEM floor, E = {E:g} (rho g H^2 / 2E = {5e3 / E * 1e3:g} mm), particle contact at "
+              f"the {contact}, grid shifted by {shift:g} h: errors against the exact static column")
+        for per_direction in (2, 3, 4):
+            rows = [column_errors(h, per_direction, E=E, contact=contact, shift=shift) for h in (0.1, 0.05, 0.025)]
+            for a, b in zip(rows, rows[1:] + [None]):
+                order = "" if b is None else \
+                    f"  order to next: settlement {np.log2(abs(a['settlement_error'] / b['settlement_error'])):.2f}, " \
+                    f"com {np.log2(abs(a['com_error'] / b['com_error'])):.2f}"
+                print(f"  {per_direction ** 2:2d} per cell, h = {a['h']:<6g}: settlement {a['settlement'] * 1e3:.4f} mm "
+                      f"(exact {a['exact_settlement'] * 1e3:.4f}), error {a['settlement_error'] * 1e6:+.3f} um, "
+                      f"centre of mass {a['com_error'] * 1e6:+.3f} um{order}")
 
 
 def main() -> None:

@@ -552,6 +552,11 @@ class Implicit(Strict):
         "converges, the friction's normal forces and sliding frames are taken again at the new positions and "
         "Newton reruns, until it converges at once or this many lags were taken. 1: lagged once, at the step's "
         "start.")
+    particle_contact: Literal["centres", "corners"] = Field(
+        default="centres", description="Where a particle meets FEM boundary edges. centres: at the particle "
+        "(the paper's formulation; the load enters half a particle inside the body, first-order accurate). "
+        "corners: at the corners of the particle's deformed domain, so the body's surface carries the "
+        "contact (second order on grid-aligned bodies; 4 contact points per particle in 2D).")
 
 
 class Update(Strict):

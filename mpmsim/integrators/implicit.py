@@ -17,9 +17,11 @@ ContactPoints) and the boundary edges of other bodies,
 Phi = sum_pairs w_p b(d_pe), b(d) = -kappa dhat (u - 1)^2 ln u, u = d / dhat (mpmsim/barrier),
 with w_p the contact area of the point: the node's share of its body's boundary length (half
 the lengths of its two boundary edges) or the particle's width (the square root of its
-initial area), times the thickness; so kappa is a pressure. A particle's
-position is linear in its grid nodes, so its pair gradient and Hessian reach them through its
-weights (J^T H J stays PSD). The pairs come from a spatial hash of the step's swept boxes, never
+initial area), times the thickness; so kappa is a pressure. With `particle_contact: corners`
+the particle's points are the 2^d corners of its deformed domain instead, each carrying half a
+face (the contact load then enters at the body's surface, not half a particle inside it). A
+particle's points are linear in its grid nodes, so their pair gradients and Hessians reach them
+through the weights (J^T H J stays PSD). The pairs come from a spatial hash of the step's swept boxes, never
 from an all-pairs loop. The paper's (deg - 1) correction subtracts w_p (deg_v - 1) b(|p - v|) for each
 boundary vertex v within dhat of the point (pairs from the same hash): where the point sees v
 as an end of its edges (a straight or convex boundary) the barrier is then exactly b(distance
@@ -50,6 +52,7 @@ parts also in 3D without contact.
 
 from __future__ import annotations
 
+import itertools
 import time as wallclock
 from types import SimpleNamespace
 from typing import NamedTuple
@@ -124,9 +127,9 @@ def friction_pairs(x, x0, boundary, facets, pairs, tau, r, mu_lambda, eps, grads
     return total
 
 
-def check_initial_gaps(scene, dhat: float) -> None:
-    """Deck error when two FEM bodies, or a particle and an FEM body, start closer than dhat
-    (the barrier would start infinite or already pushing)."""
+def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
+    """Deck error when two FEM bodies, or a particle (its domain's corners with `corners`) and
+    an FEM body, start closer than dhat (the barrier would start infinite or already pushing)."""
     from ..deck.loader import raise_at
     from ..fem.probes import boundary_gap
 
@@ -151,7 +154,12 @@ def check_initial_gaps(scene, dhat: float) -> None:
                              f"inside FEM body '{fem.infos[fem.cell_body[e]].name}' (first at "
                              f"{seed.x[q].round(6).tolist()}): the bodies overlap"))
     if seed is not None and len(seed.x):
-        x = seed.x
+        x, owner = seed.x, np.arange(len(seed.x))
+        if corners:  # the corners of the particles' domains
+            d = x.shape[1]
+            signs = np.array(list(itertools.product((-1.0, 1.0), repeat=d)))
+            x = (x[:, None, :] + signs * np.asarray(scene.semi_size)[:d]).reshape(-1, d)
+            owner = np.repeat(owner, len(signs))
         pairs = point_edge_candidates(x, np.zeros_like(x), fem.points, np.zeros_like(fem.points), fem.facets, dhat,
                                       np.full(len(x), -1, np.int64))
         y = np.empty(6)
@@ -160,7 +168,8 @@ def check_initial_gaps(scene, dhat: float) -> None:
             y[:] = (*x[q], *fem.points[a], *fem.points[b])
             d = point_edge_distance(y)
             if d <= dhat:
-                problems.append((("implicit", "dhat"), f"a particle of '{scene.deck.bodies[seed.body[q]].name}' at "
+                what = "a particle's corner" if corners else "a particle"
+                problems.append((("implicit", "dhat"), f"{what} of '{scene.deck.bodies[seed.body[owner[q]]].name}' at "
                                  f"{x[q].round(6).tolist()} starts {d:.4g} from the boundary of "
                                  f"'{fem.infos[fem.node_body[a]].name}', not farther than dhat = {dhat:g}: move "
                                  "the bodies apart or lower dhat"))
@@ -254,6 +263,7 @@ class ImplicitStep(Integrator):
         self.kappa = imp.kappa if imp.kappa is not None else 1e-3 * young
         self.eps_v = imp.friction_velocity
         self.friction_lags = imp.friction_lags
+        self.particle_contact = imp.particle_contact
         c = deck.contact
         self.mu = np.full((len(mats.deformable),) * 2, c.default.friction if c.default.law == "coulomb" else 0.0)
         index = {name: k for k, name in enumerate(mats.deformable)}
@@ -273,10 +283,11 @@ class ImplicitStep(Integrator):
         bodies = n_fem + (1 if self.grid is not None else 0)
         self.contact = self.dhat is not None and n_fem >= 1 and bodies > 1 and scene.dim == 2
         if self.dhat is not None:
-            check_initial_gaps(scene, self.dhat)
+            check_initial_gaps(scene, self.dhat, imp.particle_contact == "corners")
         what = "FEM bodies" if self.grid is None else ("particle bodies" if not n_fem else "FEM and particle bodies")
         self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, sparse LU"),
                      ("barrier contact", f"log barrier on FEM boundary edges, dhat {self.dhat:g}, kappa {self.kappa:g}"
+                      + (f", particles at their {imp.particle_contact}" if self.grid is not None else "")
                       if self.contact else "no contact")]
         if self.grid is not None:
             self.plan.insert(0, ("grid unknowns", f"particles -> active grid nodes ({deck.update.scheme} transfers), "
@@ -338,11 +349,16 @@ class ImplicitStep(Integrator):
         parts = [(node, w, np.zeros((nb, d)), fem.node_body[b], b, self.boundary_weight, self.node_mat[b])]
         if grid is not None:
             P = state.particles
-            off = grid.x0 - np.einsum("pk,pkc->pc", grid.S, grid.X[grid.nodes])
             t = self.thickness
             width = np.sqrt(P.vol0 / t) * t  # the particle's width x thickness (2D)
-            parts.append((fem.n + grid.nodes, grid.S, off, self.n_fem_bodies + np.zeros(P.n, np.int64),
-                          np.full(P.n, -1, np.int64), width, P.mat))
+            if self.particle_contact == "corners":  # each corner carries half of a face
+                owner, nodes, S, off = grid.corners(state)
+                width = 0.5 * width[owner]
+            else:
+                owner, nodes, S = np.arange(P.n), grid.nodes, grid.S
+                off = grid.x0 - np.einsum("pk,pkc->pc", S, grid.X[nodes])
+            parts.append((fem.n + nodes, S, off, self.n_fem_bodies + np.zeros(len(owner), np.int64),
+                          np.full(len(owner), -1, np.int64), width, P.mat[owner]))
         return ContactPoints(*(np.concatenate([q[k] for q in parts]) for k in range(7)))
 
     def _pairs(self, y: np.ndarray, p: np.ndarray) -> Pairs:

@@ -20,14 +20,24 @@ grid's boundary conditions are an explicit-solver feature).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from numba import njit
 
 from ..augury import inertia_inverse, to_grid
 from ..errors import InstabilityError
 from ..fem import elements
+from ..shapes import ShapeData
 
 WEIGHT_FLOOR = 1e-10  # grid weights below this are dropped (begin)
+
+
+def kept_weights(S: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """The weights S (n, K) with the entries not kept zeroed and each row rescaled to sum 1."""
+    out = np.where(keep, S, 0.0)
+    out /= out.sum(axis=1, keepdims=True)
+    return out
 
 
 @njit(cache=True)
@@ -83,15 +93,14 @@ class GridUnknowns:
         # entries of negligible weight (a particle almost 1.5 cells from a B-spline node) would
         # make nodes of ~zero mass and an ill-conditioned Newton system: drop them, then restore
         # sum_k w = 1 and sum_k grad w = 0 (momentum and rigid motions stay exact)
-        keep = sd.S > WEIGHT_FLOOR
-        S = np.where(keep, sd.S, 0.0)
-        S /= S.sum(axis=1, keepdims=True)
-        grad = np.where(keep[:, :, None], sd.G, 0.0)
+        S = kept_weights(sd.S, sd.S > WEIGHT_FLOOR)
+        grad = np.where(S[:, :, None] != 0.0, sd.G, 0.0)
         grad -= S[:, :, None] * grad.sum(axis=1, keepdims=True)
         flat = sd.nodes
         active = np.unique(flat[S != 0.0])
         local = np.searchsorted(active, flat)
         local[S == 0.0] = 0
+        self.active = active
         d = P.x.shape[1]
         sx, sy = int(grid.view.shape[0]), int(grid.view.shape[1])
         ijk = np.stack([active % sx, (active // sx) % sy, active // (sx * sy)], axis=1).astype(float)
@@ -117,6 +126,32 @@ class GridUnknowns:
     @property
     def n(self) -> int:
         return len(self.mass)
+
+    def corners(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Contact points on the particles' deformed domains, 2^d per particle: the corners
+        x_p + F_p (+-l) at the step's start, carried by the shape functions at the corners over
+        the active nodes (frozen like the particles' own). Returns (particle, nodes, weights,
+        offsets), the offsets making the start positions exact when a corner's stencil reaches
+        past the active nodes (those weights are dropped and the rest rescaled to sum 1)."""
+        P = state.particles
+        d = P.x.shape[1]
+        signs = np.array(list(itertools.product((-1.0, 1.0), repeat=d)))  # (2^d, d)
+        x = (P.x[:, None, :] + np.einsum("pab,cb->pca", P.F, signs * P.semi[:d])).reshape(-1, d)
+        F = np.repeat(P.F, len(signs), axis=0)
+        sd = ShapeData.empty(len(x), self.S.shape[1], d)
+        (_, _), (bad, _) = state.shape.compute(x, F, P.semi, state.grid, state.nchunk, sd)
+        owner = np.repeat(np.arange(P.n), len(signs))
+        if bad >= 0:
+            q = owner[bad]
+            raise InstabilityError(
+                f"stopped at step {state.step + 1}, t = {state.t:.6g}: a particle of "
+                f"'{P.infos[P.local_body[q]].name}' at {np.round(P.x[q], 6).tolist()} reaches past the grid "
+                "(make grid.domain larger)", state.t, state.step)
+        local = np.minimum(np.searchsorted(self.active, sd.nodes), len(self.active) - 1)
+        S = kept_weights(sd.S, (sd.S > WEIGHT_FLOOR) & (self.active[local] == sd.nodes))
+        local[S == 0.0] = 0
+        offset = x - np.einsum("qk,qkc->qc", S, self.X[local])
+        return owner, local, S, offset
 
     # --- energy pieces (u: grid displacement y - X)
     def energy(self, u, materials) -> float:
