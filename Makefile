@@ -75,7 +75,7 @@ stability-table: $(STAMP)
 
 # every PNG in docs/ from the decks and sweeps; one target per figure group, so a new
 # figure (e.g. issue 5's shock bar) is one more entry in FIGURES and one more rule
-FIGURES := figure-contact figure-sweeps figure-column-history figure-shock figure-interfaces
+FIGURES := figure-contact figure-sweeps figure-column-history figure-shock figure-interfaces figure-buckling
 figures: $(FIGURES)
 .PHONY: $(FIGURES)
 
@@ -87,6 +87,10 @@ figure-shock: bench-shock
 
 # the interface sweeps resume from results/bench_interfaces/; a first run takes hours
 figure-interfaces: bench-interfaces
+
+# the stacked semicircular rings for three friction coefficients (about 7 minutes on one core)
+figure-buckling: $(STAMP)
+	$(BIN)/python bench/implicit.py --buckling
 
 figure-column-history: $(STAMP)
 	$(BIN)/mpmsim run inputs/column.yaml --quiet --out results/column

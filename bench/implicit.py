@@ -2,6 +2,8 @@
 
     python bench/implicit.py [--h 0.025] [--rings-end 0.1] [--threads 1 2]
     python bench/implicit.py --column       # MPM column settling on an FEM floor: refinement
+    python bench/implicit.py --buckling     # stacked semicircular rings, three ring-ring mu
+    python bench/implicit.py --solvers      # Newton's matrices: splu against CHOLMOD (cholespy, extra `bench`)
 
 inputs/implicit_blocks_2d.yaml (FEM on FEM) at element size h, and inputs/implicit_rings_2d.yaml
 (an MPM ring against an FEM ring), on 1 and 2 threads: DOFs, Newton iterations per step and the time per
@@ -23,6 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from mpmsim.deck import load_deck_text  # noqa: E402
+from mpmsim.integrators.implicit import particles_inside  # noqa: E402
 from mpmsim.scene import build_scene  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
 
@@ -93,7 +96,8 @@ def column_exact(Y, H=1.0, rho=1000.0, g=10.0, E=1e6):
 
 def column_errors(h: float, per_direction: int, **options) -> dict:
     """Settlement of the top particle row and centre of mass, both relative to the bottom row
-    (the barrier's gap drops out), against column_exact; `options` go to column_deck."""
+    (the barrier's gap drops out), and the top row's height over the row nearest Y = 0.5 (the
+    upper half, away from the contact), against column_exact; `options` go to column_deck."""
     d = column_deck(h, per_direction, **options)
     E = d["materials"]["column"]["E"]
     sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "column.yaml")), threads=1)
@@ -106,9 +110,11 @@ def column_errors(h: float, per_direction: int, **options) -> dict:
     exact_com = (column_exact(Y, E=E) - column_exact(Y.min(), E=E)).mean()
     settlement = (Y.max() - Y.min()) - (P.x[top, 1].mean() - y_bottom)
     exact_settlement = (Y.max() - Y.min()) - exact_top
+    middle = np.unique(Y)[np.argmin(np.abs(np.unique(Y) - 0.5))]  # a row away from the contact
+    upper = (P.x[top, 1].mean() - P.x[Y == middle, 1].mean()) - (column_exact(Y.max(), E=E) - column_exact(middle, E=E))
     return {"h": h, "per_direction": per_direction, "particles": P.n, "settlement": settlement,
             "exact_settlement": exact_settlement, "settlement_error": settlement - exact_settlement,
-            "com_error": (P.x[:, 1] - y_bottom).mean() - exact_com}
+            "com_error": (P.x[:, 1] - y_bottom).mean() - exact_com, "upper_half_error": upper}
 
 
 def column_study() -> None:
@@ -124,10 +130,140 @@ def column_study() -> None:
             for a, b in zip(rows, rows[1:] + [None]):
                 order = "" if b is None else \
                     f"  order to next: settlement {np.log2(abs(a['settlement_error'] / b['settlement_error'])):.2f}, " \
-                    f"com {np.log2(abs(a['com_error'] / b['com_error'])):.2f}"
+                    f"com {np.log2(abs(a['com_error'] / b['com_error'])):.2f}, " \
+                    f"upper half {np.log2(abs(a['upper_half_error'] / b['upper_half_error'])):.2f}"
                 print(f"  {per_direction ** 2:2d} per cell, h = {a['h']:<6g}: settlement {a['settlement'] * 1e3:.4f} mm "
                       f"(exact {a['exact_settlement'] * 1e3:.4f}), error {a['settlement_error'] * 1e6:+.3f} um, "
-                      f"centre of mass {a['com_error'] * 1e6:+.3f} um{order}")
+                      f"centre of mass {a['com_error'] * 1e6:+.3f} um, upper half {a['upper_half_error'] * 1e6:+.4f} um{order}")
+
+
+def buckling_run(mu: float) -> dict:
+    """inputs/implicit_buckling_2d.yaml with Coulomb mu between the rings: the inner ring's
+    crown dip (its top face at 90 +- 35 degrees minus at 90 degrees, > 0 once the crown is
+    pushed below its shoulders) every 5 steps, frames every 20, Newton statistics."""
+    deck = ROOT / "inputs" / "implicit_buckling_2d.yaml"
+    d = yaml.safe_load(deck.read_text())
+    d["contact"]["pairs"][0] = {"between": ["outer", "inner"], "law": "coulomb" if mu > 0 else "frictionless",
+                                "friction": mu}
+    sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), deck)), threads=1)
+    st = sim.state
+    P, f = st.particles, st.fem
+    r0 = np.hypot(P.x[:, 0], P.x[:, 1])
+    angle = np.degrees(np.arctan2(P.x[:, 1], P.x[:, 0]))
+    face = r0 > 0.39
+    crown, shoulders = face & (np.abs(angle - 90) < 3), face & (np.abs(np.abs(angle - 90) - 35) < 3)
+    times, dips, frames = [], [], []
+    inside, sideways = 0, 0.0
+    wall = time.perf_counter()
+    while st.t < sim.end * (1 - 1e-12):
+        sim.step()
+        inside = max(inside, int(particles_inside(P.x, f.x, f.cells).sum()))
+        sideways = max(sideways, abs(P.x[crown, 0].mean()))
+        if st.step % 5 == 0:
+            times.append(st.t)
+            dips.append(P.x[shoulders, 1].mean() - P.x[crown, 1].mean())
+        if st.step % 20 == 0:
+            frames.append((st.t, P.x.copy(), f.x.copy()))
+    it = np.array([s[0] for s in sim.integrator.stats])
+    return {"mu": mu, "t": np.array(times), "dip": np.array(dips), "frames": frames, "cells": f.cells,
+            "wall": time.perf_counter() - wall, "iterations": it.mean(), "max_iterations": it.max(),
+            "inside": inside, "sideways": sideways}
+
+
+def buckling_study(figure: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = [buckling_run(mu) for mu in (0.0, 0.2, 1.0)]
+    print("Stacked semicircular rings (inputs/implicit_buckling_2d.yaml): inner crown dip (mm) under the plate")
+    for r in runs:
+        at = {round(t, 3): v for t, v in zip(r["t"], r["dip"])}
+        onset = r["t"][np.argmax(r["dip"] > 5e-3)] if (r["dip"] > 5e-3).any() else float("nan")
+        print(f"  mu = {r['mu']:<4g}: dip at 0.3/0.4/0.5 s {at[0.3] * 1e3:+.1f} / {at[0.4] * 1e3:+.1f} / "
+              f"{at[0.5] * 1e3:+.1f} mm, past 5 mm at {onset:.3f} s; Newton {r['iterations']:.1f} iterations "
+              f"per step (max {r['max_iterations']}), {r['wall']:.0f} s on 1 thread; particles inside FEM "
+              f"triangles after a step: at most {r['inside']}; crown's mean x at most {r['sideways']:.1e} m")
+    n = len(runs[0]["frames"])
+    fig, axs = plt.subplots(len(runs), n, figsize=(2.4 * n, 1.6 * len(runs)), squeeze=False)
+    for i, r in enumerate(runs):
+        for j, (t, px, fx) in enumerate(r["frames"]):
+            ax = axs[i, j]
+            ax.triplot(fx[:, 0], fx[:, 1], r["cells"], lw=0.15, color="0.55")
+            ax.scatter(px[:, 0], px[:, 1], s=0.2, c="tab:red", linewidths=0)
+            ax.set_aspect("equal")
+            ax.set_xlim(-0.62, 0.62)
+            ax.set_ylim(-0.06, 0.56)
+            ax.axis("off")
+            ax.set_title(f"mu = {r['mu']:g}, t = {t:.1f} s", fontsize=7)
+    fig.savefig(figure, dpi=130, bbox_inches="tight")
+    print(f"figure: {figure}")
+
+
+def newton_matrices(name: str, end: float, keep: int = 6) -> list:
+    """Up to `keep` of Newton's matrices (free unknowns) from the deck's run to `end`, every
+    third from the first: the step's sparse LU is wrapped to copy them."""
+    import mpmsim.integrators.implicit as implicit
+
+    seen, kept = [], []
+    original = implicit.splu
+
+    def grab(A, *args, **kwargs):
+        seen.append(1)
+        if len(seen) % 3 == 1 and len(kept) < keep:
+            kept.append(A.copy())
+        return original(A, *args, **kwargs)
+
+    deck = ROOT / "inputs" / name
+    d = yaml.safe_load(deck.read_text())
+    d["time"]["end"] = end
+    implicit.splu = grab
+    try:
+        Simulation(build_scene(load_deck_text(yaml.safe_dump(d), deck)), threads=1).run()
+    finally:
+        implicit.splu = original
+    return kept
+
+
+def solver_study() -> None:
+    from scipy.sparse.linalg import splu
+
+    try:
+        from cholespy import CholeskySolverD, MatrixType
+    except ImportError:
+        print("cholespy is missing: pip install -e '.[bench]'")
+        return
+
+    def best(solve, reps=3):
+        times = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            x = solve()
+            times.append(time.perf_counter() - t0)
+        return min(times), x
+
+    print("Newton's matrices, best of 3 per solve (analysis + factorisation + solve)")
+    rng = np.random.default_rng(0)
+    for name, end in [("implicit_blocks_2d.yaml", 0.05), ("implicit_rings_2d.yaml", 0.03),
+                      ("implicit_buckling_2d.yaml", 0.03)]:
+        for A in newton_matrices(name, end):
+            A = A.tocsc()
+            n = A.shape[0]
+            b = rng.random(n)
+            C = A.tocoo()
+
+            def cholmod():
+                x = np.zeros(n)
+                CholeskySolverD(n, C.row.astype(np.int32), C.col.astype(np.int32), C.data, MatrixType.COO).solve(b, x)
+                return x
+
+            runs = [best(lambda: splu(A).solve(b)), best(lambda: splu(A, permc_spec="MMD_AT_PLUS_A").solve(b)),
+                    best(cholmod)]
+            res = [np.linalg.norm(A @ x - b) / np.linalg.norm(b) for _, x in runs]
+            print(f"  {name:28s} n {n:5d} nnz {A.nnz:6d}: splu (COLAMD) {runs[0][0] * 1e3:6.2f} ms, splu (MMD A'+A) "
+                  f"{runs[1][0] * 1e3:6.2f} ms, CHOLMOD {runs[2][0] * 1e3:6.2f} ms; residuals "
+                  + " ".join(f"{r:.1e}" for r in res))
 
 
 def main() -> None:
@@ -135,11 +271,20 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.025, help="element size of the blocks (default 0.025)")
     ap.add_argument("--rings-end", type=float, default=0.1, help="end time of the rings run (default 0.1 s)")
     ap.add_argument("--column", action="store_true", help="the column refinement study instead")
+    ap.add_argument("--buckling", action="store_true",
+                    help="the buckling rings for three friction coefficients instead (docs/figures/bfemp_buckling.png)")
+    ap.add_argument("--solvers", action="store_true", help="splu against CHOLMOD on Newton's matrices instead")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
     args = ap.parse_args()
     numba.set_num_threads(1)
     if args.column:
         column_study()
+        return
+    if args.solvers:
+        solver_study()
+        return
+    if args.buckling:
+        buckling_study(ROOT / "docs" / "figures" / "bfemp_buckling.png")
         return
     d = yaml.safe_load((ROOT / "inputs" / "implicit_blocks_2d.yaml").read_text())
     for b in d["bodies"]:
