@@ -39,8 +39,9 @@ with eps = friction_velocity * dt (below which friction is smoothed static frict
 per step.
 
 Projected Newton: element, particle and pair Hessians projected to PSD, H = M + c (K + B) on the
-free degrees of freedom (held components move to their target and are eliminated), solved with
-scipy's sparse LU (splu). Line search: alpha = min(1, alpha_CCD, alpha_inversion) (additive CCD
+free degrees of freedom (held components move to their target and are eliminated; the local
+Hessians' triplets go straight into CSC over the free unknowns, free_csc), solved with scipy's
+sparse LU (splu). Line search: alpha = min(1, alpha_CCD, alpha_inversion) (additive CCD
 keeps every point at least 10% of its distance from every edge; the inversion bound keeps
 det F > 0 for triangles and particles), then halved until E decreases. Stop when the largest
 move of an FEM node or a particle, max |p| / dt, is below newton_tolerance; that last step is
@@ -202,6 +203,52 @@ def triplets(nodes: np.ndarray, local: np.ndarray, dim: int) -> tuple[np.ndarray
     dofs = (nodes[:, :, None] * dim + np.arange(dim)[None, None, :]).reshape(m, k * dim)
     return (np.repeat(dofs, k * dim, axis=1).ravel(), np.tile(dofs, (1, k * dim)).ravel(),
             np.asarray(local).ravel())
+
+
+@njit(cache=True)
+def free_csc(rows, cols, vals, index, n):
+    """The sparse matrix of the triplets (rows, cols, vals) (duplicates summed) restricted to
+    the unknowns k with index[k] >= 0 and renumbered by index, n of them, as canonical CSC
+    arrays (indptr, indices, data): rows sorted within each column, no duplicates. One pass
+    buckets the entries by column, a second sums each column's duplicates through a row
+    marker and sorts its (few) distinct rows."""
+    start = np.zeros(n + 1, np.int64)
+    for k in range(len(rows)):
+        i, j = index[rows[k]], index[cols[k]]
+        if i >= 0 and j >= 0:
+            start[j + 1] += 1
+    for j in range(n):
+        start[j + 1] += start[j]
+    fill = start[:n].copy()
+    r = np.empty(start[n], np.int32)
+    v = np.empty(start[n])
+    for k in range(len(rows)):
+        i, j = index[rows[k]], index[cols[k]]
+        if i >= 0 and j >= 0:
+            r[fill[j]] = i
+            v[fill[j]] = vals[k]
+            fill[j] += 1
+    where = np.full(n, -1, np.int64)  # slot of row i in the column being built (stale: < first)
+    indptr = np.zeros(n + 1, np.int32)
+    indices = np.empty(start[n], np.int32)
+    data = np.empty(start[n])
+    nnz = 0
+    for j in range(n):
+        first = nnz
+        for q in range(start[j], start[j + 1]):
+            i = r[q]
+            if where[i] < first:
+                where[i] = nnz
+                indices[nnz] = i
+                data[nnz] = v[q]
+                nnz += 1
+            else:
+                data[where[i]] += v[q]
+        order = np.argsort(indices[first:nnz])
+        indices[first:nnz] = indices[first:nnz][order]
+        data[first:nnz] = data[first:nnz][order]
+        indptr[j + 1] = nnz
+    return indptr, indices[:nnz].copy(), data[:nnz].copy()
 
 
 def empty_fem(dim: int) -> SimpleNamespace:
@@ -393,7 +440,8 @@ class ImplicitStep(Integrator):
 
     def _energy(self, state, y, yt, pairs, want_derivatives):
         """E(y) (inf if an element or particle inverted or a pair touched), and when asked its
-        gradient (n*d,) and PSD-projected Hessian (CSR)."""
+        gradient (n*d,) and PSD-projected Hessian (triplets rows, cols, values; duplicates to
+        be summed: free_csc)."""
         fem, m, grid = self.fem, state.materials, self.grid
         c, nf, d = self.c, self.fem.n, self.dim
         yf = y[:nf]
@@ -458,8 +506,7 @@ class ImplicitStep(Integrator):
         n = n_y * d
         every = np.arange(n)
         blocks.append((every, every, diag))
-        rows, cols, vals = (np.concatenate([b[i] for b in blocks]) for i in range(3))
-        return E, g, sp.coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+        return E, g, tuple(np.concatenate([b[i] for b in blocks]) for i in range(3))
 
     def _extended(self, y):
         """(FEM nodes then contact points) now and at the step's start (kept by `advance`), and
@@ -536,14 +583,18 @@ class ImplicitStep(Integrator):
         halvings = 0
         ccd_limited = False
         none = Pairs(np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64))
+        m = int(free.sum())
+        index = np.full(free.size, -1, np.int64)  # DOF -> free unknown (-1: eliminated)
+        index[free] = np.arange(m)
         for it in range(1, self.max_iterations + 1):
             t0 = wallclock.perf_counter()
             pairs = self._pairs(y, np.zeros_like(y)) if self.contact else none
             E, g, H = self._energy(state, y, yt, pairs, True)
+            indptr, indices, data = free_csc(*H, index, m)
+            Hf = sp.csc_matrix((data, indices, indptr), shape=(m, m))
             self.timers["assemble"] += wallclock.perf_counter() - t0
             t0 = wallclock.perf_counter()
             p = np.zeros(y.size)
-            Hf = H[free][:, free].tocsc()
             p[free] = splu(Hf).solve(-g[free])
             p = p.reshape(y.shape)
             self.timers["solve"] += wallclock.perf_counter() - t0
