@@ -69,7 +69,7 @@ def run(
     """Run a deck: VTU series (+ .pvd for ParaView) and a CSV history."""
     import numba
 
-    from .solver import Simulation, default_output_dir
+    from .solver import Simulation, StopRequested, default_output_dir
 
     cold = kernel_cache.is_empty()  # before the scene's own kernels fill it
     scene = _load_scene(deck)
@@ -114,15 +114,28 @@ def run(
             out.print(f"first step: {seconds:.1f} s (numba compiled the kernels the cache lacked; later runs "
                       "load them)", highlight=False)
 
-    previous = signal.signal(signal.SIGTERM, _terminate)  # SIGTERM stops like Ctrl-C: files kept whole
+    # Ctrl-C (SIGINT) and SIGTERM ask the run to stop at the end of the current step, where the
+    # state is whole and is written; a second signal stops it at once (history kept)
+    received: list[int] = []
+
+    def request_stop(signum, frame):
+        if received:
+            raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+        received.append(signum)
+
+    def between_steps() -> None:
+        if received:
+            raise StopRequested()
+
+    previous = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         if progress is not None:
             with progress:
                 bar = progress.add_task(scene.loaded.stem, total=end, t="0", end=f"{end:g}", rate="-")
-                result = sim.run(report, compiled)
+                result = sim.run(report, compiled, between_steps)
                 progress.update(bar, completed=end, t=f"{st.t:.4g}")
         else:
-            result = sim.run(first_step=compiled)
+            result = sim.run(first_step=compiled, between_steps=between_steps)
     except InstabilityError as exc:
         err.print(f"[bold red]mpmsim: run stopped[/]: {exc}", highlight=False, soft_wrap=True)
         err.print(f"output so far (including the failing state) is in {directory}", highlight=False)
@@ -132,12 +145,14 @@ def run(
                   f"written before are whole, in {directory}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_UNSTABLE) from None
     except KeyboardInterrupt as exc:  # caught here: the command-line framework would swallow it
-        what, code = ("terminated", 143) if isinstance(exc, Terminated) else ("interrupted", 130)
+        term = (received[0] == signal.SIGTERM) if received else isinstance(exc, Terminated)
+        what, code = ("terminated", 143) if term else ("interrupted", 130)
         err.print(f"mpmsim: {what} at step {st.step}, t = {st.t:.6g} {tu}; the history and the VTU files "
                   f"written so far are in {directory}", highlight=False, soft_wrap=True)
         raise typer.Exit(code) from None
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
     if quiet:
         return
     _timing_table(result, sim)
@@ -155,11 +170,7 @@ def _reason(exc: BaseException) -> str:
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where the run is so it stops as Ctrl-C does (output kept whole)."""
-
-
-def _terminate(signum, frame):
-    raise Terminated()
+    """A second SIGTERM, raised where the run is so it stops as Ctrl-C does (output kept whole)."""
 
 
 def default_threads(cpus: int | None = None, load: float | None = None) -> tuple[int, str]:

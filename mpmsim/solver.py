@@ -70,6 +70,11 @@ def next_time(current: float, interval: float, now: float) -> float:
     return nxt if nxt > now else now + interval
 
 
+class StopRequested(KeyboardInterrupt):
+    """Raised between steps (Simulation.run's `between_steps`) when the run was asked to stop,
+    e.g. by a signal: the state is whole, so the run writes it before stopping."""
+
+
 class Simulation:
     def __init__(self, scene: Scene, out_dir: Path | None = None, threads: int | None = None,
                  integrator: Integrator | None = None, max_steps: float | None = None,
@@ -159,10 +164,14 @@ class Simulation:
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
 
     def run(self, progress: Callable[[State], None] | None = None,
-            first_step: Callable[[float], None] | None = None) -> RunResult:
+            first_step: Callable[[float], None] | None = None,
+            between_steps: Callable[[], None] | None = None) -> RunResult:
         """Step to time.end with history and output on their schedules. The first step (where
         numba compiles whatever the cache lacks) is kept out of the timers and the rate;
-        `first_step(seconds)` is called after it."""
+        `first_step(seconds)` is called after it. `between_steps()` is called after each step's
+        output, where the state is whole: a StopRequested it raises ends the run with the
+        history and a last VTU frame of that state written (a KeyboardInterrupt raised anywhere
+        else writes the history only)."""
         st, end = self.state, self.end
         vtu_dt, hist_dt = self.vtu_interval, self.history_interval
         eps = 1e-9 * end
@@ -194,6 +203,13 @@ class Simulation:
                     next_vtu = next_time(next_vtu, vtu_dt, st.t + eps)
                 if progress is not None:
                     progress(st)
+                if between_steps is not None:
+                    between_steps()
+        except StopRequested:
+            if recorded_at != st.t:
+                self.history.record(st)
+            self._write_output(vtu=written_at != st.t)
+            raise
         except InstabilityError:
             # keep the failing state: advance the clock to the failing step, then write it
             st.t += st.dt

@@ -247,7 +247,8 @@ def test_compile_command_prepares_decks_and_refuses_nothing_to_do(tmp_path, monk
 @pytest.mark.parametrize("how,code,word", [("SIGINT", 130, "interrupted"), ("SIGTERM", 143, "terminated")])
 def test_ctrl_c_or_sigterm_stops_a_run_with_a_message_and_keeps_its_output(tmp_path, how, code, word):
     """SIGINT (Ctrl-C) or SIGTERM during `mpmsim run`: exit 130 / 143, one line naming the step,
-    time and folder, and the files written so far complete (no .tmp left)."""
+    time and folder, and the files written so far complete (no .tmp left); the run stops at the
+    end of a step, so the history's last row and the series' last frame are the same state."""
     import signal
     import subprocess
     import sys
@@ -273,6 +274,13 @@ def test_ctrl_c_or_sigterm_stops_a_run_with_a_message_and_keeps_its_output(tmp_p
     assert "Traceback" not in err
     assert not list(out.glob("*.tmp"))
     assert (out / "long.pvd").exists() and (out / "long_history.csv").exists()
+    import re
+
+    from mpmsim.output.history import read_history
+
+    frames = [float(t) for t in re.findall(r'timestep="([^"]+)"', (out / "long.pvd").read_text())]
+    last_row = read_history(out / "long_history.csv")["time"][-1]
+    assert frames[-1] == pytest.approx(last_row, rel=1e-9, abs=1e-12) and frames[-1] > 0.003
 
 
 def test_a_rerun_into_the_same_folder_leaves_no_stale_series_files(tmp_path):
