@@ -122,6 +122,7 @@ def run(
         if received:
             raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
         received.append(signum)
+        os.write(2, b"\nmpmsim: stopping at the end of this step (signal again to stop now)\n")  # no locks
 
     def between_steps() -> None:
         if received:
