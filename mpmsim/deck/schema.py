@@ -556,7 +556,7 @@ class Implicit(Strict):
         default="centres", description="Where a particle meets FEM boundary edges. centres: at the particle "
         "(the paper's formulation; the load enters half a particle inside the body, first-order accurate). "
         "corners: at the corners of the particle's deformed domain, so the body's surface carries the "
-        "contact (second order on grid-aligned bodies; 4 contact points per particle in 2D).")
+        "contact (second order with 2 or 4 particles per cell direction; 4 contact points per particle in 2D).")
 
 
 class Update(Strict):
