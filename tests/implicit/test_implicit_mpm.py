@@ -291,9 +291,9 @@ def bench_implicit():
 def test_particle_corners_are_carried_exactly_by_an_affine_grid_motion(per_direction):
     """implicit.particle_contact: corners. The 2^d corners x_p + F_p(+-l) of each particle of a
     grid-aligned column (with a sheared F) start where they are (offsets zero: every corner's
-    stencil lies on active nodes, to the dropped weights below 1e-10) and an affine motion of the grid nodes u = A X + b moves each
-    corner by A c + b (the B-spline weights at the corner reproduce linear fields; the
-    particle's own weights would not)."""
+    stencil lies on active nodes, up to the dropped weights below 1e-10) and an affine motion
+    of the grid nodes u = A X + b moves each corner by A c + b (the B-spline weights at the
+    corner reproduce linear fields; the particle's own weights would not)."""
     d = bench_implicit().column_deck(0.1, per_direction, contact="corners")
     sim = simulation(d)
     st = sim.state
@@ -351,17 +351,15 @@ def test_an_mpm_column_on_an_fem_floor_converges_to_the_exact_static_column():
         e = np.abs([r[key] for r in rows])
         return np.log2(e[:-1] / e[1:])
 
-    for per_direction in (2, 4):
-        rows = [bench.column_errors(h, per_direction, contact="corners") for h in hs]
-        assert np.all(orders(rows, "com_error") >= 1.5), (per_direction, orders(rows, "com_error"))
-        assert max(abs(r["settlement_error"]) for r in rows) < 3e-8, per_direction
-    nine = [bench.column_errors(h, 3, contact="corners") for h in hs]
-    assert np.all(np.abs(orders(nine, "com_error") - 1.0) < 0.15), orders(nine, "com_error")
+    corners = {n: [bench.column_errors(h, n, contact="corners") for h in hs] for n in (2, 3, 4)}
+    for n in (2, 4):
+        assert np.all(orders(corners[n], "com_error") >= 1.5), (n, orders(corners[n], "com_error"))
+        assert max(abs(r["settlement_error"]) for r in corners[n]) < 3e-8, n
+    assert np.all(np.abs(orders(corners[3], "com_error") - 1.0) < 0.15), orders(corners[3], "com_error")
     dropped = bench.column_errors(0.025, 4, contact="corners", gap=3e-3)
-    assert abs(dropped["com_error"]) > 10.0 * abs(rows[-1]["com_error"])
-    four = [bench.column_errors(h, 2, contact="corners") for h in (0.1, 0.05)]
+    assert abs(dropped["com_error"]) > 10.0 * abs(corners[4][-1]["com_error"])
     centres = [bench.column_errors(h, 2, contact="centres") for h in (0.1, 0.05)]
-    for c, r in zip(centres, four):
+    for c, r in zip(centres, corners[2]):
         assert abs(c["settlement_error"]) > 10.0 * abs(r["settlement_error"])
         assert abs(c["settlement_error"]) < 0.01 * c["exact_settlement"]
     assert abs(centres[1]["settlement_error"]) > 0.45 * abs(centres[0]["settlement_error"])  # first order only
