@@ -163,6 +163,13 @@ class Simulation:
         self.history.flush()
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
 
+    def _write_last(self, recorded_at: float, written_at: float) -> None:
+        """The current state as the history's last row and the series' last frame, unless
+        they already are (recorded or written at this time)."""
+        if recorded_at != self.state.t:
+            self.history.record(self.state)
+        self._write_output(vtu=written_at != self.state.t)
+
     def run(self, progress: Callable[[State], None] | None = None,
             first_step: Callable[[float], None] | None = None,
             between_steps: Callable[[], None] | None = None) -> RunResult:
@@ -206,9 +213,7 @@ class Simulation:
                 if between_steps is not None:
                     between_steps()
         except StopRequested:
-            if recorded_at != st.t:
-                self.history.record(st)
-            self._write_output(vtu=written_at != st.t)
+            self._write_last(recorded_at, written_at)
             raise
         except InstabilityError:
             # keep the failing state: advance the clock to the failing step, then write it
@@ -220,9 +225,7 @@ class Simulation:
         except KeyboardInterrupt:
             self._write_output(vtu=False)
             raise
-        if recorded_at != st.t:
-            self.history.record(st)
-        self._write_output(vtu=written_at != st.t)
+        self._write_last(recorded_at, written_at)
         wall = wallclock.perf_counter() - start
         n_cells = len(st.fem.cells) if st.fem is not None else 0  # points stepped: particles + elements
         timed = st.step - (timed_from if timed_from is not None else st.step)

@@ -53,7 +53,6 @@ parts also in 3D without contact.
 
 from __future__ import annotations
 
-import itertools
 import time as wallclock
 from types import SimpleNamespace
 from typing import NamedTuple
@@ -73,7 +72,7 @@ from ..deck.schema import Implicit
 from ..errors import InstabilityError
 from ..fem import elements
 from . import Integrator
-from .implicit_mpm import GridUnknowns
+from .implicit_mpm import GridUnknowns, corner_signs
 
 SCHEMES = {"backward_euler": (1.0, 0.5, 1.0), "newmark": (0.5, 0.25, 0.5)}
 PARTS = ("assemble", "solve", "ccd", "line search")
@@ -158,7 +157,7 @@ def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
         x, owner = seed.x, np.arange(len(seed.x))
         if corners:  # the corners of the particles' domains
             d = x.shape[1]
-            signs = np.array(list(itertools.product((-1.0, 1.0), repeat=d)))
+            signs = corner_signs(d)
             x = (x[:, None, :] + signs * np.asarray(scene.semi_size)[:d]).reshape(-1, d)
             owner = np.repeat(owner, len(signs))
         pairs = point_edge_candidates(x, np.zeros_like(x), fem.points, np.zeros_like(fem.points), fem.facets, dhat,

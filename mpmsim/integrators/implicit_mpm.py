@@ -33,6 +33,11 @@ from ..shapes import ShapeData
 WEIGHT_FLOOR = 1e-10  # grid weights below this are dropped (begin)
 
 
+def corner_signs(d: int) -> np.ndarray:
+    """(2^d, d) sign patterns of a box's corners: corner c of a particle is x + F (signs[c] * l)."""
+    return np.array(list(itertools.product((-1.0, 1.0), repeat=d)))
+
+
 def kept_weights(S: np.ndarray, keep: np.ndarray) -> np.ndarray:
     """The weights S (n, K) with the entries not kept zeroed and each row rescaled to sum 1."""
     out = np.where(keep, S, 0.0)
@@ -135,7 +140,7 @@ class GridUnknowns:
         past the active nodes (those weights are dropped and the rest rescaled to sum 1)."""
         P = state.particles
         d = P.x.shape[1]
-        signs = np.array(list(itertools.product((-1.0, 1.0), repeat=d)))  # (2^d, d)
+        signs = corner_signs(d)
         x = (P.x[:, None, :] + np.einsum("pab,cb->pca", P.F, signs * P.semi[:d])).reshape(-1, d)
         F = np.repeat(P.F, len(signs), axis=0)
         sd = ShapeData.empty(len(x), self.S.shape[1], d)
