@@ -1,7 +1,9 @@
 """Command line: `mpmsim run DECK`, `mpmsim check DECK`, `mpmsim sweep SWEEP`, `mpmsim plot CSV...`,
 `mpmsim --version`.
 
-Exit codes: 0 ok, 2 bad deck (or bad command line), 3 run stopped as unstable.
+Exit codes: 0 ok, 2 bad deck, bad command line or unusable checkpoint, 3 run stopped as
+unstable, 4 output could not be written (folder, disk), 130 / 143 stopped by Ctrl-C / SIGTERM
+(docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import os
 import signal
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
 
@@ -24,6 +27,7 @@ from .errors import DeckError, InstabilityError
 
 EXIT_BAD_DECK = 2
 EXIT_UNSTABLE = 3
+EXIT_IO = 4
 # particle-steps per second on one thread from `make bench` (2D uGIMP column); for estimates
 NOMINAL_RATE = 2.0e6
 
@@ -45,15 +49,23 @@ def _root(version: Optional[bool] = typer.Option(None, "--version", callback=_ve
     """mpmsim: one YAML deck in; VTU time series and CSV histories out."""
 
 
+@contextmanager
+def _deck_errors():
+    """A DeckError raised inside (by the loader, the scene, an integrator's checks) ends the
+    command with its message and exit 2."""
+    try:
+        yield
+    except DeckError as exc:
+        err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
+
+
 def _load_scene(deck: Path):
     from .deck import load_deck
     from .scene import build_scene
 
-    try:
+    with _deck_errors():
         return build_scene(load_deck(deck))
-    except DeckError as exc:
-        err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
-        raise typer.Exit(EXIT_BAD_DECK) from None
 
 
 @app.command()
@@ -65,29 +77,54 @@ def run(
         None, "--threads", help="Worker threads (default: the cores other processes leave idle)."),
     max_steps: float = typer.Option(1e8, "--max-steps", help="Refuse a run estimated to take more steps."),
     max_frames: float = typer.Option(1e5, "--max-frames", help="Refuse more VTU frames or history rows."),
+    restart: Optional[Path] = typer.Option(
+        None, "--restart", help="Continue the run whose output folder (and checkpoint) this is."),
+    steps: Optional[int] = typer.Option(
+        None, "--steps", min=1, help="Stop after this many steps (a checkpoint is written: --restart continues)."),
 ) -> None:
     """Run a deck: VTU series (+ .pvd for ParaView) and a CSV history."""
     import numba
 
-    from .solver import Simulation, StopRequested, default_output_dir
+    from .output.checkpoint import CheckpointError, checkpoint_path, read_manifest
+    from .solver import Simulation, StepLimit, StopRequested, default_output_dir
 
     cold = kernel_cache.is_empty()  # before the scene's own kernels fill it
     scene = _load_scene(deck)
-    chosen, why = (threads, "--threads") if threads is not None else default_threads()
+    manifest = None
+    if restart is not None:
+        try:
+            manifest = read_manifest(checkpoint_path(restart, scene.loaded.stem))
+        except CheckpointError as exc:
+            err.print(f"mpmsim: cannot restart: {exc}", highlight=False, soft_wrap=True)
+            raise typer.Exit(EXIT_BAD_DECK) from None
+    if threads is not None:
+        chosen, why = threads, "--threads"
+    elif manifest is not None:  # the checkpoint's count: the run continues bit for bit
+        chosen, why = int(manifest.get("threads", 1)), "as the checkpointed run"
+    else:
+        chosen, why = default_threads()
     numba.set_num_threads(max(1, min(chosen, numba.config.NUMBA_NUM_THREADS)))
     if not quiet and threads is None:
         out.print(f"threads: {numba.get_num_threads()} ({why}; --threads N to choose)", highlight=False)
-    directory = out_dir if out_dir is not None else default_output_dir(scene.loaded)
+    directory = restart if restart is not None else out_dir if out_dir is not None else default_output_dir(scene.loaded)
     try:
         sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads(), max_steps=max_steps,
-                         max_frames=max_frames)
+                         max_frames=max_frames, resume=restart is not None)
+        if restart is not None:
+            sim.resume()
+            if not quiet:
+                out.print(f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
+                          f"{_units(scene).time}", highlight=False)
     except DeckError as exc:
         err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
+    except CheckpointError as exc:
+        err.print(f"mpmsim: cannot restart: {exc}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
     except (OSError, ValueError) as exc:  # the folder: not creatable, a file in the way, a NUL in the path
         err.print(f"mpmsim: cannot write the output folder {str(directory)!r}: {_reason(exc)}", highlight=False,
                   soft_wrap=True)
-        raise typer.Exit(EXIT_BAD_DECK) from None
+        raise typer.Exit(EXIT_IO) from None
     st, end = sim.state, scene.deck.time.end
     tu = _units(scene).time
     progress = None
@@ -124,9 +161,13 @@ def run(
         received.append(signum)
         os.write(2, b"\nmpmsim: stopping at the end of this step (signal again to stop now)\n")  # no locks
 
+    last_step = None if steps is None else sim.state.step + steps
+
     def between_steps() -> None:
         if received:
             raise StopRequested()
+        if last_step is not None and st.step >= last_step:
+            raise StepLimit()
 
     previous = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
@@ -144,12 +185,23 @@ def run(
     except OSError as exc:  # a write failed mid-run (disk full, folder removed): earlier files are whole
         err.print(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {_reason(exc)}; the files "
                   f"written before are whole, in {directory}", highlight=False, soft_wrap=True)
-        raise typer.Exit(EXIT_UNSTABLE) from None
+        raise typer.Exit(EXIT_IO) from None
+    except StepLimit:
+        err.print(f"mpmsim: stopped after {steps} steps (--steps) at t = {st.t:.6g} {tu}; results in {directory}; "
+                  f"continue with mpmsim run {deck} --restart {directory}", highlight=False, soft_wrap=True)
+        return
     except KeyboardInterrupt as exc:  # caught here: the command-line framework would swallow it
         term = (received[0] == signal.SIGTERM) if received else isinstance(exc, Terminated)
         what, code = ("terminated", 143) if term else ("interrupted", 130)
-        err.print(f"mpmsim: {what} at step {st.step}, t = {st.t:.6g} {tu}; the history and the VTU files "
-                  f"written so far are in {directory}", highlight=False, soft_wrap=True)
+        resume = f"mpmsim run {deck} --restart {directory}"
+        if isinstance(exc, StopRequested):  # stopped at the end of a step: checkpoint written
+            err.print(f"mpmsim: {what} at step {st.step}, t = {st.t:.6g} {tu}; results in {directory}; resume "
+                      f"with {resume}", highlight=False, soft_wrap=True)
+        else:  # stopped mid-step (a second signal): the last periodic checkpoint, if any, is kept
+            ckpt = checkpoint_path(directory, scene.loaded.stem)
+            where = f"; resume from the last checkpoint with {resume}" if ckpt.exists() else ""
+            err.print(f"mpmsim: {what} in step {st.step + 1}; the history and the VTU files written so far are in "
+                      f"{directory}{where}", highlight=False, soft_wrap=True)
         raise typer.Exit(code) from None
     finally:
         for s, handler in previous.items():
@@ -235,17 +287,23 @@ def compile(
         out.print(f"{path}: compiling the kernels it uses (numba; cached ones load at once)...", highlight=False)
         t0 = time.perf_counter()
         scene = _load_scene(path)
-        Simulation(scene, out_dir=None, threads=1).step()
+        with _deck_errors():
+            Simulation(scene, out_dir=None, threads=1).step()
         out.print(f"{path}: kernels ready ({time.perf_counter() - t0:.1f} s)", highlight=False)
 
 
 @app.command()
 def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
+    scene = _load_scene(deck)
+    with _deck_errors():
+        _check(scene)
+
+
+def _check(scene) -> None:
     from .integrators import make_integrator
     from .state import State
 
-    scene = _load_scene(deck)
     d, u = scene.deck, _units(scene)
     state = State.from_scene(scene, threads=1)
     out.print(f"[bold]{scene.loaded.path}[/]: {d.title}", highlight=False)

@@ -20,8 +20,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+from . import __version__
 from .deck import LoadedDeck, load_deck
+from .deck.schema import wall_clock_seconds
 from .errors import InstabilityError
+from .output.checkpoint import CheckpointError, checkpoint_path, deck_digest, read_manifest, restore_checkpoint, \
+    write_checkpoint
 from .integrators import Integrator, make_integrator
 from .output.history import History
 from .output.vtu import VtuSeries
@@ -70,19 +74,36 @@ def next_time(current: float, interval: float, now: float) -> float:
     return nxt if nxt > now else now + interval
 
 
+@dataclass
+class Schedule:
+    """Where the run loop is in its output schedules (saved in checkpoints)."""
+
+    next_vtu: float
+    next_hist: float
+    next_checkpoint: float  # simulated time (inf: by wall clock or never)
+    recorded_at: float  # time of the last history row
+    written_at: float  # time of the last VTU frame
+
+
 class StopRequested(KeyboardInterrupt):
     """Raised between steps (Simulation.run's `between_steps`) when the run was asked to stop,
-    e.g. by a signal: the state is whole, so the run writes it before stopping."""
+    e.g. by a signal: the state is whole, so the run writes it (and a checkpoint) before stopping."""
+
+
+class StepLimit(StopRequested):
+    """The run took the number of steps it was asked for (`mpmsim run --steps N`)."""
 
 
 class Simulation:
     def __init__(self, scene: Scene, out_dir: Path | None = None, threads: int | None = None,
                  integrator: Integrator | None = None, max_steps: float | None = None,
-                 max_frames: float | None = None):
+                 max_frames: float | None = None, resume: bool = False):
         """`out_dir=None` keeps the history in memory and writes no files (tests, sweeps).
         `integrator=None`: the deck's (make_integrator). `max_steps`, `max_frames`: refuse (a
         DeckError, before any file is touched) a run whose estimated step count (time.end over
-        the first stable step) or output count exceeds them."""
+        the first stable step) or output count exceeds them. `resume`: the folder holds a run
+        to continue (call `resume()`); otherwise an earlier run's series files and checkpoint of
+        this deck are removed."""
         self.scene = scene
         deck = scene.deck
         self.end = deck.time.end
@@ -98,9 +119,19 @@ class Simulation:
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
         self.history = History(scene, self.state, self.out_dir / f"{stem}_history.csv" if self.out_dir else None)
-        self.vtu = VtuSeries(self.out_dir, stem) if self.out_dir is not None else None
+        self.vtu = VtuSeries(self.out_dir, stem, clear=not resume) if self.out_dir is not None else None
         self.files: list[Path] = []
         self.first_step_seconds = 0.0  # wall time of the first step of run() (compiling)
+        self.schedule: Schedule | None = None  # set by the first run() (or a restored checkpoint)
+        interval = deck.output.checkpoint_interval
+        self.checkpoint_every = interval if not isinstance(interval, str) else math.inf  # simulated time
+        self.checkpoint_wall = wall_clock_seconds(interval) if isinstance(interval, str) else None
+        self.checkpoint_path = checkpoint_path(self.out_dir, stem) if self.out_dir is not None else None
+        if self.out_dir is not None:  # what a killed run of this deck may have left half-written
+            for name in (f"{stem}_history.csv", f"{stem}.pvd", self.checkpoint_path.name):
+                (self.out_dir / f".{name}.tmp").unlink(missing_ok=True)
+            if not resume:
+                self.checkpoint_path.unlink(missing_ok=True)
 
     def check_budget(self, max_steps: float | None, max_frames: float | None) -> None:
         deck = self.scene.deck
@@ -113,7 +144,10 @@ class Simulation:
                                  f"{self.end:g}); more than the {max_steps:.3g} allowed: check the densities and "
                                  "moduli, or run with --max-steps N"))
         if max_frames is not None:
-            for key, interval in (("vtu_interval", self.vtu_interval), ("history_interval", self.history_interval)):
+            every = deck.output.checkpoint_interval
+            sim_every = [("checkpoint_interval", every)] if not isinstance(every, str) else []
+            for key, interval in [("vtu_interval", self.vtu_interval), ("history_interval", self.history_interval)] \
+                    + sim_every:
                 frames = self.end / interval
                 if not frames <= max_frames:
                     problems.append((("output", key), f"about {frames:.3g} outputs to time.end {self.end:g}; more "
@@ -170,6 +204,44 @@ class Simulation:
             self.history.record(self.state)
         self._write_output(vtu=written_at != self.state.t)
 
+    # ------------------------------------------------------------------------ checkpoints
+    def _checkpoint_root(self) -> dict:
+        return {"simulation": self}
+
+    def write_checkpoint(self) -> Path | None:
+        """Save the whole run (state, integrator, history rows, frames, schedule) to the
+        output folder's checkpoint, replacing the previous one atomically."""
+        if self.checkpoint_path is None:
+            return None
+        t0 = wallclock.perf_counter()
+        meta = {"mpmsim": __version__, "deck": deck_digest(self.scene.deck), "t": self.state.t,
+                "step": self.state.step, "threads": self.state.threads}
+        write_checkpoint(self.checkpoint_path, self._checkpoint_root(), meta)
+        self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
+        return self.checkpoint_path
+
+    def resume(self, path: Path | None = None) -> dict:
+        """Continue the run saved in the checkpoint `path` (default: this output folder's):
+        refused (CheckpointError) when it is from another deck or mpmsim version. The folder is
+        brought back to the checkpoint: frames written after it are removed, the .pvd and the
+        history CSV list exactly what the checkpoint holds."""
+        path = Path(path) if path is not None else self.checkpoint_path
+        if path is None:
+            raise CheckpointError("a restart needs an output folder")
+        manifest = read_manifest(path)
+        if manifest.get("mpmsim") != __version__:
+            raise CheckpointError(f"{str(path)!r} was written by mpmsim {manifest.get('mpmsim')}, this is "
+                                  f"{__version__}; rerun from the start")
+        if manifest.get("deck") != deck_digest(self.scene.deck):
+            raise CheckpointError(f"{str(path)!r} was written for a different deck (or one changed since); "
+                                  "rerun from the start, or restore the deck as it was")
+        restore_checkpoint(path, self._checkpoint_root())
+        if self.vtu is not None:
+            self.vtu.resumed()
+            self.files = [self.vtu.directory / f for _, _, f in self.vtu.entries]
+        self.history.flush()
+        return manifest
+
     def run(self, progress: Callable[[State], None] | None = None,
             first_step: Callable[[float], None] | None = None,
             between_steps: Callable[[], None] | None = None) -> RunResult:
@@ -184,13 +256,15 @@ class Simulation:
         eps = 1e-9 * end
         start = wallclock.perf_counter()
         timed_from = None
-        if st.step == 0:  # the energy balance starts from the state as the caller left it
-            sums = total_sums(st)
-            st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
-        self.history.record(st)
-        self._write_output(vtu=True)
-        next_vtu, next_hist = vtu_dt, hist_dt
-        recorded_at, written_at = st.t, st.t
+        if self.schedule is None:  # a new run (a restored one continues its schedule)
+            if st.step == 0:  # the energy balance starts from the state as the caller left it
+                sums = total_sums(st)
+                st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
+            self.history.record(st)
+            self._write_output(vtu=True)
+            self.schedule = Schedule(st.t + vtu_dt, st.t + hist_dt, st.t + self.checkpoint_every, st.t, st.t)
+        sc = self.schedule
+        saved_at = wallclock.perf_counter()
         try:
             while st.t < end - eps:
                 self.step()
@@ -200,20 +274,31 @@ class Simulation:
                     timed_from = st.step
                     if first_step is not None:
                         first_step(self.first_step_seconds)
-                if st.t >= next_hist - eps:
+                if st.t >= sc.next_hist - eps:
                     self.history.record(st)
-                    recorded_at = st.t
-                    next_hist = next_time(next_hist, hist_dt, st.t + eps)
-                if st.t >= next_vtu - eps:
+                    sc.recorded_at = st.t
+                    sc.next_hist = next_time(sc.next_hist, hist_dt, st.t + eps)
+                if st.t >= sc.next_vtu - eps:
                     self._write_output(vtu=True)
-                    written_at = st.t
-                    next_vtu = next_time(next_vtu, vtu_dt, st.t + eps)
+                    sc.written_at = st.t
+                    sc.next_vtu = next_time(sc.next_vtu, vtu_dt, st.t + eps)
+                by_time = st.t >= sc.next_checkpoint - eps
+                every_s = self.checkpoint_wall
+                by_clock = every_s is not None and wallclock.perf_counter() - saved_at >= every_s
+                if (by_time or by_clock) and st.t < end - eps:  # (none at the end: the run is complete)
+                    if by_time:
+                        sc.next_checkpoint = next_time(sc.next_checkpoint, self.checkpoint_every, st.t + eps)
+                    self.write_checkpoint()
+                    saved_at = wallclock.perf_counter()
                 if progress is not None:
                     progress(st)
                 if between_steps is not None:
                     between_steps()
         except StopRequested:
-            self._write_last(recorded_at, written_at)
+            # the checkpoint first: it holds the schedule as it is, so a restart continues as the
+            # uninterrupted run would; then the stopping state as the last row and frame
+            self.write_checkpoint()
+            self._write_last(sc.recorded_at, sc.written_at)
             raise
         except InstabilityError:
             # keep the failing state: advance the clock to the failing step, then write it
@@ -225,7 +310,9 @@ class Simulation:
         except KeyboardInterrupt:
             self._write_output(vtu=False)
             raise
-        self._write_last(recorded_at, written_at)
+        self._write_last(sc.recorded_at, sc.written_at)
+        if self.checkpoint_path is not None:  # the run is complete: nothing to continue
+            self.checkpoint_path.unlink(missing_ok=True)
         wall = wallclock.perf_counter() - start
         n_cells = len(st.fem.cells) if st.fem is not None else 0  # points stepped: particles + elements
         timed = st.step - (timed_from if timed_from is not None else st.step)

@@ -180,7 +180,7 @@ class State:
         scheme = deck.update.scheme
         particles = Particles.from_seed(scene.deformable, mats.density, scene.semi_size, scene.deformable_bodies,
                                         affine=scheme == "apic", energy=mats.tracks_energy)
-        rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim)
+        rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim, deck.stability.rigid_penetration)
         sf = shape_function(deck.shape_function)
         K = sf.nodes_per_particle(dim)
         threads = threads or n_threads()

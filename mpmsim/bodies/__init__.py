@@ -60,6 +60,10 @@ class BodySet:
         """The deck bodies this set holds."""
         return self.infos
 
+    def body_name(self, index: int) -> str:
+        """The name of deck body `index` (its `name`, or body<index>)."""
+        return next((i.name for i in self.infos if i.index == index), f"body{index}")
+
     def sums(self, state, detail: bool = True) -> Sums | None:
         """Mass-carrying kinds return their sums; kinds without mass (prescribed rigid motion)
         return None. detail=False: only the energies, momentum, stress and volume of the total

@@ -142,7 +142,7 @@ class Particles(BodySet):
     def describe(self, state, p: int, units) -> str:
         name = state.materials.deformable[int(self.mat[p])]
         pos = ", ".join(f"{c:.6g}" for c in self.x[p])
-        return f"particle {p} (material '{name}', body {int(self.body[p])}) at ({pos}) {units.length}"
+        return f"particle {p} (material '{name}', body '{self.body_name(int(self.body[p]))}') at ({pos}) {units.length}"
 
     def check(self, state, units) -> tuple[str, str] | None:
         fl = state.flags

@@ -32,6 +32,7 @@ class RigidParticles(BodySet):
     disp: np.ndarray  # (n_rigid_materials, dim) displacement since t = 0
     names: list  # rigid material names
     infos: list  # BodyInfo of each rigid particle body
+    watch_penetration: bool = True  # stop when a deformable particle is pushed inside (stability.rigid_penetration)
 
     kind = "rigid particles"
 
@@ -43,11 +44,11 @@ class RigidParticles(BodySet):
         return RigidView(self.x, self.v, self.vol, self.x0)
 
     @classmethod
-    def from_seed(cls, seed, materials, infos: list[BodyInfo], dim: int) -> "RigidParticles":
+    def from_seed(cls, seed, materials, infos: list[BodyInfo], dim: int, watch: bool = True) -> "RigidParticles":
         nr = len(materials.rigid)
         v0 = np.array([m.velocity(0.0) for m in materials.motions]).reshape(nr, dim)
         return cls(seed.x.copy(), seed.v.copy(), seed.vol.copy(), seed.mat.copy(), seed.body.copy(), seed.x.copy(),
-                   v0, v0.copy(), np.zeros((nr, dim)), list(materials.rigid), infos)
+                   v0, v0.copy(), np.zeros((nr, dim)), list(materials.rigid), infos, watch)
 
     def history_columns(self, units, dim: int) -> list[tuple[str, str]]:
         cols = []
@@ -82,14 +83,55 @@ class RigidParticles(BodySet):
         return [("particles", {"points": pad3(self.x), "point_data": data})]
 
     def check(self, state, units) -> tuple[str, str] | None:
-        """A rigid material whose particles (or their shape-function support) left the grid."""
+        """A rigid material whose particles (or their shape-function support) left the grid, or
+        a deformable particle inside a rigid body (pushed into it: contact must never allow it)."""
         if self.n == 0:
             return None
         g = state.grid
         out = np.any((self.x < g.domain_lo) | (self.x > g.domain_hi), axis=1)
         if state.flags.bad_rigid >= 0:
             out[state.flags.bad_rigid] = True
-        if not out.any():
+        if out.any():
+            name = self.names[int(self.mat[np.argmax(out)])]
+            return "stopped", f"rigid material '{name}' left the grid domain; enlarge grid.domain"
+        P = state.particles
+        if P.n == 0 or not self.watch_penetration:
             return None
-        name = self.names[int(self.mat[np.argmax(out)])]
-        return "stopped", f"rigid material '{name}' left the grid domain; enlarge grid.domain"
+        p, q = inside_rigid(P.x, self, g.origin[: g.dim], 2.0 * P.semi)
+        if p < 0:
+            return None
+        return "stopped", (f"{P.describe(state, p, units)} is inside rigid material '{self.names[int(self.mat[q])]}' "
+                           f"(body '{self.body_name(int(self.body[q]))}'): it was pushed through; a smaller "
+                           "time.cfl, or a slower prescribed motion, keeps contact")
+
+
+def inside_rigid(x: np.ndarray, rigid: "RigidParticles", origin: np.ndarray, spacing: np.ndarray) -> tuple[int, int]:
+    """(p, q): the first deformable particle p whose centre lies inside a rigid body, with q a
+    rigid particle of that body there; (-1, -1) if none. Inside means within a cell of the
+    rigid body's own particle lattice whose 2^dim corners are all its particles: more than half
+    a particle spacing past its surface (grid contact lets a centre cross the surface by less,
+    so only a particle pushed into the body is caught). A rigid body one particle thick has
+    no such cells and is not watched."""
+    dim = x.shape[1]
+    corners = np.array(np.meshgrid(*[[0, 1]] * dim, indexing="ij")).reshape(dim, -1).T
+    for r in range(len(rigid.names)):
+        mine = np.flatnonzero(rigid.mat == r)
+        if len(mine) < 2 ** dim:
+            continue
+        k = np.rint((rigid.x0[mine] - origin) / spacing - 0.5).astype(np.int64)
+        lo = k.min(axis=0)
+        span = k.max(axis=0) - lo + 1
+        owner = np.full(tuple(span), -1, dtype=np.int64)
+        owner[tuple((k - lo).T)] = mine
+        kp = np.floor((x - rigid.disp[r] - origin) / spacing - 0.5).astype(np.int64) - lo
+        near = np.all((kp >= 0) & (kp + 1 < span), axis=1)
+        if not near.any():
+            continue
+        cand = np.flatnonzero(near)
+        full = np.ones(len(cand), dtype=bool)
+        for c in corners:
+            full &= owner[tuple((kp[cand] + c).T)] >= 0
+        if full.any():
+            p = int(cand[np.argmax(full)])
+            return p, int(owner[tuple(kp[p])])
+    return -1, -1

@@ -203,8 +203,9 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
             stiff[i, j] = interface_stiffness(pair)
     sep = c.separation or ("logistic_regression" if c.normal == "logistic_regression" else "displacement")
     nv = np.zeros(3)
-    if c.normal_vector is not None:
+    if c.normal_vector is not None and any(c.normal_vector):
         nv[: len(c.normal_vector)] = c.normal_vector
+        nv /= np.abs(nv).max()  # first to order one: the norm of (1e-300, 0) would underflow
         nv /= np.linalg.norm(nv)
     centre = np.zeros(3)
     if c.normal_center is not None:

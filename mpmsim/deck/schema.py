@@ -605,6 +605,12 @@ class Output(Strict):
         default=None, gt=0, description="Simulated time between VTU files. Default: end/20.")
     history_interval: float | None = Field(
         default=None, gt=0, description="Simulated time between CSV history rows. Default: end/200.")
+    checkpoint_interval: float | str = Field(
+        default="10 min",
+        description="How often to save a checkpoint (<stem>_checkpoint.npz, replaced each time; "
+        "`mpmsim run DECK --restart DIR` continues from it): a number is simulated time, a string "
+        "'N s', 'N min' or 'N h' is wall-clock time, 'off' saves none. A checkpoint is also saved "
+        "when Ctrl-C or SIGTERM stops a run; a run that reaches time.end removes it.")
     material_stress: list[str] = Field(
         default_factory=list, description="Deformable materials whose own volume-averaged stress is "
         "added to the history (columns like syy@name).")
@@ -613,6 +619,32 @@ class Output(Strict):
         "velocities the grid cannot represent, ||V - S S+ V|| / ||V|| with S+ the mass-weighted "
         "pseudo-inverse (a sparse solve per history row). velocity_noise, always written, uses the "
         "transfers' lumped S+ instead and has a floor (docs/shape-functions.md).")
+
+    @field_validator("checkpoint_interval")
+    @classmethod
+    def _checkpoint_interval(cls, v):
+        if isinstance(v, str):
+            wall_clock_seconds(v)  # raises with the accepted forms
+        elif not v > 0:
+            raise ValueError("must be a positive simulated time, or 'N s', 'N min', 'N h' (wall clock), or 'off'")
+        return v
+
+
+WALL_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
+
+
+def wall_clock_seconds(text: str) -> float | None:
+    """'N s' / 'N min' / 'N h' in seconds; 'off' is None."""
+    if text.strip().lower() == "off":
+        return None
+    number, _, unit = text.strip().partition(" ")
+    try:
+        value = float(number)
+    except ValueError:
+        value = float("nan")
+    if unit.strip() not in WALL_UNITS or not 0 < value < 1e9:
+        raise ValueError(f"{text!r}: write a wall-clock time as 'N s', 'N min' or 'N h' (N > 0), or 'off'")
+    return value * WALL_UNITS[unit.strip()]
 
 
 class Stability(Strict):
@@ -628,6 +660,13 @@ class Stability(Strict):
     check_every: int = Field(
         default=10, ge=1,
         description="Steps between energy checks (NaN, inversion and leaving the grid are checked every step).",
+    )
+    rigid_penetration: bool = Field(
+        default=True,
+        description="Stop the run when a deformable particle is pushed into a rigid body: its centre more than "
+        "half a particle spacing past the rigid body's surface (inside a cell of the rigid body's particle "
+        "lattice whose corners are all its particles). Checked every step; false lets such a run go on "
+        "(e.g. to measure how far a contact method lets material in).",
     )
 
 

@@ -62,28 +62,35 @@ class VtuSeries:
     """Numbered VTU files (one per part and output time) plus the .pvd collection, rewritten
     whole after each output time."""
 
-    def __init__(self, directory: Path, stem: str):
+    def __init__(self, directory: Path, stem: str, clear: bool = True):
+        """`clear`: remove an earlier run's files of this deck now (a restart instead keeps the
+        frames its checkpoint lists: `remove_stale(keep=...)` once they are known)."""
         self.directory = Path(directory)
         self.stem = stem
         self.entries: list[tuple[float, int, str]] = []  # (time, part index, file)
         self.parts: list[str] = []
         self.count = 0
-        self.removed = self.remove_stale()
+        self.removed = self.remove_stale() if clear else 0
 
-    def remove_stale(self) -> int:
+    def remove_stale(self, keep: frozenset[str] = frozenset()) -> int:
         """Delete the numbered VTU files an earlier run of this deck left in the folder (same
-        stem, `<stem>[_part]_NNNNNN.vtu`, and `.<name>.tmp` files of a killed run), so the folder
-        holds one consistent series. Returns how many were removed."""
+        stem, `<stem>[_part]_NNNNNN.vtu`, and `.<name>.tmp` files of a killed run), except the
+        names in `keep`, so the folder holds one consistent series. Returns how many were removed."""
         parts = "|".join(re.escape(p) for p in OTHER_PARTS)
         # (and the hidden temporary files of a run that was killed mid-write)
         pattern = re.compile(r"\.?" + re.escape(self.stem) + rf"(_({parts}))?_\d{{6}}\.vtu(\.tmp)?")
         n = 0
         if self.directory.is_dir():
             for path in self.directory.iterdir():
-                if pattern.fullmatch(path.name) and path.is_file():
+                if pattern.fullmatch(path.name) and path.name not in keep and path.is_file():
                     path.unlink()
                     n += 1
         return n
+
+    def resumed(self) -> None:
+        """After a restart restored `entries`: only the listed frames stay, and the .pvd lists them."""
+        self.remove_stale(keep=frozenset(f for _, _, f in self.entries))
+        self._write_pvd()
 
     @property
     def pvd_path(self) -> Path:

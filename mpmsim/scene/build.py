@@ -21,6 +21,7 @@ from .geometry import bbox, body_materials, inside
 from ..shapes import shape_function
 from .fem import FemSeed, build_fem
 from .grid import FACE_CODES, FACES, GridSpec, plan_grid
+from .memory import CANDIDATE_BYTES, NODE_BYTES, PARTICLE_BYTES, too_big
 
 
 @dataclass
@@ -135,6 +136,15 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     ppd = deck.particles_per_direction
     spacing = h / ppd
     n_lat = (grid.shape[:dim] - 1) * ppd
+    lattice = [np.clip(np.floor((bhi - blo) / spacing) + 2, 1, n_lat) for blo, bhi in boxes]
+    sites = float(sum(np.prod(n.astype(np.float64)) for n in lattice))
+    fields = 1 + len(mats.deformable)  # a field per material where they meet
+    nodes = float(np.prod(grid.shape.astype(np.float64)))
+    problem = too_big(nodes * NODE_BYTES[dim] * fields + sites * (PARTICLE_BYTES[dim] + CANDIDATE_BYTES),
+                      f"{nodes:.3g} grid nodes and up to {sites:.3g} particles",
+                      "a coarser grid.cell_size, fewer particles_per_direction or smaller bodies")
+    if problem:
+        raise_at([(("grid", "cell_size"), problem)], loaded)
     keys, owners, mat_names = [], [], []
     problems = []
     for (i, body), (blo, bhi) in zip(particle_bodies, boxes):

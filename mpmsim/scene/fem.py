@@ -4,6 +4,7 @@ concatenated into one seed (node and cell arrays with a body index)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -11,6 +12,7 @@ import numpy as np
 from ..bodies import BodyInfo
 from ..deck.schema import RotationVelocity, SineVelocity
 from ..deck.semantics import body_name
+from .memory import FEM_NODE_BYTES, too_big
 
 
 @dataclass
@@ -29,6 +31,22 @@ class FemSeed:
     @property
     def n_nodes(self) -> int:
         return len(self.points)
+
+
+def mesh_nodes_estimate(body, dim: int) -> float | None:
+    """Nodes of a meshed shape, from its bounding box over element_size (None: a mesh file)."""
+    h = body.element_size
+    if h is None:
+        return None
+    if body.shape in ("rectangle", "box"):
+        extent = np.subtract(body.max, body.min, dtype=float)
+    elif body.shape == "circle":
+        extent = np.full(dim, 2.0 * body.radius)
+    elif body.shape == "annulus":
+        extent = np.full(dim, 2.0 * body.outer_radius)
+    else:
+        return None
+    return math.prod(float(e) / h + 2.0 for e in np.abs(extent))  # Python floats: inf, no overflow warning
 
 
 def body_mesh(body, dim: int, base_dir):
@@ -113,6 +131,12 @@ def build_fem(deck, base_dir, materials) -> tuple[FemSeed | None, list]:
         if body.discretization != "fem":
             continue
         path = ("bodies", i)
+        nodes = mesh_nodes_estimate(body, dim)
+        problem = too_big(nodes * FEM_NODE_BYTES[dim], f"about {nodes:.3g} mesh nodes",
+                          "a larger element_size") if nodes is not None else None
+        if problem:
+            problems.append(((*path, "element_size"), problem))
+            continue
         try:
             own, m = body_mesh(body, dim, base_dir)
         except MeshError as exc:

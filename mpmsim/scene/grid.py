@@ -63,6 +63,9 @@ class GridSpec:
         return self.origin + np.asarray(ijk)[: self.dim] * self.h
 
 
+MAX_CELLS_PER_AXIS = 1e7  # far beyond any memory; keeps node counts in 64-bit integers
+
+
 def plan_grid(dim, h, lo, hi, faces, explicit: bool, ghost: int) -> tuple[GridSpec | None, str | None]:
     """Place grid lines so constrained faces lie on grid lines at the domain's edge.
 
@@ -74,6 +77,9 @@ def plan_grid(dim, h, lo, hi, faces, explicit: bool, ghost: int) -> tuple[GridSp
         fixed_lo = faces[2 * a] != FREE
         fixed_hi = faces[2 * a + 1] != FREE
         cells = (hi[a] - lo[a]) / h[a]
+        if not cells < MAX_CELLS_PER_AXIS:
+            return None, (f"{cells:.3g} cells along {'xyz'[a]} (extent {hi[a] - lo[a]:g}, cell size {h[a]:g}); "
+                          f"at most {MAX_CELLS_PER_AXIS:.0e} are possible: use a larger cell_size")
         whole = abs(cells - round(cells)) < 1e-6 * max(1.0, cells)
         n[a] = int(round(cells)) if whole else int(np.ceil(cells))
         if fixed_lo and fixed_hi and not whole:

@@ -336,6 +336,6 @@ def test_an_unusable_output_folder_is_a_one_line_error(tmp_path, where):
         out = tmp_path / "plain" / "sub"
     args = ["run", str(deck), "--quiet"] + (["--out", str(out)] if out is not None else [])
     result = CliRunner().invoke(app, args)
-    assert result.exit_code == 2, result.output
+    assert result.exit_code == 4, result.output
     assert "cannot write the output folder" in result.output and "Traceback" not in result.output
     assert len(result.output.strip().splitlines()) <= 2

@@ -1,0 +1,190 @@
+"""Checkpoint and restart: a run stopped (Ctrl-C, SIGTERM) or killed (SIGKILL) and restarted
+from its checkpoint ends exactly as the uninterrupted run, to the last bit: history, every
+state array, every VTU file. A checkpoint of another deck or version is refused."""
+
+from __future__ import annotations
+
+import json
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import meshio
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from mpmsim.cli import app
+from mpmsim.deck.overrides import with_overrides
+from mpmsim.output.history import read_history
+from mpmsim.output.checkpoint import CheckpointError, _Encoder, checkpoint_path, read_manifest
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation, StopRequested
+from tests.conftest import ROOT, deck_from
+
+pytestmark = pytest.mark.reliability
+
+
+def _sim(deck: str, overrides: dict, out: Path | None, resume: bool = False) -> Simulation:
+    data = with_overrides(yaml.safe_load((ROOT / "inputs" / f"{deck}.yaml").read_text()), overrides)
+    return Simulation(build_scene(deck_from(data, ROOT / "inputs", deck)), out_dir=out, threads=1, resume=resume)
+
+
+def _everything(sim: Simulation) -> tuple[str, list[bytes]]:
+    """The state as the checkpoint writer sees it: its structure and every array's bytes."""
+    enc = _Encoder()
+    tree = enc.node(sim.state, "state")
+    return json.dumps(tree), [a.tobytes() for a in enc.arrays.values()]
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+# (deck, steps, stop after): explicit LR contact with a rigid platen, imperfect interfaces,
+# shocks (Mie-Grueneisen, artificial viscosity), FEM with augury contact, implicit MPM + FEM
+CASES = [("two_blocks", 30, 13), ("two_layer", 30, 11), ("nickel_shock", 40, 17), ("fem_blocks_2d", 30, 12),
+         ("implicit_rings_2d", 6, 2)]
+
+
+@pytest.mark.parametrize("deck,steps,stop", CASES, ids=[c[0] for c in CASES])
+def test_a_run_stopped_and_restarted_ends_bit_for_bit_as_the_uninterrupted_run(tmp_path, deck, steps, stop):
+    probe = _sim(deck, {}, None)
+    end = steps * probe.integrator.stable_dt(probe.state) * (1.0 + 1e-7)
+    ov = {"time.end": end, "output.vtu_interval": end / 7, "output.history_interval": end / 23,
+          "output.checkpoint_interval": "off"}
+    whole = _sim(deck, ov, tmp_path / "whole")
+    whole.run()
+    part = _sim(deck, ov, tmp_path / "part")
+
+    def stop_here():
+        if part.state.step == stop:
+            raise StopRequested()
+
+    with pytest.raises(StopRequested):
+        part.run(between_steps=stop_here)
+    ckpt = checkpoint_path(tmp_path / "part", deck)
+    assert read_manifest(ckpt)["step"] == stop
+    # the stopped run wrote its last state as a frame; the restart takes it back out
+    assert len(_files(tmp_path / "part")) > 3
+    again = _sim(deck, ov, tmp_path / "part", resume=True)
+    again.resume()
+    assert again.state.step == stop and again.state.t == pytest.approx(part.state.t, rel=0, abs=0)
+    again.run()
+    assert again.state.step == whole.state.step > stop
+    assert _everything(again) == _everything(whole)
+    assert again.history.rows == whole.history.rows
+    assert _files(tmp_path / "part") == _files(tmp_path / "whole")  # VTU, .pvd, CSV; checkpoint removed
+    assert not ckpt.exists()
+
+
+def test_a_restart_without_the_restore_would_differ(tmp_path):
+    """The comparison above can fail: a run restarted from scratch at the checkpoint's step
+    count differs from the uninterrupted one."""
+    ov = {"time.end": 0.05, "output.checkpoint_interval": "off"}
+    whole = _sim("two_blocks", ov, None)
+    whole.run()
+    other = _sim("two_blocks", with_overrides(ov, {"contact.default": {"law": "coulomb", "friction": 0.21}}), None)
+    other.run()
+    assert whole.state.step == other.state.step
+    assert _everything(other) != _everything(whole)
+
+
+def test_a_checkpoint_of_another_deck_or_version_is_refused(tmp_path):
+    ov = {"time.end": 0.05, "output.checkpoint_interval": "off"}
+    sim = _sim("two_blocks", ov, tmp_path)
+
+    def stop_now():
+        raise StopRequested()
+
+    with pytest.raises(StopRequested):
+        sim.run(between_steps=stop_now)
+    changed = _sim("two_blocks", dict(ov, **{"time.end": 0.06}), tmp_path, resume=True)
+    with pytest.raises(CheckpointError, match="different deck"):
+        changed.resume()
+    import mpmsim.solver as solver
+
+    same = _sim("two_blocks", ov, tmp_path, resume=True)
+    old, solver.__version__ = solver.__version__, "0.0.1"
+    try:
+        with pytest.raises(CheckpointError, match="was written by mpmsim"):
+            same.resume()
+    finally:
+        solver.__version__ = old
+    (tmp_path / "junk").mkdir()
+    (tmp_path / "junk" / "two_blocks_checkpoint.npz").write_bytes(b"not a zip")
+    deck = tmp_path / "two_blocks.yaml"
+    deck.write_text(yaml.safe_dump(with_overrides(yaml.safe_load((ROOT / "inputs" / "two_blocks.yaml").read_text()),
+                                                  ov)))
+    for folder, words in ((tmp_path / "junk", "not a readable checkpoint"), (tmp_path / "none", "no checkpoint")):
+        result = CliRunner().invoke(app, ["run", str(deck), "--restart", str(folder), "--quiet"])
+        assert result.exit_code == 2, result.output
+        assert words in result.output and "Traceback" not in result.output
+
+
+# ---------------------------------------------------------------- the command line, killed
+def _deck_file(folder: Path) -> Path:
+    """two_blocks (LR contact, friction, rigid platen) for ~3 s of stepping, a checkpoint
+    every 1/8 of the run."""
+    data = yaml.safe_load((ROOT / "inputs" / "two_blocks.yaml").read_text())
+    data["time"]["end"] = 3.0
+    data["output"] = {"vtu_interval": 0.3, "history_interval": 0.03, "checkpoint_interval": 3.0 / 8}
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "blocks.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def _mpmsim(*args) -> list[str]:
+    return [sys.executable, "-m", "mpmsim", *map(str, args)]
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("whole")
+    deck = _deck_file(folder)
+    run = subprocess.run(_mpmsim("run", deck, "--out", folder / "out", "--threads", "1", "--quiet"),
+                         capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr
+    return _files(folder / "out")
+
+
+@pytest.mark.parametrize("how", ["SIGKILL", "SIGTERM", "SIGINT"])
+def test_a_killed_or_stopped_run_restarts_to_the_uninterrupted_result(tmp_path, uninterrupted, how):
+    deck = _deck_file(tmp_path)
+    out = tmp_path / "out"
+    p = subprocess.Popen(_mpmsim("run", deck, "--out", out, "--threads", "1", "--quiet"),
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ckpt = checkpoint_path(out, "blocks")
+    t0 = time.time()
+    while not ckpt.exists() and p.poll() is None and time.time() - t0 < 600:
+        time.sleep(0.05)
+    assert p.poll() is None, "the run ended before it could be stopped"
+    p.send_signal(getattr(signal, how))
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == {"SIGKILL": -9, "SIGTERM": 143, "SIGINT": 130}[how], err
+    assert "Traceback" not in err
+    if how != "SIGKILL":
+        word = "terminated" if how == "SIGTERM" else "interrupted"
+        assert f"{word} at step" in err and f"--restart {out}" in " ".join(err.split())
+        assert not list(out.glob(".*.tmp"))
+    stopped_at = read_manifest(ckpt)["step"]
+    assert 0 < stopped_at
+    rows = read_history(out / "blocks_history.csv")  # what the stopped run left reads whole
+    listed = re.findall(r'file="([^"]+)"', (out / "blocks.pvd").read_text())
+    assert set(listed) <= {p.name for p in out.glob("*.vtu")} and len(rows["time"]) > 1
+    for name in listed:
+        assert len(meshio.read(out / name).points) > 0
+    if how != "SIGKILL":  # stopped at the end of a step: the checkpoint is that step's
+        assert rows["step"][-1] == stopped_at
+    run = subprocess.run(_mpmsim("run", deck, "--restart", out, "--quiet"), capture_output=True, text=True,
+                         timeout=900)
+    assert run.returncode == 0, run.stderr
+    assert not list(out.glob(".*.tmp"))
+    got = _files(out)
+    assert sorted(got) == sorted(uninterrupted)
+    for name in got:
+        assert got[name] == uninterrupted[name], name
