@@ -51,12 +51,17 @@ def _root(version: Optional[bool] = typer.Option(None, "--version", callback=_ve
 
 @contextmanager
 def _deck_errors():
-    """A DeckError raised inside (by the loader, the scene, an integrator's checks) ends the
-    command with its message and exit 2."""
+    """A DeckError raised inside (by the loader, the scene, an integrator's checks) or a
+    checkpoint that cannot be used ends the command with its message and exit 2."""
+    from .output.checkpoint import CheckpointError
+
     try:
         yield
     except DeckError as exc:
         err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
+    except CheckpointError as exc:
+        err.print(f"mpmsim: cannot restart: {exc}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
 
 
@@ -85,18 +90,15 @@ def run(
     """Run a deck: VTU series (+ .pvd for ParaView) and a CSV history."""
     import numba
 
-    from .output.checkpoint import CheckpointError, checkpoint_path, read_manifest
+    from .output.checkpoint import checkpoint_path, read_manifest
     from .solver import Simulation, StepLimit, StopRequested, default_output_dir
 
     cold = kernel_cache.is_empty()  # before the scene's own kernels fill it
     scene = _load_scene(deck)
     manifest = None
     if restart is not None:
-        try:
+        with _deck_errors():
             manifest = read_manifest(checkpoint_path(restart, scene.loaded.stem))
-        except CheckpointError as exc:
-            err.print(f"mpmsim: cannot restart: {exc}", highlight=False, soft_wrap=True)
-            raise typer.Exit(EXIT_BAD_DECK) from None
     if threads is not None:
         chosen, why = threads, "--threads"
     elif manifest is not None:  # the checkpoint's count: the run continues bit for bit
@@ -108,19 +110,14 @@ def run(
         out.print(f"threads: {numba.get_num_threads()} ({why}; --threads N to choose)", highlight=False)
     directory = restart if restart is not None else out_dir if out_dir is not None else default_output_dir(scene.loaded)
     try:
-        sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads(), max_steps=max_steps,
-                         max_frames=max_frames, resume=restart is not None)
-        if restart is not None:
-            sim.resume()
-            if not quiet:
-                out.print(f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
-                          f"{_units(scene).time}", highlight=False)
-    except DeckError as exc:
-        err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
-        raise typer.Exit(EXIT_BAD_DECK) from None
-    except CheckpointError as exc:
-        err.print(f"mpmsim: cannot restart: {exc}", highlight=False, soft_wrap=True)
-        raise typer.Exit(EXIT_BAD_DECK) from None
+        with _deck_errors():
+            sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads(), max_steps=max_steps,
+                             max_frames=max_frames, resume=restart is not None)
+            if restart is not None:
+                sim.resume()
+                if not quiet:
+                    out.print(f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
+                              f"{_units(scene).time}", highlight=False)
     except (OSError, ValueError) as exc:  # the folder: not creatable, a file in the way, a NUL in the path
         err.print(f"mpmsim: cannot write the output folder {str(directory)!r}: {_reason(exc)}", highlight=False,
                   soft_wrap=True)
