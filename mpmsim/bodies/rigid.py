@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ..views import RigidView
 from . import BodyInfo, BodySet
@@ -111,9 +112,8 @@ def inside_rigid(x: np.ndarray, rigid: "RigidParticles", origin: np.ndarray, spa
     rigid body's own particle lattice whose 2^dim corners are all its particles: more than half
     a particle spacing past its surface (grid contact lets a centre cross the surface by less,
     so only a particle pushed into the body is caught). A rigid body one particle thick has
-    no such cells and is not watched."""
+    no such cells and is not watched. The lattice moves with the rigid material's displacement."""
     dim = x.shape[1]
-    corners = np.array(np.meshgrid(*[[0, 1]] * dim, indexing="ij")).reshape(dim, -1).T
     for r in range(len(rigid.names)):
         mine = np.flatnonzero(rigid.mat == r)
         if len(mine) < 2 ** dim:
@@ -123,15 +123,38 @@ def inside_rigid(x: np.ndarray, rigid: "RigidParticles", origin: np.ndarray, spa
         span = k.max(axis=0) - lo + 1
         owner = np.full(tuple(span), -1, dtype=np.int64)
         owner[tuple((k - lo).T)] = mine
-        kp = np.floor((x - rigid.disp[r] - origin) / spacing - 0.5).astype(np.int64) - lo
-        near = np.all((kp >= 0) & (kp + 1 < span), axis=1)
-        if not near.any():
+        p, q = _first_inside(x, origin + rigid.disp[r], spacing, lo, span, owner.ravel())
+        if p >= 0:
+            return p, q
+    return -1, -1
+
+
+@njit(cache=True)
+def _first_inside(x, origin, spacing, lo, span, owner):
+    """The first particle in a lattice cell (origin, spacing; cells lo .. lo + span - 1, C order
+    in `owner`) whose 2^dim corner sites are all owned (>= 0): (particle, owner of the cell's
+    lowest corner), or (-1, -1)."""
+    n, dim = x.shape
+    k = np.zeros(3, np.int64)
+    for p in range(n):
+        inside = True
+        for a in range(dim):
+            k[a] = int(np.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
+            if k[a] < 0 or k[a] + 1 >= span[a]:
+                inside = False
+                break
+        if not inside:
             continue
-        cand = np.flatnonzero(near)
-        full = np.ones(len(cand), dtype=bool)
-        for c in corners:
-            full &= owner[tuple((kp[cand] + c).T)] >= 0
-        if full.any():
-            p = int(cand[np.argmax(full)])
-            return p, int(owner[tuple(kp[p])])
+        for c in range(2 ** dim):
+            flat = 0
+            for a in range(dim):
+                flat = flat * span[a] + k[a] + ((c >> a) & 1)
+            if owner[flat] < 0:
+                inside = False
+                break
+        if inside:
+            flat = 0
+            for a in range(dim):
+                flat = flat * span[a] + k[a]
+            return p, owner[flat]
     return -1, -1

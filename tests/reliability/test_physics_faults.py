@@ -54,3 +54,29 @@ def test_the_platen_deck_at_the_paper_speed_is_not_stopped():
     d["time"]["end"] = 0.5
     sim = simulate(d, ROOT / "inputs", threads=1)
     assert sim.state.t == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_inside_a_rigid_body_means_more_than_half_a_spacing_past_its_surface(dim):
+    """A rigid block of 4^dim particles (spacing 1, its surface at 0 and 4 along each axis),
+    moved by its displacement: a centre 0.4 spacing past the surface is not inside, 0.6 is; the
+    lattice follows the displacement."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from mpmsim.bodies.rigid import inside_rigid
+
+    k = np.stack(np.meshgrid(*[np.arange(4)] * dim, indexing="ij"), axis=-1).reshape(-1, dim)
+    disp = np.full((1, dim), 2.25)
+    rigid = SimpleNamespace(names=["platen"], mat=np.zeros(len(k), int), x0=k + 0.5, disp=disp)
+    spacing, origin = np.ones(dim), np.zeros(dim)
+    middle = np.full(dim, 2.0) + disp[0]
+    for depth, inside in ((0.4, False), (0.6, True)):
+        x = np.array([middle, middle])
+        x[1, 0] = disp[0, 0] + depth  # past the surface x = 0 (moved by disp) by `depth`
+        x[0, 0] = disp[0, 0] - 3.0  # well outside
+        p, q = inside_rigid(x, rigid, origin, spacing)
+        assert (p == 1) == inside and (q >= 0) == inside
+    p, _ = inside_rigid(np.array([middle - disp[0]]), rigid, origin, spacing)  # where the block was
+    assert p == -1
