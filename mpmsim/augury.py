@@ -1,5 +1,5 @@
 """APIC augury contact (Hegarty et al., "A momentum preserving frictional contact algorithm
-based on affine particle-in-cell grid transfers"; ../shared/papers/apic-augury-contact.txt):
+based on affine particle-in-cell grid transfers"; docs/fem-contact.md):
 contact between bodies through a background grid of spacing h_c that only their boundary
 nodes ("augury particles") see.
 

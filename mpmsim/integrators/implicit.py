@@ -1,6 +1,6 @@
 """Implicit integration of FEM bodies and MPM particle bodies with barrier contact: one step
-minimises the incremental potential of the BFEMP paper (../shared/papers/bfemp-barrier-mpm-fem.txt;
-formulas in ../shared/notes/fem-coupling-implementation.md, "BFEMP"):
+minimises the incremental potential of the BFEMP paper (Li, Fang, Li, Jiang, arXiv:2108.03349;
+the formulas and what is measured in docs/bfemp.md):
 
     E(y) = 1/2 (y - y~)^T M (y - y~) + c [Psi(y) + Phi(y) - sum_i m_i g . y_i],   c = 2 zeta beta dt^2,
     y~ = y^n + dt v^n + zeta (1 - 2 beta) dt^2 a^n,

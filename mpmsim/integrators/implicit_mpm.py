@@ -1,4 +1,4 @@
-"""MPM particles in the implicit step (BFEMP, ../shared/papers/bfemp-barrier-mpm-fem.txt): the
+"""MPM particles in the implicit step (BFEMP, arXiv:2108.03349; docs/bfemp.md): the
 unknowns of a particle body are the positions y_i of the active grid nodes, with the particles'
 weights w_ip and gradients grad w_ip frozen at the step's start (their positions x_p^n).
 

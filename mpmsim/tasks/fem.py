@@ -1,5 +1,5 @@
 """Tasks of the FEM bodies' explicit step: velocity Verlet with the augury contact correction
-(the APIC augury paper's Eq. 32; ../shared/notes/fem-coupling-implementation.md):
+(the APIC augury paper's Eq. 32; docs/fem-contact.md):
 
   fem kick-drift   v^{n+1/2} = v^n + dt/2 A^n (B the same with its rate), x^{n+1} = x^n + dt v^{n+1/2}
   fem forces       a = f(x^{n+1}) / m + g (held components: 0)
