@@ -101,7 +101,8 @@ figure-column-history: $(STAMP)
 	$(BIN)/mpmsim run inputs/column.yaml --quiet --out results/column
 	$(BIN)/mpmsim run inputs/two_blocks.yaml --quiet --out results/two_blocks
 	$(BIN)/mpmsim plot results/column/column_history.csv results/two_blocks/two_blocks_history.csv \
-		--x "-u_platen_y / 100" --y syy --out docs/figures/column_syy.png
+		--x "-u_platen_y / 100" --xlabel "axial strain (platen displacement / 100 mm)" \
+		--y syy --ylabel "syy [MPa]" --out docs/figures/column_syy.png
 
 docs: $(STAMP)
 	$(BIN)/python -m mpmsim.deck.reference > docs/deck-reference.md

@@ -94,7 +94,7 @@ def energy():
         print(f"cells {h} mm: {sim.state.particles.n} particles, {sim.state.step} steps, "
               f"{time.perf_counter() - t0:.1f} s; at t = {t[-1]:.4g} ms work {work[-1]:.6g} mJ, "
               f"KE + U {total[-1]:.6g} mJ: balance {100 * (total[-1] - work[-1]) / work[-1]:+.2f}%; "
-              f"start-up loss at 0.3 us {early:.4g} mJ ({100 * early / work[-1]:.2f}% of the final work); "
+              f"start-up loss at 0.3 µs {early:.4g} mJ ({100 * early / work[-1]:.2f}% of the final work); "
               f"after 20% of the run: {100 * ((total[-1] - total[i]) - (work[-1] - work[i])) / (work[-1] - work[i]):+.2f}%; "
               f"bar momentum / piston impulse - 1: {hist.column('px')[-1] * d['materials']['piston']['velocity'][0] / work[-1] - 1:+.1e}")
 
@@ -134,7 +134,7 @@ def fig7(end):
     for a in (ax, dax):
         a.axvline(x_interface, color="grey", ls=":", lw=1)
     ax.set(ylabel="axial stress -sxx (GPa)", xlim=(lo, hi),
-           title=f"Nickel bar at t = {end * 1000:g} us: shock front just past the interface (dotted)")
+           title=f"Nickel bar at t = {end * 1000:g} µs: shock front just past the interface (dotted)")
     ax.legend(loc="lower right")
     dax.set(xlabel="x (mm)", ylabel="sxx - sxx(SMM)\n(% of plateau)")
     dax.grid(alpha=0.3)

@@ -430,12 +430,14 @@ def plot(
     x: str = typer.Option("time", "--x", help="Column (or expression of columns) on the x axis."),
     y: list[str] = typer.Option(..., "--y", help="Column(s) on the y axis (repeat --y for more)."),
     output: Path = typer.Option(Path("plot.png"), "--out", "-o", help="PNG file to write."),
+    xlabel: Optional[str] = typer.Option(None, "--xlabel", help="x axis label (default: the column and its unit)."),
+    ylabel: Optional[str] = typer.Option(None, "--ylabel", help="y axis label (default: the columns and units)."),
 ) -> None:
     """Overlay history columns of one or more runs in a PNG, labelled by the decks' titles."""
     from .plotting import plot_histories
 
     try:
-        plot_histories(histories, x, y, output)
+        plot_histories(histories, x, y, output, xlabel, ylabel)
     except (OSError, KeyError, ValueError) as exc:
         err.print(f"[bold red]mpmsim plot[/]: {exc}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None

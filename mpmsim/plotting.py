@@ -9,8 +9,10 @@ from .output.history import history_title, read_history
 from .sweep.metrics import column
 
 
-def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path) -> list[str]:
-    """Write the PNG; returns the curve labels."""
+def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path, xlabel: str | None = None,
+                   ylabel: str | None = None) -> list[str]:
+    """Write the PNG; returns the curve labels. The axis labels default to the columns (or
+    expressions) with their units."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -25,8 +27,8 @@ def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path) -> li
         for y in ys:
             labels.append(label if len(ys) == 1 else f"{label}: {y}")
             ax.plot(column(cols, x), column(cols, y), lw=1.2, label=labels[-1])
-    ax.set_xlabel(f"{x} [{units[x]}]" if x in units else x)
-    ax.set_ylabel(", ".join(f"{y} [{units[y]}]" if y in units else y for y in ys))
+    ax.set_xlabel(xlabel or (f"{x} [{units[x]}]" if x in units else x))
+    ax.set_ylabel(ylabel or ", ".join(f"{y} [{units[y]}]" if y in units else y for y in ys))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()

@@ -30,3 +30,23 @@ def test_plot_overlays_histories_labelled_by_title(tmp_path):
     assert png.stat().st_size > 1000
     res = CliRunner().invoke(app, ["plot", str(paths[0]), "--y", "nonsense", "--out", str(png)])
     assert res.exit_code == 2 and "nonsense" in res.output
+
+
+def test_plot_axis_labels_can_be_named(tmp_path, monkeypatch):
+    """An expression on an axis is labelled as written unless --xlabel/--ylabel name it."""
+    import matplotlib.axes
+
+    deck = example("bar_vibration")
+    deck["time"]["end"] = 0.01
+    path = simulate(deck, ROOT / "inputs", out_dir=tmp_path / "run").history.path
+    seen = []
+    for what in ("set_xlabel", "set_ylabel"):
+        original = getattr(matplotlib.axes.Axes, what)
+        monkeypatch.setattr(matplotlib.axes.Axes, what,
+                            lambda self, text, *a, _o=original, **k: (seen.append(text), _o(self, text, *a, **k))[1])
+    png = tmp_path / "p.png"
+    res = CliRunner().invoke(app, ["plot", str(path), "--x", "time * 1000", "--y", "px", "--out", str(png)])
+    assert res.exit_code == 0 and seen[:2] == ["time * 1000", "px [g m/s]"], (res.output, seen)
+    res = CliRunner().invoke(app, ["plot", str(path), "--x", "time * 1000", "--xlabel", "time (µs)", "--y", "px",
+                                   "--ylabel", "momentum", "--out", str(png)])
+    assert res.exit_code == 0 and seen[2:] == ["time (µs)", "momentum"], (res.output, seen)
