@@ -188,7 +188,9 @@ class _Decoder:
         another path: objects shared in the fresh run but not in the checkpoint get copies)."""
         return target is not None and self.claimed.get(id(target), path) == path
 
-    def value(self, node: dict, target, path: str):
+    def value(self, node: dict | None, target, path: str):
+        if node is None:  # not saved (a function or a foreign object in a list): the fresh one stays
+            return target
         t = node["t"]
         if t == "none":
             return None

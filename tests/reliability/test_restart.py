@@ -209,3 +209,26 @@ def test_a_run_taken_in_pieces_with_steps_and_restart_ends_as_one_run(tmp_path):
     last = runner.invoke(app, ["run", str(deck), "--restart", str(pieces), "--quiet"])
     assert last.exit_code == 0, last.output
     assert _files(pieces) == _files(whole)
+
+
+def test_the_checkpoint_codec_keeps_values_exact_and_shared_arrays_shared(tmp_path):
+    """Numbers round-trip to the bit (hex floats, numpy scalar types kept), an array reached by two
+    paths comes back as one array, numeric rows come back as lists, mpmsim objects are rebuilt,
+    and what was not saved (a function in a list) is left as the fresh run has it."""
+    import numpy as np
+
+    from mpmsim.output.checkpoint import restore_checkpoint, write_checkpoint
+    from mpmsim.solver import Schedule
+
+    a = np.array([0.1, 1.0 / 3.0, np.nan, -np.inf, 5e-324])
+    saved = {"a": a, "b": a, "f": [len, 0.1 + 0.2, np.float32(0.1), (1, "s")], "rows": [[1, 2.5], [3, 4.5]],
+             "sch": Schedule(0.1, 2.0, np.inf, 4.0, 5.0)}
+    write_checkpoint(tmp_path / "c.npz", {"x": saved}, {"t": 0.0})
+    fresh = {"a": np.zeros(5), "b": np.zeros(5), "f": [print, 0.0, np.float32(0), (0, "")], "rows": [],
+             "sch": Schedule(0, 0, 0, 0, 0)}
+    restore_checkpoint(tmp_path / "c.npz", {"x": fresh})
+    assert fresh["a"].tobytes() == a.tobytes() and fresh["b"] is fresh["a"]
+    assert fresh["f"][0] is print and fresh["f"][1] == 0.1 + 0.2 and fresh["f"][2] == np.float32(0.1)
+    assert type(fresh["f"][2]) is np.float32 and fresh["f"][3] == (1, "s")
+    assert fresh["rows"] == [[1, 2.5], [3, 4.5]] and type(fresh["rows"][0][0]) is int
+    assert fresh["sch"] == Schedule(0.1, 2.0, np.inf, 4.0, 5.0)
