@@ -25,6 +25,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 bench: $(STAMP)
+	$(BIN)/python bench/coldstart.py
 	$(BIN)/python bench/column.py
 	$(BIN)/python bench/column.py --deck bench/two_blocks.yaml --matrix-steps 0
 	$(BIN)/python bench/fem_contact.py speed

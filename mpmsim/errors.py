@@ -36,3 +36,6 @@ class InstabilityError(Exception):
         self.time = time
         self.step = step
         super().__init__(message)
+
+    def __reduce__(self):  # picklable, so a worker process can report it (sweeps, benchmarks)
+        return type(self), (str(self), self.time, self.step)

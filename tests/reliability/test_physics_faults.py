@@ -80,3 +80,13 @@ def test_inside_a_rigid_body_means_more_than_half_a_spacing_past_its_surface(dim
         assert (p == 1) == inside and (q >= 0) == inside
     p, _ = inside_rigid(np.array([middle - disp[0]]), rigid, origin, spacing)  # where the block was
     assert p == -1
+
+
+def test_a_stop_can_be_reported_from_a_worker_process():
+    """InstabilityError survives pickling (process pools of sweeps and benchmarks)."""
+    import pickle
+
+    from mpmsim.errors import InstabilityError
+
+    e = pickle.loads(pickle.dumps(InstabilityError("stopped at step 3", 0.5, 2)))
+    assert str(e) == "stopped at step 3" and (e.time, e.step) == (0.5, 2)
