@@ -19,8 +19,8 @@ from typer.testing import CliRunner
 
 from mpmsim.cli import app
 from mpmsim.deck.overrides import with_overrides
-from mpmsim.output.history import read_history
 from mpmsim.output.checkpoint import CheckpointError, _Encoder, checkpoint_path, read_manifest
+from mpmsim.output.history import read_history
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation, StopRequested
 from tests.conftest import ROOT, deck_from
