@@ -34,6 +34,7 @@ class RigidParticles(BodySet):
     names: list  # rigid material names
     infos: list  # BodyInfo of each rigid particle body
     watch_penetration: bool = True  # stop when a deformable particle is pushed inside (stability.rigid_penetration)
+    lattices: list | None = None  # rigid_lattices, built at the first check
 
     kind = "rigid particles"
 
@@ -98,7 +99,10 @@ class RigidParticles(BodySet):
         P = state.particles
         if P.n == 0 or not self.watch_penetration:
             return None
-        p, q = inside_rigid(P.x, self, g.origin[: g.dim], 2.0 * P.semi)
+        origin, spacing = g.origin[: g.dim], 2.0 * P.semi
+        if self.lattices is None:  # built once: the lattices depend on the start positions only
+            self.lattices = rigid_lattices(self, origin, spacing)
+        p, q = inside_rigid(P.x, self, origin, spacing, self.lattices)
         if p < 0:
             return None
         return "stopped", (f"{P.describe(state, p, units)} is inside rigid material '{self.names[int(self.mat[q])]}' "
@@ -106,14 +110,29 @@ class RigidParticles(BodySet):
                            "time.cfl, or a slower prescribed motion, keeps contact")
 
 
-def inside_rigid(x: np.ndarray, rigid: "RigidParticles", origin: np.ndarray, spacing: np.ndarray) -> tuple[int, int]:
+def inside_rigid(x: np.ndarray, rigid: "RigidParticles", origin: np.ndarray, spacing: np.ndarray,
+                 lattices: list | None = None) -> tuple[int, int]:
     """(p, q): the first deformable particle p whose centre lies inside a rigid body, with q a
     rigid particle of that body there; (-1, -1) if none. Inside means within a cell of the
     rigid body's own particle lattice whose 2^dim corners are all its particles: more than half
     a particle spacing past its surface (grid contact lets a centre cross the surface by less,
     so only a particle pushed into the body is caught). A rigid body one particle thick has
-    no such cells and is not watched. The lattice moves with the rigid material's displacement."""
-    dim = x.shape[1]
+    no such cells and is not watched. The lattice moves with the rigid material's displacement;
+    `lattices` (rigid_lattices, which depend only on the start positions) saves building them."""
+    if lattices is None:
+        lattices = rigid_lattices(rigid, origin, spacing)
+    for r, lo, span, owner in lattices:
+        p, q = _first_inside(x, origin + rigid.disp[r], spacing, lo, span, owner)
+        if p >= 0:
+            return p, q
+    return -1, -1
+
+
+def rigid_lattices(rigid: "RigidParticles", origin: np.ndarray, spacing: np.ndarray) -> list:
+    """[(rigid material, lowest lattice index, extent, owner of each site (flat, -1: none))] of
+    the rigid materials with at least 2^dim particles, from their start positions."""
+    dim = rigid.x0.shape[1]
+    out = []
     for r in range(len(rigid.names)):
         mine = np.flatnonzero(rigid.mat == r)
         if len(mine) < 2 ** dim:
@@ -123,10 +142,8 @@ def inside_rigid(x: np.ndarray, rigid: "RigidParticles", origin: np.ndarray, spa
         span = k.max(axis=0) - lo + 1
         owner = np.full(tuple(span), -1, dtype=np.int64)
         owner[tuple((k - lo).T)] = mine
-        p, q = _first_inside(x, origin + rigid.disp[r], spacing, lo, span, owner.ravel())
-        if p >= 0:
-            return p, q
-    return -1, -1
+        out.append((r, lo, span, owner.ravel()))
+    return out
 
 
 @njit(cache=True)
