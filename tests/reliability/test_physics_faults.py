@@ -90,3 +90,21 @@ def test_a_stop_can_be_reported_from_a_worker_process():
 
     e = pickle.loads(pickle.dumps(InstabilityError("stopped at step 3", 0.5, 2)))
     assert str(e) == "stopped at step 3" and (e.time, e.step) == (0.5, 2)
+
+
+@pytest.mark.parametrize("deck,key,small", [("two_blocks", "grid.cell_size", 1_000_000),
+                                            ("fem_blocks_2d", "bodies.0.element_size", 10_000)])
+def test_a_scene_larger_than_the_memory_is_refused_before_it_is_built(monkeypatch, deck, key, small):
+    """The estimate is compared with the memory available: with less than the decks need
+    (two_blocks: 390 grid nodes and up to 864 lattice sites, 1.4 MB by the per-item sizes;
+    fem_blocks_2d: about 196 nodes a body, 94 kB) they are refused (exit 2, the key and the estimate named);
+    with 24 GB they are not."""
+    import mpmsim.scene.memory as memory
+
+    monkeypatch.setattr(memory, "available_bytes", lambda: small)
+    result = CliRunner().invoke(app, ["check", str(ROOT / "inputs" / f"{deck}.yaml")])
+    assert result.exit_code == 2, result.output
+    text = " ".join(result.output.split())
+    assert f": {key}: " in text and "GB are available" in text and "Traceback" not in text
+    monkeypatch.setattr(memory, "available_bytes", lambda: 24 << 30)
+    assert CliRunner().invoke(app, ["check", str(ROOT / "inputs" / f"{deck}.yaml")]).exit_code == 0
