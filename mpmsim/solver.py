@@ -235,7 +235,7 @@ class Simulation:
         if manifest.get("deck") != deck_digest(self.scene.deck):
             raise CheckpointError(f"{str(path)!r} was written for a different deck (or one changed since); "
                                   "rerun from the start, or restore the deck as it was")
-        restore_checkpoint(path, self._checkpoint_root())
+        restore_checkpoint(path, self._checkpoint_root(), manifest)
         if self.vtu is not None:
             self.vtu.resumed()
             self.files = [self.vtu.directory / f for _, _, f in self.vtu.entries]

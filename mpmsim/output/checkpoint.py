@@ -285,10 +285,10 @@ def read_manifest(path: Path) -> dict:
     return manifest
 
 
-def restore_checkpoint(path: Path, root: dict) -> dict:
+def restore_checkpoint(path: Path, root: dict, manifest: dict | None = None) -> dict:
     """Pour a checkpoint into the freshly built objects of `root` ({name: object}, the same
-    names as when written); returns the manifest."""
-    manifest = read_manifest(path)
+    names as when written); returns the manifest (`manifest`: the file's, already read)."""
+    manifest = manifest if manifest is not None else read_manifest(path)
     with np.load(path, allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files if k != "manifest"}
     dec = _Decoder(arrays)
