@@ -444,6 +444,28 @@ def plot(
     out.print(f"wrote {output}", highlight=False)
 
 
+@app.command()
+def paraview(
+    results: Path = typer.Argument(..., help="Results folder of a run (or the .pvd in it)."),
+    stress: str = typer.Option("yy", "--stress", help="Stress component of the second view: xx yy zz xy yz xz."),
+) -> None:
+    """Write <name>_paraview.py beside the series: opens it in ParaView coloured by material, with a
+    stress view and colour bar (paraview --script=FILE, or pvbatch FILE --screenshot out.png)."""
+    from .output.paraview import COMPONENTS, ResultsError, write_script
+
+    if stress not in COMPONENTS:
+        err.print(f"mpmsim paraview: --stress must be one of {' '.join(COMPONENTS)}, not {stress!r}",
+                  highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK)
+    try:
+        script = write_script(results, stress)
+    except (OSError, ResultsError) as exc:
+        err.print(f"mpmsim paraview: {exc}", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK) from None
+    out.print(f"wrote {script}\n  open:   paraview --script={script}\n"
+              f"  render: pvbatch {script} --screenshot {script.with_suffix('.png')}", highlight=False)
+
+
 def main() -> None:
     try:
         app()

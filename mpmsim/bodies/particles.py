@@ -129,7 +129,6 @@ class Particles(BodySet):
             "J": np.linalg.det(F9),
             "material": gid[self.mat],
             "body": self.body.astype(np.int32),
-            "rigid": np.zeros(n, np.uint8),
             "mass": self.mass,
             "volume": self.vol,
         }

@@ -78,11 +78,10 @@ class RigidParticles(BodySet):
             "J": np.ones(n),
             "material": gid[self.mat],
             "body": self.body.astype(np.int32),
-            "rigid": np.ones(n, np.uint8),
             "mass": np.zeros(n),
             "volume": self.vol,
         }
-        return [("particles", {"points": pad3(self.x), "point_data": data})]
+        return [("rigid", {"points": pad3(self.x), "point_data": data})]
 
     def check(self, state, units) -> tuple[str, str] | None:
         """A rigid material whose particles (or their shape-function support) left the grid, or

@@ -1,10 +1,18 @@
 """The output time series: each body kind contributes pieces of named parts (particles as
 VTK vertex cells; mesh bodies as their cells); pieces of one part are written together as
-one .vtu per output time, and one .pvd collection lists every part's files, so ParaView
-opens the whole series (all parts, as blocks) in one step."""
+one .vtu per output time. The .pvd collection `<stem>.pvd` lists the deformable parts
+(particles and FEM bodies, as blocks), so ParaView opens the whole series in one step and its
+colour ranges come from deformable material only; rigid bodies (zero stress, prescribed
+motion) have their own collection `<stem>_rigid.pvd`.
+
+Every file carries the names of the deck's materials as field data: `material_names` holds
+the UTF-8 bytes of the names, each ended by a NUL byte, in the order of the `material` ids
+(VTK's XML format has string arrays, but meshio and most readers of numeric arrays do not
+read them; `material_names(mesh)` decodes the bytes)."""
 
 from __future__ import annotations
 
+import io
 import re
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -15,7 +23,20 @@ import numpy as np
 from .atomic import atomic_path, write_text
 
 MAIN_PART = "particles"  # its files keep the plain <stem>_NNNNNN.vtu name
-OTHER_PARTS = ("fem",)  # parts written as <stem>_<part>_NNNNNN.vtu (body sets' vtu_pieces)
+OTHER_PARTS = ("fem", "rigid")  # parts written as <stem>_<part>_NNNNNN.vtu (body sets' vtu_pieces)
+OWN_COLLECTION = ("rigid",)  # parts listed in <stem>_<part>.pvd instead of <stem>.pvd
+NAMES_FIELD = "material_names"
+
+
+def names_field(names: list[str]) -> np.ndarray:
+    """The names as one uint8 array: UTF-8 bytes, each name ended by NUL."""
+    return np.frombuffer("".join(f"{n}\0" for n in names).encode(), dtype=np.uint8).copy()
+
+
+def material_names(mesh: meshio.Mesh) -> list[str]:
+    """The material names a written file carries (index = the `material` id)."""
+    raw = np.asarray(mesh.field_data[NAMES_FIELD], dtype=np.uint8).tobytes().decode()
+    return raw.split("\0")[:-1]
 
 
 def merge_pieces(pieces: list[dict]) -> meshio.Mesh:
@@ -44,22 +65,43 @@ def merge_pieces(pieces: list[dict]) -> meshio.Mesh:
     return meshio.Mesh(points, cells, point_data=data, cell_data=cell_data or None)
 
 
+def write_vtu(path: Path, mesh: meshio.Mesh) -> None:
+    """Write a mesh's VTU file whole or not at all (meshio's writer, binary and zlib-compressed),
+    with its integer field data, which that writer leaves out, as a <FieldData> block appended
+    to the grid (VTK and meshio find it wherever it stands among the grid's children)."""
+    with atomic_path(path) as tmp:
+        meshio.write(tmp, mesh, file_format="vtu")
+        if mesh.field_data:
+            arrays = "".join(f'<DataArray type="{_VTK_INT[np.dtype(v.dtype).name]}" Name={quoteattr(k)} '
+                             f'NumberOfTuples="{len(v)}" format="ascii">{" ".join(str(int(x)) for x in v)}'
+                             "</DataArray>" for k, v in mesh.field_data.items())
+            with open(tmp, "r+b") as fh:
+                fh.seek(max(0, fh.seek(0, 2) - 256))
+                tail = fh.read()
+                at = tail.rindex(b"</UnstructuredGrid>")
+                fh.seek(-len(tail) + at, 2)
+                fh.write(f"<FieldData>{arrays}</FieldData>".encode() + tail[at:])
+
+
+_VTK_INT = {"uint8": "UInt8", "int32": "Int32", "int64": "Int64"}
+
+
 def part_meshes(state) -> dict[str, meshio.Mesh]:
-    """{part name: mesh} of every body set's pieces (parts in first-seen order)."""
+    """{part name: mesh} of every body set's pieces (parts in first-seen order), each with the
+    material names as field data."""
     parts: dict[str, list[dict]] = {}
     for body in state.bodies:
         for part, piece in body.vtu_pieces(state):
             parts.setdefault(part, []).append(piece)
-    return {name: merge_pieces(pieces) for name, pieces in parts.items()}
-
-
-def particle_mesh(state) -> meshio.Mesh:
-    """The particles part: deformable then rigid particles with their fields."""
-    return part_meshes(state)[MAIN_PART]
+    meshes = {name: merge_pieces(pieces) for name, pieces in parts.items()}
+    names = names_field(state.materials.names)
+    for mesh in meshes.values():
+        mesh.field_data[NAMES_FIELD] = names
+    return meshes
 
 
 class VtuSeries:
-    """Numbered VTU files (one per part and output time) plus the .pvd collection, rewritten
+    """Numbered VTU files (one per part and output time) plus the .pvd collections, rewritten
     whole after each output time."""
 
     def __init__(self, directory: Path, stem: str, clear: bool = True):
@@ -77,8 +119,11 @@ class VtuSeries:
         stem, `<stem>[_part]_NNNNNN.vtu`, and `.<name>.tmp` files of a killed run), except the
         names in `keep`, so the folder holds one consistent series. Returns how many were removed."""
         parts = "|".join(re.escape(p) for p in OTHER_PARTS)
-        # (and the hidden temporary files of a run that was killed mid-write)
-        pattern = re.compile(r"\.?" + re.escape(self.stem) + rf"(_({parts}))?_\d{{6}}\.vtu(\.tmp)?")
+        own = "|".join(re.escape(p) for p in OWN_COLLECTION)
+        # (and the hidden temporary files of a run that was killed mid-write; the collections of
+        # parts with their own .pvd are rewritten from the entries kept)
+        pattern = re.compile(r"\.?" + re.escape(self.stem)
+                             + rf"((_({parts}))?_\d{{6}}\.vtu|_({own})\.pvd)(\.tmp)?")
         n = 0
         if self.directory.is_dir():
             for path in self.directory.iterdir():
@@ -94,7 +139,12 @@ class VtuSeries:
 
     @property
     def pvd_path(self) -> Path:
-        return self.directory / f"{self.stem}.pvd"
+        return self.collection_path(MAIN_PART)
+
+    def collection_path(self, part: str) -> Path:
+        """The .pvd that lists a part's files."""
+        label = f"_{part}" if part in OWN_COLLECTION else ""
+        return self.directory / f"{self.stem}{label}.pvd"
 
     def write(self, state) -> list[Path]:
         paths = []
@@ -104,8 +154,7 @@ class VtuSeries:
             label = "" if part == MAIN_PART else f"_{part}"
             name = f"{self.stem}{label}_{self.count:06d}.vtu"
             path = self.directory / name
-            with atomic_path(path) as tmp:
-                meshio.write(tmp, mesh, file_format="vtu")
+            write_vtu(path, mesh)
             self.entries.append((state.t, self.parts.index(part), name))
             paths.append(path)
         self.count += 1
@@ -113,9 +162,15 @@ class VtuSeries:
         return paths
 
     def _write_pvd(self) -> None:
-        rows = "\n".join(f'    <DataSet timestep="{t:.10g}" group="" part="{k}" file={quoteattr(f)}/>'
-                         for t, k, f in self.entries)
-        text = ('<?xml version="1.0"?>\n'
-                '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
-                f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
-        write_text(self.pvd_path, text)
+        """Each collection lists its parts' files; a part's block number counts within its
+        collection. The main collection is written even before any frame."""
+        collections: dict[Path, list[str]] = {self.pvd_path: []}
+        for part in self.parts:
+            collections.setdefault(self.collection_path(part), []).append(part)
+        for path, parts in collections.items():
+            rows = "\n".join(f'    <DataSet timestep="{t:.10g}" group="" part="{parts.index(self.parts[k])}" '
+                             f'file={quoteattr(f)}/>' for t, k, f in self.entries if self.parts[k] in parts)
+            text = ('<?xml version="1.0"?>\n'
+                    '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+                    f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
+            write_text(path, text)

@@ -1,0 +1,101 @@
+"""VTU output for ParaView: material names as field data, rigid bodies in their own
+collection, and the script `mpmsim paraview` writes, run by ParaView itself (pvbatch) when it
+is installed (CI installs Debian's paraview and xvfb; MPMSIM_REQUIRE_PARAVIEW=1 there makes a
+missing ParaView a failure)."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+from PIL import Image
+from typer.testing import CliRunner
+
+from mpmsim.cli import app
+from mpmsim.output.paraview import PALETTE, parse_report
+from mpmsim.output.vtu import material_names
+
+pytestmark = pytest.mark.ecosystem
+DECK = Path(__file__).with_name("platens.yaml")  # two deformable blocks between rigid platens
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("platens") / "res"
+    result = CliRunner().invoke(app, ["run", str(DECK), "--out", str(out), "--quiet", "--threads", "1"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def frames(pvd: Path) -> list[str]:
+    return re.findall(r'file="([^"]+)"', pvd.read_text())
+
+
+def test_material_names_and_rigid_collection(results):
+    main, rigid = frames(results / "platens.pvd"), frames(results / "platens_rigid.pvd")
+    assert len(main) == len(rigid) == 6  # t = 0, 5 outputs
+    assert all("_rigid_" not in f for f in main) and all("_rigid_" in f for f in rigid)
+    deformable = meshio.read(results / main[-1])
+    walls = meshio.read(results / rigid[-1])
+    for mesh in (deformable, walls):
+        assert material_names(mesh) == ["soft", "hard", "bottom", "top"]
+    # 2 particles per direction in 2.5 mm cells: 8 x 16 deformable, 2 x (8 x 2) rigid
+    assert len(deformable.points) == 128 and len(walls.points) == 32
+    assert set(np.unique(deformable.point_data["material"])) == {0, 1}
+    assert set(np.unique(walls.point_data["material"])) == {2, 3}
+    assert np.all(walls.point_data["stress"] == 0.0)
+    assert np.all(walls.point_data["mass"] == 0.0)
+
+
+def test_paraview_command_errors(tmp_path):
+    result = CliRunner().invoke(app, ["paraview", str(tmp_path / "nowhere")])
+    assert result.exit_code == 2 and "nowhere" in result.output and "Traceback" not in result.output
+    (tmp_path / "empty").mkdir()
+    result = CliRunner().invoke(app, ["paraview", str(tmp_path / "empty")])
+    assert result.exit_code == 2 and "holds no .pvd" in result.output
+
+
+def pvbatch() -> list[str] | None:
+    exe, xvfb = shutil.which("pvbatch"), shutil.which("xvfb-run")
+    if exe is None:
+        return None
+    return ([xvfb, "-a"] if xvfb and not os.environ.get("DISPLAY") else []) + [exe]
+
+
+def test_paraview_script(results, tmp_path):
+    result = CliRunner().invoke(app, ["paraview", str(results)])
+    assert result.exit_code == 0, result.output
+    script = results / "platens_paraview.py"
+    compile(script.read_text(), str(script), "exec")  # valid Python whatever ParaView is here
+    cmd = pvbatch()
+    if cmd is None:
+        assert not os.environ.get("MPMSIM_REQUIRE_PARAVIEW"), "pvbatch not found"
+        pytest.skip("ParaView (pvbatch) is not installed: the script was generated and compiled only")
+    shot = tmp_path / "shot.png"
+    run = subprocess.run(cmd + [str(script), "--report", "--screenshot", str(shot)], capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    report = parse_report(run.stdout)
+    last = meshio.read(results / frames(results / "platens.pvd")[-1])
+    syy = last.point_data["stress"][:, 1]
+    assert report["time"] == pytest.approx(0.5)
+    assert report["times"] == 6
+    assert report["materials"] == ["0", "soft", "1", "hard", "2", "bottom", "3", "top"]
+    assert report["points"] == len(last.points) and report["rigid_points"] == 32
+    assert report["stress_range"] == pytest.approx([syy.min(), syy.max()], rel=1e-12)
+    # the picture: the two deformable materials in their table colours, the platens grey
+    pixels = np.asarray(Image.open(shot).convert("RGB")).reshape(-1, 3).astype(int)
+    left = np.asarray(Image.open(shot).convert("RGB"))[:, :700].reshape(-1, 3).astype(int)
+
+    def count(img, rgb):
+        return int(np.sum(np.abs(img - np.array(rgb) * 255).max(axis=1) <= 3))
+
+    assert count(left, PALETTE[0]) > 5000 and count(left, PALETTE[1]) > 5000  # soft, hard
+    assert count(left, PALETTE[2]) == 0 and count(left, PALETTE[3]) == 0  # rigid ones are not coloured
+    assert count(pixels, (0.6, 0.6, 0.6)) > 2000  # grey platens
