@@ -8,10 +8,13 @@ unstable, 4 output could not be written (folder, disk), 130 / 143 stopped by Ctr
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import signal
 import sys
 import time
+import warnings
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
@@ -21,6 +24,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
+from rich.text import Text
 
 from . import __version__, kernel_cache
 from .errors import DeckError, InstabilityError
@@ -75,6 +79,7 @@ def _load_scene(deck: Path):
 
 @app.command()
 def run(
+    ctx: typer.Context,
     deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Output directory (overrides the deck)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar, timing table or file list."),
@@ -91,6 +96,7 @@ def run(
     import numba
 
     from .output.checkpoint import checkpoint_path, read_manifest
+    from .output.runlog import RunLog
     from .solver import Simulation, StepLimit, StopRequested, default_output_dir
 
     cold = kernel_cache.is_empty()  # before the scene's own kernels fill it
@@ -106,8 +112,9 @@ def run(
     else:
         chosen, why = default_threads()
     numba.set_num_threads(max(1, min(chosen, numba.config.NUMBA_NUM_THREADS)))
+    thread_line = f"threads: {numba.get_num_threads()} ({why}; --threads N to choose)"
     if not quiet and threads is None:
-        out.print(f"threads: {numba.get_num_threads()} ({why}; --threads N to choose)", highlight=False)
+        out.print(thread_line, highlight=False)
     directory = restart if restart is not None else out_dir if out_dir is not None else default_output_dir(scene.loaded)
     try:
         with _deck_errors():
@@ -115,13 +122,27 @@ def run(
                              max_frames=max_frames, resume=restart is not None)
             if restart is not None:
                 sim.resume()
+            log = RunLog(Path(directory) / f"{scene.loaded.stem}_run.log", _command_line(ctx), scene.loaded,
+                         numba.get_num_threads())
+            log.note(thread_line)
+            if restart is not None:
+                restarted = (f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
+                             f"{_units(scene).time}")
+                log.note(restarted)
                 if not quiet:
-                    out.print(f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
-                              f"{_units(scene).time}", highlight=False)
+                    out.print(restarted, highlight=False)
     except (OSError, ValueError) as exc:  # the folder: not creatable, a file in the way, a NUL in the path
         err.print(f"mpmsim: cannot write the output folder {str(directory)!r}: {_reason(exc)}", highlight=False,
                   soft_wrap=True)
         raise typer.Exit(EXIT_IO) from None
+
+    def stop(message: str, reason: str, code: int) -> typer.Exit:
+        """Say why the run stopped (stderr and the log); the exit to raise."""
+        err.print(message, highlight=False, soft_wrap=True)
+        log.note(Text.from_markup(message).plain)
+        with contextlib.suppress(OSError):  # (a full disk may refuse the log too)
+            log.finish(f"{reason} (exit {code})")
+        return typer.Exit(code)
     st, end = sim.state, scene.deck.time.end
     tu = _units(scene).time
     progress = None
@@ -144,9 +165,11 @@ def run(
         out.print("compiling kernels for this scene (first run only)...", highlight=False)
 
     def compiled(seconds: float) -> None:
-        if not quiet and (cold or seconds > 2.0):
-            out.print(f"first step: {seconds:.1f} s (numba compiled the kernels the cache lacked; later runs "
-                      "load them)", highlight=False)
+        if cold or seconds > 2.0:
+            said = f"first step: {seconds:.1f} s (numba compiled the kernels the cache lacked; later runs load them)"
+            log.note(said)
+            if not quiet:
+                out.print(said, highlight=False)
 
     # Ctrl-C (SIGINT) and SIGTERM ask the run to stop at the end of the current step, where the
     # state is whole and is written; a second signal stops it at once (history kept)
@@ -167,6 +190,9 @@ def run(
             raise StepLimit()
 
     previous = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    caught = warnings.catch_warnings(record=True)
+    seen = caught.__enter__()
+    warnings.simplefilter("default")
     try:
         if progress is not None:
             with progress:
@@ -176,38 +202,47 @@ def run(
         else:
             result = sim.run(first_step=compiled, between_steps=between_steps)
     except InstabilityError as exc:
-        err.print(f"[bold red]mpmsim: run stopped[/]: {exc}", highlight=False, soft_wrap=True)
-        err.print(f"output so far (including the failing state) is in {directory}", highlight=False)
-        raise typer.Exit(EXIT_UNSTABLE) from None
+        raise stop(f"[bold red]mpmsim: run stopped[/]: {exc}\noutput so far (including the failing state) is in "
+                   f"{directory}", f"unstable at step {st.step}, t = {st.t:.6g} {tu}", EXIT_UNSTABLE) from None
     except OSError as exc:  # a write failed mid-run (disk full, folder removed): earlier files are whole
-        err.print(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {_reason(exc)}; the files "
-                  f"written before are whole, in {directory}", highlight=False, soft_wrap=True)
-        raise typer.Exit(EXIT_IO) from None
+        raise stop(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {_reason(exc)}; the files "
+                   f"written before are whole, in {directory}", "output failed", EXIT_IO) from None
     except StepLimit:
-        err.print(f"mpmsim: stopped after {steps} steps (--steps) at t = {st.t:.6g} {tu}; results in {directory}; "
-                  f"continue with mpmsim run {deck} --restart {directory}", highlight=False, soft_wrap=True)
+        stop(f"mpmsim: stopped after {steps} steps (--steps) at t = {st.t:.6g} {tu}; results in {directory}; "
+             f"continue with mpmsim run {deck} --restart {directory}",
+             f"stopped after {steps} steps (--steps), checkpoint written", 0)
         return
     except KeyboardInterrupt as exc:  # caught here: the command-line framework would swallow it
         term = (received[0] == signal.SIGTERM) if received else isinstance(exc, Terminated)
         what, code = ("terminated", 143) if term else ("interrupted", 130)
         resume = f"mpmsim run {deck} --restart {directory}"
         if isinstance(exc, StopRequested):  # stopped at the end of a step: checkpoint written
-            err.print(f"mpmsim: {what} at step {st.step}, t = {st.t:.6g} {tu}; results in {directory}; resume "
-                      f"with {resume}", highlight=False, soft_wrap=True)
-        else:  # stopped mid-step (a second signal): the last periodic checkpoint, if any, is kept
-            ckpt = checkpoint_path(directory, scene.loaded.stem)
-            where = f"; resume from the last checkpoint with {resume}" if ckpt.exists() else ""
-            err.print(f"mpmsim: {what} in step {st.step + 1}; the history and the VTU files written so far are in "
-                      f"{directory}{where}", highlight=False, soft_wrap=True)
-        raise typer.Exit(code) from None
+            raise stop(f"mpmsim: {what} at step {st.step}, t = {st.t:.6g} {tu}; results in {directory}; resume "
+                       f"with {resume}", f"{what} at the end of step {st.step}, checkpoint written", code) from None
+        # stopped mid-step (a second signal): the last periodic checkpoint, if any, is kept
+        ckpt = checkpoint_path(directory, scene.loaded.stem)
+        where = f"; resume from the last checkpoint with {resume}" if ckpt.exists() else ""
+        raise stop(f"mpmsim: {what} in step {st.step + 1}; the history and the VTU files written so far are in "
+                   f"{directory}{where}", f"{what} in step {st.step + 1}", code) from None
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
+        caught.__exit__(None, None, None)
+        for w in seen:  # kept in the log, and shown as Python would have shown them
+            log.note(f"warning: {w.category.__name__}: {w.message} ({Path(w.filename).name}:{w.lineno})")
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    table = _timing_table(result, sim)
+    report_lines = list(getattr(sim.integrator, "report", lambda: [])())
+    for line in report_lines:
+        log.note(line)
+    with contextlib.suppress(OSError):
+        log.finish(f"completed at t = {st.t:.6g} {tu}, step {st.step} (exit 0)", _plain(table))
     if quiet:
         return
-    _timing_table(result, sim)
-    for line in getattr(sim.integrator, "report", lambda: [])():
+    out.print(table)
+    for line in report_lines:
         out.print(line, highlight=False)
+    out.print(f"[bold]run log[/]:    {log.path}", highlight=False)
     out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
     out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
 
@@ -247,7 +282,28 @@ def _units(scene):
     return unit_system(scene.deck.units)
 
 
-def _timing_table(result, sim) -> None:
+def _command_line(ctx: typer.Context) -> list[str]:
+    """The running command as it could be typed again: the arguments given, options with values
+    other than their defaults (the same whether it came from the shell or from Python)."""
+    words = ["mpmsim"] + ctx.command_path.split()[1:]
+    for param in ctx.command.params:
+        value = ctx.params.get(param.name)
+        if param.param_type_name == "argument":
+            words.append(str(value))
+        elif value != param.default and value is not None:
+            flag = max(param.opts, key=len)
+            words += [flag] if param.is_flag else [flag, str(value)]
+    return words
+
+
+def _plain(renderable) -> str:
+    """A rich table as plain text (the run log)."""
+    console = Console(file=io.StringIO(), width=120, color_system=None)
+    console.print(renderable)
+    return console.file.getvalue()
+
+
+def _timing_table(result, sim) -> Table:
     n_p = sim.state.particles.n
     n_e = len(sim.state.fem.cells) if sim.state.fem is not None else 0
     n = n_p + n_e
@@ -262,7 +318,7 @@ def _timing_table(result, sim) -> None:
     for name, sec in result.timers.items():
         rate = f"{n * steps / sec / 1e6:.1f}" if sec > 0 and name != "output" else "-"
         table.add_row(name, f"{sec:.3f}", f"{100 * sec / total:.1f}", f"{sec / steps * 1e6:.1f}", rate)
-    out.print(table)
+    return table
 
 
 @app.command()

@@ -37,7 +37,9 @@ def test_a_run_that_goes_wrong_stops_with_exit_3_naming_when_and_what(tmp_path, 
     assert "Traceback" not in result.output and not list(out.glob(".*.tmp"))
     history = read_history(out / f"{deck}_history.csv")
     assert history["step"][-1] == step and history["time"][-1] == pytest.approx(t, rel=1e-5)  # the failing state
-    frames = re.findall(r'timestep="([^"]+)" group="" part="0" file="([^"]+)"', (out / f"{deck}.pvd").read_text())
+    frames = []
+    for pvd in out.glob("*.pvd"):  # the deformable collection, and the rigid one if any
+        frames += re.findall(r'timestep="([^"]+)" group="" part="0" file="([^"]+)"', pvd.read_text())
     assert float(frames[-1][0]) == pytest.approx(t, rel=1e-5)
     assert {f for _, f in frames} == {p.name for p in out.glob("*.vtu")}
 

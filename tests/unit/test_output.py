@@ -55,26 +55,33 @@ def finished(tmp_path_factory):
 
 def test_every_vtu_reads_back_with_vtk(finished):
     sim, result, out = finished
-    assert len(result.files) == 6  # t = 0 and every 0.01 to the end
+    assert len(result.files) == 12  # t = 0 and every 0.01 to the end; deformable and rigid files
     P, R = sim.state.particles, sim.state.rigid
-    n = P.n + R.n
-    for path in result.files:
-        grid, points, arrays = read_vtu(path)
-        assert grid.GetNumberOfPoints() == n and grid.GetNumberOfCells() == n
-        assert grid.GetCellType(0) == vtk.VTK_VERTEX
-        assert arrays["velocity"].shape == (n, 3)
-        assert arrays["stress"].shape == (n, 6)
-        assert arrays["deformation_gradient"].shape == (n, 9)
-        for name in ("J", "material", "mass", "volume", "rigid", "displacement", "body"):
-            assert name in arrays
-    # the last file holds the final state
-    grid, points, arrays = read_vtu(result.files[-1])
-    np.testing.assert_allclose(points[: P.n, :2], P.x)
-    np.testing.assert_allclose(arrays["stress"][: P.n], P.stress)
-    np.testing.assert_allclose(arrays["velocity"][: P.n, :2], P.v)
-    np.testing.assert_allclose(arrays["J"][: P.n], np.linalg.det(P.F))
+    deformable = [p for p in result.files if "_rigid_" not in p.name]
+    rigid = [p for p in result.files if "_rigid_" in p.name]
+    assert len(deformable) == len(rigid) == 6
+    for paths, n in ((deformable, P.n), (rigid, R.n)):
+        for path in paths:
+            grid, points, arrays = read_vtu(path)
+            assert grid.GetNumberOfPoints() == n and grid.GetNumberOfCells() == n
+            assert grid.GetCellType(0) == vtk.VTK_VERTEX
+            assert arrays["velocity"].shape == (n, 3)
+            assert arrays["stress"].shape == (n, 6)
+            assert arrays["deformation_gradient"].shape == (n, 9)
+            for name in ("J", "material", "mass", "volume", "displacement", "body"):
+                assert name in arrays
+            names = vtk_to_numpy(grid.GetFieldData().GetArray("material_names")).tobytes()
+            assert names == b"soft\0hard\0platen\0"  # VTK reads the field data meshio cannot write
+    # the last files hold the final state
+    grid, points, arrays = read_vtu(deformable[-1])
+    np.testing.assert_allclose(points[:, :2], P.x)
+    np.testing.assert_allclose(arrays["stress"], P.stress)
+    np.testing.assert_allclose(arrays["velocity"][:, :2], P.v)
+    np.testing.assert_allclose(arrays["J"], np.linalg.det(P.F))
+    grid, points, rigid_arrays = read_vtu(rigid[-1])
+    np.testing.assert_allclose(points[:, :2], R.x)
     # material ids are deck order: soft 0, hard 1, platen 2
-    assert set(arrays["material"][: P.n]) == {0, 1} and set(arrays["material"][P.n:]) == {2}
+    assert set(arrays["material"]) == {0, 1} and set(rigid_arrays["material"]) == {2}
 
 
 def test_pvd_collection_lists_the_series(finished):
@@ -82,8 +89,11 @@ def test_pvd_collection_lists_the_series(finished):
     root = ET.parse(result.pvd_path).getroot()
     sets = root.find("Collection").findall("DataSet")
     times = [float(d.get("timestep")) for d in sets]
-    assert [out / d.get("file") for d in sets] == result.files
+    assert [out / d.get("file") for d in sets] == [p for p in result.files if "_rigid_" not in p.name]
     assert times == sorted(times) and times[0] == 0.0 and times[-1] == pytest.approx(0.05)
+    rigid = ET.parse(out / "deck_rigid.pvd").getroot().find("Collection").findall("DataSet")
+    assert [out / d.get("file") for d in rigid] == [p for p in result.files if "_rigid_" in p.name]
+    assert [float(d.get("timestep")) for d in rigid] == times
     # a ParaView-compatible collection that VTK's own reader accepts
     reader = vtk.vtkXMLUnstructuredGridReader()
     assert reader.CanReadFile(str(result.files[0]))
