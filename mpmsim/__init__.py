@@ -10,3 +10,23 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 from . import kernel_cache as _kernel_cache  # noqa: E402  (before any kernel is defined)
 
 CACHE_DIR = _kernel_cache.configure()
+
+__all__ = ["Simulation", "Deck", "DeckError", "InstabilityError", "__version__"]
+
+
+def __getattr__(name: str):
+    """`mpmsim.Simulation` and friends, imported when first used (so `mpmsim --version` and
+    `import mpmsim` stay quick)."""
+    if name == "Simulation":
+        from .solver import Simulation
+
+        return Simulation
+    if name == "Deck":
+        from .deck import Deck
+
+        return Deck
+    if name in ("DeckError", "InstabilityError"):
+        from . import errors
+
+        return getattr(errors, name)
+    raise AttributeError(f"module 'mpmsim' has no attribute {name!r}")

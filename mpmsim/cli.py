@@ -22,7 +22,6 @@ from typing import Optional
 import numpy as np
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 from rich.text import Text
 
@@ -96,6 +95,7 @@ def run(
     import numba
 
     from .output.checkpoint import checkpoint_path, read_manifest
+    from .output.progress import progress_bar
     from .output.runlog import RunLog
     from .solver import Simulation, StepLimit, StopRequested, default_output_dir
 
@@ -145,21 +145,6 @@ def run(
         return typer.Exit(code)
     st, end = sim.state, scene.deck.time.end
     tu = _units(scene).time
-    progress = None
-    if not quiet:
-        progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                            TextColumn("t = {task.fields[t]} / {task.fields[end]} " + tu),
-                            TextColumn("{task.fields[rate]} steps/s"), TimeRemainingColumn(),
-                            console=out, transient=False)
-    last = [0.0, 0, time.perf_counter()]
-
-    def report(state) -> None:
-        now = time.perf_counter()
-        if now - last[0] < 0.1:
-            return
-        rate = (state.step - last[1]) / max(now - last[2], 1e-9)
-        last[:] = [now, state.step, now]
-        progress.update(bar, completed=state.t, t=f"{state.t:.4g}", rate=f"{rate:,.0f}")
 
     if not quiet and cold:
         out.print("compiling kernels for this scene (first run only)...", highlight=False)
@@ -194,11 +179,9 @@ def run(
     seen = caught.__enter__()
     warnings.simplefilter("default")
     try:
-        if progress is not None:
-            with progress:
-                bar = progress.add_task(scene.loaded.stem, total=end, t="0", end=f"{end:g}", rate="-")
+        if not quiet:
+            with progress_bar(scene.loaded.stem, end, tu, out) as report:
                 result = sim.run(report, compiled, between_steps)
-                progress.update(bar, completed=end, t=f"{st.t:.4g}")
         else:
             result = sim.run(first_step=compiled, between_steps=between_steps)
     except InstabilityError as exc:

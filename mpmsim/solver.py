@@ -21,7 +21,9 @@ from pathlib import Path
 from typing import Callable
 
 from . import __version__
-from .deck import LoadedDeck, load_deck
+import numpy as np
+
+from .deck import LoadedDeck, as_loaded_deck
 from .deck.schema import wall_clock_seconds
 from .errors import InstabilityError
 from .output.checkpoint import CheckpointError, checkpoint_path, deck_digest, read_manifest, restore_checkpoint, \
@@ -159,8 +161,25 @@ class Simulation:
             raise_at(problems, self.scene.loaded)
 
     @classmethod
-    def from_deck(cls, deck_path, out_dir: Path | None = None, threads: int | None = None) -> "Simulation":
-        return cls(build_scene(load_deck(deck_path)), out_dir=out_dir, threads=threads)
+    def from_deck(cls, deck, out_dir: Path | str | None = None, threads: int | None = None, name: str = "deck",
+                  base_dir: Path | str | None = None, **options) -> "Simulation":
+        """A simulation of a deck given as a YAML file's path, a mapping (the YAML's content,
+        e.g. a file's data with a key changed) or a `Deck` model; the last two are validated as
+        a file would be, and named `name` (output files <name>_...; relative file names in the
+        deck are read from `base_dir`, default the current folder). A bad deck raises DeckError
+        naming the key. `out_dir=None` writes no files (history in memory); `options`: those
+        of Simulation()."""
+        return cls(build_scene(as_loaded_deck(deck, name, base_dir)), out_dir=out_dir, threads=threads, **options)
+
+    @property
+    def particles(self) -> dict[str, np.ndarray]:
+        """The deformable particles now, as arrays (copies): x, v (n, dim), stress (n, 6: xx yy zz
+        xy yz xz), F (n, dim, dim), J, mass, volume (n,), material (names), body (indices)."""
+        P = self.state.particles
+        names = np.array(self.state.materials.deformable, dtype=object)
+        return {"x": P.x.copy(), "v": P.v.copy(), "stress": P.stress.copy(), "F": P.F.copy(),
+                "J": np.linalg.det(P.F), "mass": P.mass.copy(), "volume": P.vol.copy(),
+                "material": names[P.mat] if P.n else np.array([], dtype=object), "body": P.body.copy()}
 
     @property
     def timers(self) -> dict[str, float]:
@@ -242,15 +261,23 @@ class Simulation:
         self.history.flush()
         return manifest
 
-    def run(self, progress: Callable[[State], None] | None = None,
+    def run(self, progress: Callable[[State], None] | bool | None = None,
             first_step: Callable[[float], None] | None = None,
             between_steps: Callable[[], None] | None = None) -> RunResult:
-        """Step to time.end with history and output on their schedules. The first step (where
-        numba compiles whatever the cache lacks) is kept out of the timers and the rate;
-        `first_step(seconds)` is called after it. `between_steps()` is called after each step's
-        output, where the state is whole: a StopRequested it raises ends the run with the
-        history and a last VTU frame of that state written (a KeyboardInterrupt raised anywhere
-        else writes the history only)."""
+        """Step to time.end with history and output on their schedules. `progress`: True draws
+        a progress bar (terminal or notebook), a function is called with the state after every
+        step. The first step (where numba compiles whatever the cache lacks) is kept out of the
+        timers and the rate; `first_step(seconds)` is called after it. `between_steps()` is
+        called after each step's output, where the state is whole: a StopRequested it raises
+        ends the run with the history and a last VTU frame of that state written (a
+        KeyboardInterrupt raised anywhere else writes the history only)."""
+        if progress is True:
+            from .deck.units import unit_system
+            from .output.progress import progress_bar
+
+            with progress_bar(self.scene.loaded.stem, self.end, unit_system(self.scene.deck.units).time) as report:
+                return self.run(report, first_step, between_steps)
+        progress = progress or None
         st, end = self.state, self.end
         vtu_dt, hist_dt = self.vtu_interval, self.history_interval
         eps = 1e-9 * end

@@ -111,6 +111,21 @@ def load_deck_text(text: str, path: Path) -> LoadedDeck:
     return LoadedDeck(deck=deck, path=path, data=data, text=text)
 
 
+def as_loaded_deck(deck, name: str = "deck", base_dir: str | Path | None = None) -> LoadedDeck:
+    """A deck from a YAML file's path, a mapping of its keys or a Deck model (a mapping or a
+    model is validated as a file named <base_dir>/<name>.yaml would be)."""
+    if isinstance(deck, LoadedDeck):
+        return deck
+    if isinstance(deck, (str, Path)):
+        return load_deck(deck)
+    if isinstance(deck, Deck):
+        deck = deck.model_dump(mode="json", exclude_unset=True)  # only what was given: a file's keys
+    if not isinstance(deck, dict):
+        raise DeckError(((), f"a deck is a file path, a mapping or a Deck, not {type(deck).__name__}"), source=name)
+    path = Path(base_dir if base_dir is not None else ".") / f"{name}.yaml"
+    return load_deck_text(yaml.safe_dump(deck, sort_keys=False, allow_unicode=True), path)
+
+
 def raise_at(problems: list[tuple[tuple, str]], loaded: LoadedDeck) -> typing.NoReturn:
     """Raise DeckError for problems found after loading (e.g. by the scene builder)."""
     root = yaml.compose(loaded.text, Loader=yaml.SafeLoader)
