@@ -81,7 +81,7 @@ stability-table: $(STAMP)
 	NUMBA_NUM_THREADS=1 $(BIN)/python -m tests.stability.report docs/stability-suite.md
 
 # every PNG in docs/ from the decks and sweeps; one target per figure group, so a new
-# figure (e.g. issue 5's shock bar) is one more entry in FIGURES and one more rule
+# figure is one more entry in FIGURES and one more rule
 FIGURES := figure-contact figure-sweeps figure-column-history figure-shock figure-interfaces figure-buckling
 figures: $(FIGURES)
 .PHONY: $(FIGURES)
