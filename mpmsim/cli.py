@@ -431,7 +431,11 @@ def kernel_dimension(state) -> str:
 @app.command()
 def sweep(
     sweep_file: Path = typer.Argument(..., help="Sweep file (YAML): base deck, axes, reference, metrics."),
-    jobs: int = typer.Option(1, "--jobs", "-j", help="Worker processes (one numba thread each)."),
+    jobs: int = typer.Option(1, "--jobs", "-j", min=0, help="Worker processes of a local Dask cluster, one numba "
+                             "thread each; 0: every run in this process, one after the other (debugging)."),
+    scheduler: Optional[str] = typer.Option(
+        None, "--scheduler", help="Run on this existing Dask cluster (e.g. tcp://127.0.0.1:8786) instead of a "
+        "local one; its workers need mpmsim (docs/sweep.md)."),
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Results directory (overrides the sweep file)."),
     limit: Optional[int] = typer.Option(None, "--limit", help="Run at most this many of the missing runs."),
 ) -> None:
@@ -439,16 +443,36 @@ def sweep(
     Finished runs are kept in OUT/runs/, so a re-run resumes where a killed sweep stopped."""
     from .sweep import load_sweep, run_sweep
     from .sweep.matrix import expand
+    from .sweep.runner import SchedulerUnreachable, SweepStopped
+
+    if scheduler is not None and jobs == 0:
+        err.print("mpmsim sweep: --jobs 0 runs in this process; it cannot be combined with --scheduler",
+                  highlight=False)
+        raise typer.Exit(EXIT_BAD_DECK)
+    where = (f"on the Dask cluster at {scheduler}" if scheduler is not None else
+             "in this process" if jobs == 0 else f"on a local Dask cluster of {jobs} worker(s)")
+    done: list[str] = []
+
+    def progress(run, record, k: int, n: int) -> None:
+        done.append(run.id)
+        _sweep_progress(run, record, k, n)
 
     try:
         loaded = load_sweep(sweep_file)
         runs, refs = expand(loaded)
-        out.print(f"[bold]{sweep_file}[/]: {len(runs)} runs + {len(refs)} reference runs, {jobs} worker(s)",
-                  highlight=False)
-        result = run_sweep(loaded, jobs=jobs, limit=limit, out_dir=out_dir, progress=_sweep_progress)
+        out.print(f"[bold]{sweep_file}[/]: {len(runs)} runs + {len(refs)} reference runs, {where}", highlight=False)
+        result = run_sweep(loaded, jobs=jobs, limit=limit, out_dir=out_dir, progress=progress, scheduler=scheduler)
     except DeckError as exc:
         err.print(f"[bold red]mpmsim: bad sweep[/]\n{exc.format()}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
+    except SweepStopped as exc:  # an unreachable scheduler, no workers, workers that cannot run mpmsim
+        err.print(f"mpmsim sweep: {exc}; {len(done)} run(s) finished here are kept; the same command again "
+                  "continues", highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_DECK if isinstance(exc, SchedulerUnreachable) else 1) from None
+    except KeyboardInterrupt:  # caught here: the command-line framework would swallow it
+        err.print(f"mpmsim sweep: interrupted; pending runs cancelled, {len(done)} run(s) finished here are kept; "
+                  "the same command again continues", highlight=False, soft_wrap=True)
+        raise typer.Exit(130) from None
     out.print(f"ran {len(result.executed)}, already done {len(result.skipped)}", highlight=False)
     if not result.complete:
         out.print("sweep not complete (--limit): runs not done yet are 'pending' in the table; "

@@ -3,7 +3,7 @@ and cost per run and an error-against-cost chart (docs/sweep.md).
 
     spec.py     the sweep file (pydantic; errors name the key path and line)
     matrix.py   axes -> runs with stable ids, plus the reference runs
-    runner.py   worker processes, one JSON per finished run (resume), cost and memory
+    runner.py   Dask workers (or this process), one JSON per finished run (resume), cost and memory
     metrics.py  max relative error of a column, period from zero crossings, energy change
     report.py   the CSV table;  chart.py  error against cost with the Pareto front
 """

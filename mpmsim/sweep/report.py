@@ -15,7 +15,7 @@ from .metrics import evaluate
 from .runner import history_arrays, load_record
 
 COST_COLUMNS = ["steps", "particles", "particle_steps", "cpu_s", "run_s", "wall_s", "particle_steps_per_s",
-                "peak_mem_mb"]
+                "peak_mem_mb", "start_mem_mb"]
 
 
 def table(loaded, runs: list[Run], refs: list[Run], runs_dir: Path) -> list[dict]:

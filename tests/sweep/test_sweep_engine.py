@@ -78,7 +78,7 @@ def test_sweep_2x2_resumes_without_repeating_finished_runs(tmp_path):
 
 
 def test_worker_processes_record_each_run(tmp_path):
-    """Two spawned workers, one run each (peak memory per process), same numbers as in-process."""
+    """A LocalCluster of two one-thread workers runs both runs."""
     data = tiny(tmp_path)
     data["axes"]["shape_function"] = ["gimp"]
     data["axes"]["update"] = {"flip": {"update.scheme": "flip"}}
