@@ -5,14 +5,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from .output.atomic import atomic_path
-from .output.history import history_title, read_history
+from .output.history import history_title, history_units, read_history
 from .sweep.metrics import column
 
 
 def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path, xlabel: str | None = None,
                    ylabel: str | None = None) -> list[str]:
     """Write the PNG; returns the curve labels. The axis labels default to the columns (or
-    expressions) with their units."""
+    expressions) with their units (from each history's sidecar)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -22,7 +22,7 @@ def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path, xlabe
     units, labels = {}, []
     for path in paths:
         cols = read_history(path)
-        units.update(_units(path))
+        units.update(history_units(path))
         label = history_title(path) or Path(path).stem
         for y in ys:
             labels.append(label if len(ys) == 1 else f"{label}: {y}")
@@ -39,9 +39,3 @@ def plot_histories(paths: list[Path], x: str, ys: list[str], output: Path, xlabe
     plt.close(fig)
     return labels
 
-
-def _units(path) -> dict[str, str]:
-    from .output.history import read_header
-
-    header = read_header(path)[1].split(",")
-    return {h.split(" [")[0]: h.split(" [", 1)[1].rstrip("]") for h in header if " [" in h}

@@ -130,7 +130,7 @@ class Simulation:
         self.checkpoint_wall = wall_clock_seconds(interval) if isinstance(interval, str) else None
         self.checkpoint_path = checkpoint_path(self.out_dir, stem) if self.out_dir is not None else None
         if self.out_dir is not None:  # what a killed run of this deck may have left half-written
-            for name in (f"{stem}_history.csv", f"{stem}.pvd", self.checkpoint_path.name):
+            for name in (f"{stem}_history.csv", f"{stem}_history.json", f"{stem}.pvd", self.checkpoint_path.name):
                 (self.out_dir / f".{name}.tmp").unlink(missing_ok=True)
             if not resume:
                 self.checkpoint_path.unlink(missing_ok=True)
@@ -243,7 +243,8 @@ class Simulation:
         """Continue the run saved in the checkpoint `path` (default: this output folder's):
         refused (CheckpointError) when it is from another deck or mpmsim version. The folder is
         brought back to the checkpoint: frames written after it are removed, the .pvd and the
-        history CSV list exactly what the checkpoint holds."""
+        history CSV (written anew from the checkpoint's rows) list exactly what the checkpoint
+        holds."""
         path = Path(path) if path is not None else self.checkpoint_path
         if path is None:
             raise CheckpointError("a restart needs an output folder")
@@ -258,7 +259,7 @@ class Simulation:
         if self.vtu is not None:
             self.vtu.resumed()
             self.files = [self.vtu.directory / f for _, _, f in self.vtu.entries]
-        self.history.flush()
+        self.history.rewrite()
         return manifest
 
     def run(self, progress: Callable[[State], None] | bool | None = None,

@@ -16,7 +16,8 @@ from ..views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras)
-from .passes import PASS_1, PASS_3, Pass2Settings, Pass2Sums, contact_pass_2, exchange_pass
+from .passes import (NO_BEFORE, PASS_1, PASS_3, Pass2Settings, Pass2Sums, contact_pass_2, exchange_pass,
+                     pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
 from .spec import SEP_VELOCITY, build_contact_spec
 from .workspace import ContactWorkspace
@@ -92,8 +93,12 @@ def screen_volume(spec, grid, thickness: float) -> float:
 class ContactTasks:
     """The contact tasks of one scene, with the scene's settings bound."""
 
-    def __init__(self, spec, grid, spline: bool, thickness: float):
+    def __init__(self, spec, grid, spline: bool, thickness: float, pass_1_moves_particles: bool = True):
+        """pass_1_moves_particles: the particle update takes the particles' new velocity from
+        the grid velocity, so pass 1's change of the extrapolated momenta reaches the particles
+        and counts in the contact force between materials (FLIP adds only dt a: it does not)."""
         self.spec = spec
+        self.pass_1_counts = pass_1_moves_particles
         h_min = float(grid.h.min())
         self.method = spec.method(h_min, spline, screen_volume(spec, grid, thickness))
         self.laws = spec.laws()
@@ -120,6 +125,8 @@ class ContactTasks:
             before = f.mom[nn:nn + ns].copy()
             point_bond(cs.bonds(), nn, f.mass, f.mom, True, _NO_ACC, 0.0, cs.normal, state.dim)
             cs.dp1[:ns] += f.mom[nn:nn + ns] - before  # part of pass 1's change (uncorrected XPIC undoes it)
+        if self.pass_1_counts:
+            pair_changes(cs.nodes(nn), f.mass, cs.dp1, NO_BEFORE, False, cs.pair_step)
 
     def pass_2(self, state) -> None:
         """The laws on the updated momenta: contact forces (and interface forces, energy)."""
@@ -127,10 +134,14 @@ class ContactTasks:
         nc = state.nchunk
         sums = Pass2Sums(np.zeros((nc, max(state.n_rigid_materials, 1), state.dim)), np.zeros(nc), np.zeros(nc))
         held = RigidHold(f.rigid_vol, state.materials.constrain, state.rigid.v_end)
+        nn, ns = g.n_nodes, cs.n_slots
+        before = f.vnew[nn:nn + ns].copy()
         settings = Pass2Settings(self.sep_velocity, self.spec.interface_integration, self.touch, state.dt)
         contact_pass_2(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
                        cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
+        pair_changes(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, True, cs.pair_step)
+        settle_pairs(cs.pair_step, cs.pair_force, cs.pair_impulse, state.dt)
         state.interface_energy = float(sums.energy.sum())  # instantaneous total at the end of the step
         if state.n_rigid_materials:
             state.reaction[6:] += sums.reaction.sum(axis=0)[: state.n_rigid_materials]

@@ -42,6 +42,7 @@ from .laws import apply_law, interface_impulse
 from .spec import INTERFACE
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
+NO_BEFORE = np.zeros((0, 3))  # pair_changes: the change itself is given
 PASS_1, PASS_3 = 1, 3
 
 # The kernels take bundles (contact.workspace, views); their parallel loops work on arrays
@@ -352,3 +353,53 @@ def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, to
             share_change(a, b, rigid_b, change, d, dpb, s0)
     add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
                      rig_vel, mass, dpb, dv, dv, 0.0, dim)
+
+
+
+@njit(cache=True)
+def pair_changes(nodes, mass, after, before, weighted, out):
+    """Add the momentum change a pass gave each deformable slot s, after[s] - before[s] (times
+    the slot's mass when `weighted`: velocities; `before` of length 0: zero), to out[g, h]
+    (g its group, h the group it came from): at a node of two deformable groups all of it to
+    the other one; at a node of three or more (each exchanges with the lumped rest) shared by
+    the others' masses. Nodes with a rigid contact material are left out: every deformable
+    slot there contacts the rigid one (its reaction, `state.reaction`)."""
+    n_cn, cn_ptr, slot_group, n_def, nn = nodes.n_cn, nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
+    dim = after.shape[1]
+    has_before = before.shape[0] > 0
+    for c in range(n_cn):
+        s0 = cn_ptr[c]
+        s1 = cn_ptr[c + 1]
+        M = 0.0
+        rigid = False
+        for s in range(s0, s1):
+            if slot_group[s] >= n_def:
+                rigid = True
+            else:
+                M += mass[nn + s]
+        if rigid:
+            continue
+        for a in range(s0, s1):
+            rest = M - mass[nn + a]
+            if rest <= 0.0:
+                continue
+            ga = slot_group[a]
+            scale = mass[nn + a] if weighted else 1.0
+            for b in range(s0, s1):
+                if b == a:
+                    continue
+                w = scale * mass[nn + b] / rest
+                gb = slot_group[b]
+                for d in range(dim):
+                    out[ga, gb, d] += w * (after[a, d] - before[a, d] if has_before else after[a, d])
+
+
+@njit(cache=True)
+def settle_pairs(step, force, impulse, dt):
+    """The step's pair momenta as forces (/ dt) and into the impulses; the step's sums cleared."""
+    for i in range(step.shape[0]):
+        for j in range(step.shape[1]):
+            for d in range(step.shape[2]):
+                force[i, j, d] = step[i, j, d] / dt
+                impulse[i, j, d] += step[i, j, d]
+                step[i, j, d] = 0.0

@@ -120,6 +120,12 @@ class ContactWorkspace:
     cloud_ptr: np.ndarray = None
     cloud_idx: np.ndarray = None
     cloud_w: np.ndarray = None
+    # momentum contact gives each deformable group from each other one (G x G x dim, G the
+    # deformable groups; [a, b]: what b gives a): this step's so far, the last step's as a
+    # force, and the impulse since t = 0 (history columns contact_f*, contact_impulse_*)
+    pair_step: np.ndarray = None
+    pair_force: np.ndarray = None
+    pair_impulse: np.ndarray = None
 
     def ensure(self, n_cn: int, n_slots: int, dim: int) -> None:
         """Grow the per-contact-node and per-slot arrays (doubling) to hold this step."""
@@ -162,6 +168,8 @@ class ContactWorkspace:
                  np.zeros((n, K), dtype=np.int64), np.full((nr, K), -1, dtype=np.int64),
                  np.zeros((n_nodes, spec.n_groups, 4) if spec.warm_start else (1, 1, 4)))
         cs.cn_nodes = np.zeros(0, dtype=np.int64)
+        G = spec.n_def_groups
+        cs.pair_step, cs.pair_force, cs.pair_impulse = (np.zeros((G, G, dim)) for _ in range(3))
         cs.ensure(1, 1, dim)
         return cs
 

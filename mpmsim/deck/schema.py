@@ -613,7 +613,7 @@ class Output(Strict):
         "when Ctrl-C or SIGTERM stops a run; a run that reaches time.end removes it.")
     material_stress: list[str] = Field(
         default_factory=list, description="Deformable materials whose own volume-averaged stress is "
-        "added to the history (columns like syy@name).")
+        "added to the history (columns like syy_mat_<name>).")
     null_space_noise: bool = Field(
         default=False, description="Add the history column null_space_noise: the part of the particle "
         "velocities the grid cannot represent, ||V - S S+ V|| / ||V|| with S+ the mass-weighted "

@@ -3,7 +3,7 @@
 mpmsim never converts units: every number in a deck is in the deck's unit system and
 every output is in the same system. The two systems are consistent (force = mass ×
 length / time², stress = force / length², energy = force × length), so the solver is
-unit-agnostic. The table below is what the docs and the CSV headers print.
+unit-agnostic. The table below is what the docs and the history's units sidecar print.
 """
 
 from __future__ import annotations

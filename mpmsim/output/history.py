@@ -1,9 +1,11 @@
-"""CSV history of global quantities: one row per history time, header 'name [unit]', after
-a first line `# title: <deck title>` (for plot labels; readers skip '#' lines).
+"""CSV history of global quantities: a header of plain column names, then one row per
+history time, each appended (one whole line, flushed) as it is recorded; units, the deck
+title, the resolved deck and the versions are in a JSON sidecar `<stem>_history.json`,
+written once at the start. `pandas.read_csv(path)` reads the CSV as it is.
 
 Every sum comes from the body sets (mpmsim/bodies: each kind sums its own arrays); the
 history adds them up and adds the run's accounts. Columns, in order:
-- time, step, dt;
+- time, step, dt, wall_s (wall-clock seconds since the run started: not reproducible);
 - the volume-weighted Cauchy stress average over deformable material, kinetic and strain
   energy, the work put in (walls, rigid bodies, gravity, loads), internal energy (with
   Mie–Grüneisen or artificial viscosity), linear momentum p<axis>, angular momentum about
@@ -12,14 +14,24 @@ history adds them up and adds the run's accounts. Columns, in order:
 - reaction forces of constrained faces (what the face exerts on the material, from the last
   step: instantaneous, not averaged);
 - each body kind's own columns (rigid materials: reaction force and displacement);
-- chosen materials' own average stress (output.material_stress);
+- chosen materials' own average stress (output.material_stress): s<ij>_mat_<material>;
 - per body, when the scene has two or more bodies with mass: ke_, se_, p<axis>_, L_ and the
-  centre of mass c<axis>_, followed by the body's name.
-In 2D, forces, energies and momenta are for the deck's thickness.
+  centre of mass c<axis>_, followed by the body's name;
+- per deformable material, when two or more have mass: ke_mat_, se_mat_, p<axis>_mat_
+  followed by the material's name (sums of its bodies' rows);
+- per ordered pair of deformable material groups meeting through grid contact (explicit
+  runs): contact_f<axis>_<a>_<b>, the force b exerted on a in the last step, and
+  contact_impulse_<axis>_<a>_<b>, its impulse since t = 0 (contact.ContactTasks).
+Names taken from the deck have every character other than letters, digits and '_' replaced
+by '_'. In 2D, forces, energies and momenta are for the deck's thickness.
 """
 
 from __future__ import annotations
 
+import json
+import os
+import re
+import time as wallclock
 from pathlib import Path
 
 import numpy as np
@@ -37,17 +49,28 @@ def angular_names(dim: int) -> list[str]:
     return ["L"] if dim == 2 else ["Lx", "Ly", "Lz"]
 
 
+def plain(name: str) -> str:
+    """A deck name as part of a column name: letters, digits and '_' only."""
+    return re.sub(r"\W", "_", str(name), flags=re.ASCII)
+
+
+def sidecar_path(path: str | Path) -> Path:
+    """The units sidecar of a history CSV: `<stem>_history.json` beside `<stem>_history.csv`."""
+    return Path(path).with_suffix(".json")
+
+
 class History:
-    """Rows in memory; `flush` rewrites the CSV whole."""
+    """Rows in memory (`rows`, `column`, `names`), and in the CSV at `path` as they are recorded."""
 
     def __init__(self, scene, state, path: Path | None = None):
         self.path = Path(path) if path is not None else None
         deck = scene.deck
+        self.deck = deck  # for the sidecar (a restart takes it from the deck again)
         self.title = " ".join(str(deck.title).split())  # one line
         u = unit_system(deck.units)
         dim = state.dim
         axes = "xyz"[:dim]
-        self.columns: list[tuple[str, str]] = [("time", u.time), ("step", "-"), ("dt", u.time)]
+        self.columns: list[tuple[str, str]] = [("time", u.time), ("step", "-"), ("dt", u.time), ("wall_s", "s")]
         stress_cols = STRESS_NAMES[:4] if dim == 2 else STRESS_NAMES
         self._stress_idx = [STRESS_NAMES.index(s) for s in stress_cols]
         self.columns += [(s, u.stress) for s in stress_cols]
@@ -73,32 +96,52 @@ class History:
         for f in self._faces:
             self.columns += [(f"F_{f}_{a}", u.force) for a in axes]
         for body in state.bodies:
-            self.columns += body.history_columns(u, dim)
+            self.columns += [(plain(n), unit) for n, unit in body.history_columns(u, dim)]
         names = state.materials.deformable
         self._material_ids = [names.index(m) for m in deck.output.material_stress]
         for m in deck.output.material_stress:
-            self.columns += [(f"{sname}@{m}", u.stress) for sname in stress_cols]
+            self.columns += [(f"{sname}_mat_{plain(m)}", u.stress) for sname in stress_cols]
         massive = [(b, info) for b in state.bodies if b.has_mass for info in b.bodies]
         self._per_body = len(massive) >= 2
         if self._per_body:
             for _, info in massive:
-                self.columns += [(f"ke_{info.name}", u.energy), (f"se_{info.name}", u.energy)]
-                self.columns += [(f"p{a}_{info.name}", momentum) for a in axes]
-                self.columns += [(f"{n}_{info.name}", f"{momentum} {u.length}") for n in angular_names(dim)]
-                self.columns += [(f"c{a}_{info.name}", u.length) for a in axes]
+                name = plain(info.name)
+                self.columns += [(f"ke_{name}", u.energy), (f"se_{name}", u.energy)]
+                self.columns += [(f"p{a}_{name}", momentum) for a in axes]
+                self.columns += [(f"{n}_{name}", f"{momentum} {u.length}") for n in angular_names(dim)]
+                self.columns += [(f"c{a}_{name}", u.length) for a in axes]
+        # per material: each massive body's row goes to its material's
+        body_mat = [deck.bodies[info.index].material if info.index < len(deck.bodies) else None
+                    for _, info in massive]  # (None: a body kind of no deck body)
+        self._materials = [m for m in deck.materials if m in body_mat]  # deck order
+        if len(self._materials) < 2:
+            self._materials = []
+        self._body_material = [self._materials.index(m) if m in self._materials else -1 for m in body_mat]
+        for m in self._materials:
+            self.columns += [(f"ke_mat_{plain(m)}", u.energy), (f"se_mat_{plain(m)}", u.energy)]
+            self.columns += [(f"p{a}_mat_{plain(m)}", momentum) for a in axes]
+        self._pairs = contact_pairs(scene, state)
+        groups = state.contact.spec.group_names if self._pairs else []
+        for kind, unit in (("f", u.force), ("impulse_", momentum)):
+            for a, b in self._pairs:
+                self.columns += [(f"contact_{kind}{x}_{plain(groups[a])}_{plain(groups[b])}", unit) for x in axes]
+        check_unique(self.names, [info for _, info in massive], scene.loaded)
         self.rows: list[list[float]] = []
+        self.started = wallclock.time()  # the run's start (a restart keeps the checkpoint's)
+        self.in_file: int | None = None  # rows the CSV holds (None: not written by this run yet)
 
     @property
     def names(self) -> list[str]:
         return [n for n, _ in self.columns]
 
     def record(self, state) -> None:
+        """Add the state's row, and append it to the CSV."""
         dim = state.dim
         sums = [s for s in (b.sums(state) for b in state.bodies) if s is not None]
         s = sums[0].total
         for more in sums[1:]:
             s = s + more.total
-        row = [state.t, state.step, state.dt]
+        row = [state.t, state.step, state.dt, wallclock.time() - self.started]
         row += [s[i] / s[VOLUME] for i in self._stress_idx]
         row += [s[KINETIC], s[STRAIN], state.work_in]
         if self._internal:
@@ -121,44 +164,117 @@ class History:
             sel = P.mat == m
             w = P.vol[sel]
             row += list((P.stress[sel][:, self._stress_idx] * w[:, None]).sum(axis=0) / max(w.sum(), 1e-300))
-        if self._per_body:
-            for part in sums:
-                for b in part.per_body:
-                    row += [b[KINETIC], b[STRAIN]] + list(b[MOMENTUM][:dim]) + [b[ANGULAR][a] for a in self._angular]
-                    row += list(b[FIRST_MOMENT][:dim] / b[MASS])
+        per_body = np.concatenate([part.per_body for part in sums]) if self._per_body else np.zeros((0, 0))
+        for b in per_body:
+            row += [b[KINETIC], b[STRAIN]] + list(b[MOMENTUM][:dim]) + [b[ANGULAR][a] for a in self._angular]
+            row += list(b[FIRST_MOMENT][:dim] / b[MASS])
+        if self._materials:
+            mat = np.zeros((len(self._materials), 2 + dim))
+            for i, b in zip(self._body_material, per_body):
+                if i >= 0:
+                    mat[i] += [b[KINETIC], b[STRAIN], *b[MOMENTUM][:dim]]
+            row += [float(v) for v in mat.ravel()]
+        if self._pairs:
+            cs = state.contact
+            for arr in (cs.pair_force, cs.pair_impulse):
+                for a, b in self._pairs:
+                    row += [float(v) for v in arr[a, b, :dim]]
         self.rows.append(row)
+        self.flush()
 
     def column(self, name: str) -> np.ndarray:
         return np.array([r[self.names.index(name)] for r in self.rows])
 
     def flush(self) -> None:
+        """Bring the CSV up to the rows in memory: append the rows it lacks, each one whole line
+        in one write; the first time (or after `rewrite`), the sidecar and the CSV's header and
+        rows are written whole instead."""
         if self.path is None:
             return
-        header = ",".join(f"{n} [{u}]" for n, u in self.columns)
-        body = "\n".join(",".join(f"{v:.10g}" for v in row) for row in self.rows)
-        write_text(self.path, f"# title: {self.title}\n" + header + "\n" + body + ("\n" if body else ""))
+        if self.in_file is None:
+            self.write_sidecar()
+            write_text(self.path, ",".join(self.names) + "\n" + "".join(map(csv_line, self.rows)))
+        elif self.in_file < len(self.rows):
+            data = "".join(map(csv_line, self.rows[self.in_file:])).encode()
+            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
+            try:
+                while data:
+                    data = data[os.write(fd, data):]
+            finally:
+                os.close(fd)
+        self.in_file = len(self.rows)
+
+    def rewrite(self) -> None:
+        """Write the CSV anew from the rows in memory (a restart: exactly the checkpoint's rows)."""
+        self.in_file = None
+        self.flush()
+
+    def write_sidecar(self) -> None:
+        import numba
+
+        from .. import __version__
+
+        meta = {"title": self.title, "columns": dict(self.columns), "deck": self.deck.model_dump(mode="json"),
+                "mpmsim": __version__, "numba": numba.__version__, "numpy": np.__version__}
+        write_text(sidecar_path(self.path), json.dumps(meta, indent=1) + "\n")
+
+
+def check_unique(names: list[str], bodies, loaded) -> None:
+    """A DeckError when deck names give one column twice (a body named like a material's
+    columns, or names that differ only in characters `plain` replaces)."""
+    seen: set[str] = set()
+    twice = sorted({n for n in names if n in seen or seen.add(n)})
+    if not twice:
+        return
+    from ..deck.loader import raise_at
+
+    path = next((("bodies", b.index, "name") for b in bodies if any(n.endswith(f"_{plain(b.name)}") for n in twice)),
+                ("materials",))
+    raise_at([(path, f"gives history columns that another name gives too ({', '.join(twice)}); rename it")], loaded)
+
+
+def csv_line(row) -> str:
+    return ",".join(f"{v:.10g}" for v in row) + "\n"
+
+
+def contact_pairs(scene, state) -> list[tuple[int, int]]:
+    """Ordered pairs (a, b) of deformable contact groups with particles, a != b, when the
+    explicit step's contact passes run (they record the pair forces)."""
+    cs = state.contact
+    if cs is None or scene.deck.integrator != "explicit":
+        return []
+    present = sorted(set(np.unique(cs.group).tolist()))
+    return [(a, b) for a in present for b in present if a != b]
 
 
 def read_history(path: str | Path) -> dict[str, np.ndarray]:
-    """Columns of a history CSV by name (unit suffix dropped)."""
-    comments, header = read_header(path)
-    header = header.split(",")
-    data = np.loadtxt(path, delimiter=",", skiprows=len(comments) + 1, ndmin=2)
-    return {h.split(" [")[0]: data[:, i] for i, h in enumerate(header)}
+    """Columns of a history CSV by name. '#' lines are skipped and a ' [unit]' suffix of a
+    header name dropped, so CSVs with a title comment and 'name [unit]' headers read too."""
+    with open(path) as fh:
+        lines = [ln for ln in fh if not ln.startswith("#")]
+    if not lines:
+        raise ValueError(f"{path}: no header line")
+    header = [h.split(" [")[0] for h in lines[0].strip().split(",")]
+    body = [ln for ln in lines[1:] if ln.strip()]
+    data = np.loadtxt(body, delimiter=",", ndmin=2) if body else np.zeros((0, len(header)))
+    return {h: data[:, i] for i, h in enumerate(header)}
+
+
+def history_meta(path: str | Path) -> dict:
+    """The sidecar of a history CSV ({} when it is missing or unreadable)."""
+    try:
+        meta = json.loads(sidecar_path(path).read_text())
+    except (OSError, ValueError):
+        return {}
+    return meta if isinstance(meta, dict) else {}
 
 
 def history_title(path: str | Path) -> str:
-    """The deck title from the `# title:` line ('' for a file without one)."""
-    comments = read_header(path)[0]
-    return next((c.split(":", 1)[1].strip() for c in comments if c.startswith("# title:")), "")
+    """The deck title ('' without a sidecar)."""
+    return str(history_meta(path).get("title", ""))
 
 
-def read_header(path) -> tuple[list[str], str]:
-    """(leading '#' lines, the header line)."""
-    comments = []
-    with open(path) as fh:
-        for line in fh:
-            if not line.startswith("#"):
-                return comments, line.strip()
-            comments.append(line.strip())
-    raise ValueError(f"{path}: no header line")
+def history_units(path: str | Path) -> dict[str, str]:
+    """{column: unit} ({} without a sidecar)."""
+    columns = history_meta(path).get("columns", {})
+    return {str(k): str(v) for k, v in columns.items()} if isinstance(columns, dict) else {}

@@ -78,7 +78,9 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     ]
     contact = scene.contact
     if contact is not None:
-        ct = ContactTasks(contact, scene.grid, shape_function(deck.shape_function).grid_kind >= 2, scene.thickness)
+        ct = ContactTasks(contact, scene.grid, shape_function(deck.shape_function).grid_kind >= 2, scene.thickness,
+                          pass_1_moves_particles=upd.scheme in ("pic", "apic", "fmpm")
+                          or (upd.scheme == "xpic" and contact.xpic_term))
         tasks.append(Task("material fields", material_fields,
                           f"{contact.n_groups} material groups: own velocity fields where they meet"))
     else:

@@ -43,7 +43,7 @@ from numba import njit, prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.bond import point_bond
-from ..contact.passes import increment_contact
+from ..contact.passes import NO_BEFORE, increment_contact, pair_changes
 from ..contact.spec import SEP_VELOCITY
 from ..contact.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
@@ -79,13 +79,21 @@ class HeldSums(NamedTuple):
     work: np.ndarray  # (nchunk,)
 
 
+class SlotGain(NamedTuple):
+    """Momentum the contact re-imposed on the increments gives each material slot, summed over
+    the increments (for the contact forces between materials); (0, dim) arrays: not tracked."""
+
+    gain: np.ndarray  # (n_slots, dim)
+    prev: np.ndarray  # (n_slots, dim) scratch: the slots' increment before contact
+
+
 @njit(parallel=True, cache=True)
-def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, ghost_src, nchunk, sums):
+def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, ghost_src, nchunk, sums, slot_gain):
     """The series v* = sum_j (I - S+S)^j v over the active fields (sc: the particles' entries
     into their fields, material slots at contact nodes), with contact re-imposed on every
     increment at the cnodes.n_cn contact nodes. The impulses the velocity conditions exert on
     the increments (and their work) go to sums (HeldSums), so reactions and the energy check
-    see the filter's share of the condition."""
+    see the filter's share of the condition. What contact gives each slot goes to slot_gain."""
     # (parallel loops work on arrays bound to locals: docs/architecture.md)
     order_, ptr, nodes, S = sc
     fields, fnodes, skip = active
@@ -97,6 +105,7 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
     nn = shape[0] * shape[1] * shape[2]
     geo_n = geo.normal
     chunk_impulse, chunk_work = sums
+    gain, prev = slot_gain
     dim = vnew.shape[1]
     chunk_work[:] = 0.0
     chunk_impulse[:] = 0.0
@@ -168,10 +177,16 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
                     add_reaction(chunk_impulse, ch, owner, node, d, held_p, rigid_vol, constrain)
                     dv[fld, d] = 0.0
             chunk_work[ch] += work_ch
+        for s in prange(gain.shape[0]):
+            for d in range(dim):
+                prev[s, d] = dv[nn + s, d]
         for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
             increment_contact(c, cnodes, grid, held, mass, dv, geo, dec, sep_velocity, touch)
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
             point_bond(bonds, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
+        for s in prange(gain.shape[0]):
+            for d in range(dim):
+                gain[s, d] += mass[nn + s] * (dv[nn + s, d] - prev[s, d])
         if walls:  # ghost components of the increment mirror their interior node
             mirror_ghosts(fields, ghost_src, dv)
         for q in prange(nq):
@@ -193,6 +208,7 @@ def xpic(scheme: str, order: int, spec):
         shift = _NO_SHIFT[dim]
         empty = no_contact(dim)
         cnodes, geo, dec, bonds, touch = empty.nodes, empty.geo, empty.dec, empty.bonds, 0.0
+        tracked = 0  # slots whose contact gain is tracked
         if reimpose:
             ns = cs.n_slots
             if spec.xpic_term:  # re-impose contact on the increments, from pass 2's totals
@@ -200,6 +216,7 @@ def xpic(scheme: str, order: int, spec):
                 cs.applied_total[:ns] = cs.applied2[:ns]
                 cnodes, geo, dec, bonds = cs.nodes(nn), cs.targets(), cs.decisions(), cs.bonds()
                 touch = spec.touch * float(g.h.min())
+                tracked = ns
             else:  # uncorrected: filter v - dv^a (the extrapolation without pass 1)
                 m = f.mass[nn:nn + ns, None]
                 shift = -cs.dp1[:ns] / np.where(m > 0.0, m, 1.0)
@@ -209,8 +226,11 @@ def xpic(scheme: str, order: int, spec):
         ff = FilterFields(f.mass, f.vnew, f.vstart, f.dv, f.tmp, f.vstar)
         opts = FilterOptions(order, fmpm, shift, shift is not _NO_SHIFT[dim], has_walls(state),
                              sep_velocity, touch)
+        slot_gain = SlotGain(np.zeros((tracked, dim)), np.zeros((tracked, dim)))
         xpic_series(box.scatter(state.field_index, sd.S), state.particles.mass, box.active(), g.view, held, ff, opts,
-                    cnodes, geo, dec, bonds, f.ghost_src, nc, sums)
+                    cnodes, geo, dec, bonds, f.ghost_src, nc, sums, slot_gain)
+        if tracked:  # the increments' contact reaches the particles: part of the contact forces
+            add_pair_impulse(state, slot_gain.gain)
         state.reaction += sums.impulse.sum(axis=0) / state.dt
         state.work_in += float(sums.work.sum())
 
@@ -218,3 +238,13 @@ def xpic(scheme: str, order: int, spec):
 
 
 _NO_SHIFT = {2: np.zeros((1, 2)), 3: np.zeros((1, 3))}
+
+
+def add_pair_impulse(state, gain: np.ndarray) -> None:
+    """Add the momentum `gain` (per slot) that the filter's contact moved between materials to
+    the step's contact forces and impulses (set by contact pass 2, which ran before)."""
+    cs = state.contact
+    change = np.zeros_like(cs.pair_step)
+    pair_changes(cs.nodes(state.grid.n_nodes), state.fields.mass, gain, NO_BEFORE, False, change)
+    cs.pair_force += change / state.dt
+    cs.pair_impulse += change

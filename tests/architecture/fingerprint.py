@@ -86,7 +86,8 @@ def _digest(a) -> str:
 
 def run_case(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] | None = None):
     """The finished simulation after `steps` steps (one thread), and its history rows (only
-    `columns`, in that order, when given: the history may have grown columns since)."""
+    `columns`, in that order, when given: the history may have grown columns since; all but
+    wall_s otherwise)."""
     from tests.conftest import deck_from
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
@@ -98,10 +99,17 @@ def run_case(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] 
         sim.step()
         sim.history.record(sim.state)
     rows = np.array(sim.history.rows, dtype=float)
-    if columns is not None:
-        names = sim.history.names
-        rows = rows[:, [names.index(c) for c in columns]]
+    names = sim.history.names
+    if columns is None:  # all but the wall clock, which no rerun reproduces
+        columns = [n for n in names if n != "wall_s"]
+    rows = rows[:, [names.index(current_name(c)) for c in columns]]
     return sim, rows
+
+
+def current_name(column: str) -> str:
+    """The history's name of a reference column (a material's stress, recorded as syy@m, is syy_mat_m)."""
+    stress, at, material = column.partition("@")
+    return f"{stress}_mat_{material}" if at else column
 
 
 def arrays(sim) -> dict[str, np.ndarray]:
@@ -121,7 +129,7 @@ def arrays(sim) -> dict[str, np.ndarray]:
 
 def fingerprint(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] | None = None) -> dict:
     sim, rows = run_case(deck, overrides, steps, columns)
-    names = columns if columns is not None else sim.history.names
+    names = columns if columns is not None else [n for n in sim.history.names if n != "wall_s"]
     return {"steps": steps, "columns": names, "history": _digest(rows),
             "last_row": [float(v).hex() for v in rows[-1]],
             "arrays": {k: _digest(v) for k, v in sorted(arrays(sim).items())}}

@@ -87,8 +87,8 @@ def test_a_checkpoint_that_cannot_be_written_stops_with_exit_4_and_leaves_no_par
 def test_a_run_removes_the_temporary_files_a_killed_run_of_its_deck_left(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    left = [".faults_history.csv.tmp", ".faults.pvd.tmp", ".faults_checkpoint.npz.tmp", ".faults_000003.vtu.tmp",
-            ".faults_fem_000003.vtu.tmp"]
+    left = [".faults_history.csv.tmp", ".faults_history.json.tmp", ".faults.pvd.tmp", ".faults_checkpoint.npz.tmp",
+            ".faults_000003.vtu.tmp", ".faults_fem_000003.vtu.tmp"]
     for name in left + [".other.pvd.tmp"]:
         (out / name).write_text("x")
     result = CliRunner().invoke(app, ["run", str(_deck(tmp_path)), "--out", str(out), "--quiet"])

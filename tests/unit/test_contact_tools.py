@@ -79,9 +79,9 @@ def test_material_stress_columns_average_to_the_global_stress():
     h, P = sim.history, sim.state.particles
     v_soft, v_hard = P.vol[P.mat == 0].sum(), P.vol[P.mat == 1].sum()
     for s in ("sxx", "syy", "sxy"):
-        mixed = (v_soft * h.column(f"{s}@soft")[-1] + v_hard * h.column(f"{s}@hard")[-1]) / (v_soft + v_hard)
+        mixed = (v_soft * h.column(f"{s}_mat_soft")[-1] + v_hard * h.column(f"{s}_mat_hard")[-1]) / (v_soft + v_hard)
         assert mixed == pytest.approx(h.column(s)[-1], rel=1e-10)
-    assert h.column("syy@soft")[-1] < 0 and h.column("syy@hard")[-1] < 0
+    assert h.column("syy_mat_soft")[-1] < 0 and h.column("syy_mat_hard")[-1] < 0
 
 
 @pytest.fixture(scope="module")

@@ -3,6 +3,7 @@ writes, and the command line's files and exit codes."""
 
 from __future__ import annotations
 
+import json
 import xml.etree.ElementTree as ET
 
 from pathlib import Path
@@ -99,14 +100,19 @@ def test_pvd_collection_lists_the_series(finished):
     assert reader.CanReadFile(str(result.files[0]))
 
 
-def test_history_csv_has_units_and_every_row(finished):
+def test_history_csv_has_plain_names_every_row_and_a_units_sidecar(finished):
     sim, result, out = finished
     lines = result.history_path.read_text().splitlines()
-    assert lines[0] == f"# title: {sim.scene.deck.title}"
-    header = lines[1].split(",")
-    assert header[:4] == ["time [ms]", "step [-]", "dt [ms]", "sxx [MPa]"]
-    assert "kinetic_energy [mJ (= N mm)]" in header and "F_ymin_y [N]" in header
-    assert "F_platen_y [N]" in header and "u_platen_y [mm]" in header
+    header = lines[0].split(",")
+    assert header[:5] == ["time", "step", "dt", "wall_s", "sxx"]
+    assert "kinetic_energy" in header and "F_ymin_y" in header
+    assert "F_platen_y" in header and "u_platen_y" in header
+    assert len(lines) == 1 + 11
+    assert result.history_path.name == "deck_history.csv"
+    meta = json.loads((out / "deck_history.json").read_text())
+    assert meta["title"] == sim.scene.deck.title and list(meta["columns"]) == header
+    assert meta["columns"]["time"] == "ms" and meta["columns"]["kinetic_energy"] == "mJ (= N mm)"
+    assert meta["columns"]["F_platen_y"] == "N" and meta["columns"]["u_platen_y"] == "mm"
     cols = read_history(result.history_path)
     assert len(cols["time"]) == len(sim.history.rows) == 11
     np.testing.assert_allclose(cols["u_platen_y"][-1], -0.05, rtol=1e-6)

@@ -21,7 +21,7 @@ def test_plot_overlays_histories_labelled_by_title(tmp_path):
         sim = simulate(deck, ROOT / "inputs", out_dir=tmp_path / scheme)
         paths.append(sim.history.path)
     assert history_title(paths[1]) == "bar, pic"
-    assert len(read_history(paths[0])["time"]) > 10  # the title line does not upset the reader
+    assert len(read_history(paths[0])["time"]) > 10  # the title comes from the sidecar
     png = tmp_path / "px.png"
     assert plot_histories(paths, "time", ["px"], png) == ["bar, flip", "bar, pic"]
     png.unlink()

@@ -112,7 +112,7 @@ def test_contact_passes_conserve_momentum_at_pair_nodes():
 # --------------------------------------------------------------- Fig. 2: contact time
 def load_onset(sim, threshold=0.05) -> float:
     """First time the lower block's mean axial stress passes `threshold` MPa."""
-    t, s = sim.history.column("time"), sim.history.column("syy@lower")
+    t, s = sim.history.column("time"), sim.history.column("syy_mat_lower")
     hit = np.nonzero(np.abs(s) > threshold)[0]
     return float(t[hit[0]]) if len(hit) else np.inf
 
@@ -123,7 +123,7 @@ def test_lr_detects_contact_when_the_gap_closes(deck):
     onset = load_onset(sim)
     assert abs(onset / T_CONTACT - 1.0) < 0.01  # measured -0.18% (grid line), +0.21% (mid-cell)
     # nothing reaches the lower block before: its stress is exactly zero until 0.98 t_c
-    t, s = sim.history.column("time"), sim.history.column("syy@lower")
+    t, s = sim.history.column("time"), sim.history.column("syy_mat_lower")
     assert np.all(s[t < 0.98 * T_CONTACT] == 0.0)
 
 
