@@ -88,7 +88,7 @@ def run_to_end(job):
     except InstabilityError as exc:  # an unstable method is a result, not a crash of the study
         stopped = str(exc).splitlines()[0]
     wall = time.perf_counter() - t0
-    h = sim.history
+    h = sim.recorder
     return {"strain": (-h.column("u_platen_y") / 100.0).tolist(), "syy": h.column("syy").tolist(),
             "wall": wall, "steps": sim.state.step, "particles": sim.state.particles.n, "stopped": stopped}
 
@@ -240,9 +240,9 @@ def ellipse_to_end(job):
     wall = time.perf_counter() - t0
     P, h = sim.state.particles, sim.state.grid.h
     frac = overlap_fraction(P.x, P.F, P.mat, sim.scene.semi_size, float(h.min()) / 8)
-    return {"method": label, "syy": float(sim.history.column("syy")[-1]), "overlap": frac, "wall": wall,
+    return {"method": label, "syy": float(sim.recorder.column("syy")[-1]), "overlap": frac, "wall": wall,
             "steps": sim.state.step, "particles": P.n, "stopped": stopped,
-            "u_piston": float(sim.history.column("u_piston_y")[-1])}
+            "u_piston": float(sim.recorder.column("u_piston_y")[-1])}
 
 
 def ellipses(workers: int) -> list:

@@ -70,7 +70,7 @@ def run_sampled(d: dict, every: float, probe) -> tuple[Simulation, list, str | N
         nxt = every
         while st.t < end * (1 - 1e-9):
             sim.step()
-            sim.history.record(st)
+            sim.recorder.record(st)
             if st.t >= nxt * (1 - 1e-9) or st.t >= end * (1 - 1e-9):
                 samples.append((st.t, *probe(st)))
                 nxt += every
@@ -80,8 +80,8 @@ def run_sampled(d: dict, every: float, probe) -> tuple[Simulation, list, str | N
 
 
 def columns(sim: Simulation, *names: str) -> list[np.ndarray]:
-    rows = np.array(sim.history.rows, dtype=float)
-    return [rows[:, sim.history.names.index(n)] for n in names]
+    rows = np.array(sim.recorder.rows, dtype=float)
+    return [rows[:, sim.recorder.names.index(n)] for n in names]
 
 
 # ------------------------------------------------------------------------------------ blocks

@@ -83,7 +83,7 @@ def run_job(job):
         sim = simulate(deck, TROOT / "inputs")
     except InstabilityError as e:
         return {"kind": kind, **p, "status": f"unstable: {e}"}
-    h = sim.history
+    h = sim.recorder
     tail = max(1, len(h.rows) // 5)
     mean = lambda c: float(h.column(c)[-tail:].mean())  # noqa: E731
     out = {"kind": kind, **p, "status": "ok", "wall": time.perf_counter() - t0, "particles": sim.state.particles.n,

@@ -85,7 +85,7 @@ def energy():
         t0 = time.perf_counter()
         sim = simulation(d)
         sim.run()
-        hist = sim.history
+        hist = sim.recorder
         t = hist.column("time")
         total = hist.column("kinetic_energy") + hist.column("internal_energy") + hist.column("strain_energy")
         work = hist.column("external_work")

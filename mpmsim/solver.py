@@ -120,7 +120,7 @@ class Simulation:
         stem = scene.loaded.stem
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
-        self.history = History(scene, self.state, self.out_dir / f"{stem}_history.csv" if self.out_dir else None)
+        self.recorder = History(scene, self.state, self.out_dir / f"{stem}_history.csv" if self.out_dir else None)
         self.vtu = VtuSeries(self.out_dir, stem, clear=not resume) if self.out_dir is not None else None
         self.files: list[Path] = []
         self.first_step_seconds = 0.0  # wall time of the first step of run() (compiling)
@@ -172,6 +172,12 @@ class Simulation:
         return cls(build_scene(as_loaded_deck(deck, name, base_dir)), out_dir=out_dir, threads=threads, **options)
 
     @property
+    def history(self):
+        """The history recorded so far, as a pandas DataFrame (one row per history time; the
+        columns of the history CSV). Built anew at each access; `recorder` is the History."""
+        return self.recorder.frame()
+
+    @property
     def particles(self) -> dict[str, np.ndarray]:
         """The deformable particles now, as arrays (copies): x, v (n, dim), stress (n, 6: xx yy zz
         xy yz xz), F (n, dim, dim), J, mass, volume (n,), material (names), body (indices)."""
@@ -213,14 +219,14 @@ class Simulation:
         t0 = wallclock.perf_counter()
         if vtu and self.vtu is not None:
             self.files += self.vtu.write(self.state)
-        self.history.flush()
+        self.recorder.flush()
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
 
     def _write_last(self, recorded_at: float, written_at: float) -> None:
         """The current state as the history's last row and the series' last frame, unless
         they already are (recorded or written at this time)."""
         if recorded_at != self.state.t:
-            self.history.record(self.state)
+            self.recorder.record(self.state)
         self._write_output(vtu=written_at != self.state.t)
 
     # ------------------------------------------------------------------------ checkpoints
@@ -259,7 +265,7 @@ class Simulation:
         if self.vtu is not None:
             self.vtu.resumed()
             self.files = [self.vtu.directory / f for _, _, f in self.vtu.entries]
-        self.history.rewrite()
+        self.recorder.rewrite()
         return manifest
 
     def run(self, progress: Callable[[State], None] | bool | None = None,
@@ -288,7 +294,7 @@ class Simulation:
             if st.step == 0:  # the energy balance starts from the state as the caller left it
                 sums = total_sums(st)
                 st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
-            self.history.record(st)
+            self.recorder.record(st)
             self._write_output(vtu=True)
             self.schedule = Schedule(st.t + vtu_dt, st.t + hist_dt, st.t + self.checkpoint_every, st.t, st.t)
         sc = self.schedule
@@ -303,7 +309,7 @@ class Simulation:
                     if first_step is not None:
                         first_step(self.first_step_seconds)
                 if st.t >= sc.next_hist - eps:
-                    self.history.record(st)
+                    self.recorder.record(st)
                     sc.recorded_at = st.t
                     sc.next_hist = next_time(sc.next_hist, hist_dt, st.t + eps)
                 if st.t >= sc.next_vtu - eps:
@@ -332,7 +338,7 @@ class Simulation:
             # keep the failing state: advance the clock to the failing step, then write it
             st.t += st.dt
             st.step += 1
-            self.history.record(st)
+            self.recorder.record(st)
             self._write_output(vtu=True)
             raise
         except KeyboardInterrupt:
@@ -345,4 +351,4 @@ class Simulation:
         n_cells = len(st.fem.cells) if st.fem is not None else 0  # points stepped: particles + elements
         timed = st.step - (timed_from if timed_from is not None else st.step)
         return RunResult(st.step, wall, timed * (st.particles.n + n_cells), self.timers, list(self.files),
-                         self.history.path, self.vtu.pvd_path if self.vtu else None, timed)
+                         self.recorder.path, self.vtu.pvd_path if self.vtu else None, timed)

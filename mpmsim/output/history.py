@@ -182,6 +182,12 @@ class History:
         self.rows.append(row)
         self.flush()
 
+    def frame(self):
+        """The rows recorded so far as a pandas DataFrame (the CSV's columns)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.rows, columns=self.names)
+
     def column(self, name: str) -> np.ndarray:
         return np.array([r[self.names.index(name)] for r in self.rows])
 

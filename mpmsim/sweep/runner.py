@@ -142,7 +142,7 @@ def execute(run: Run, deck_text: str | None = None, should_stop: Callable[[], bo
         "steps": st.step, "particles": n, "particle_steps": st.step * n, "wall_s": end - t0, "run_s": run_s,
         "cpu_s": cpu_s, "particle_steps_per_s": timed_steps * n / cpu_s if cpu_s > 0 else float("nan"),
         "peak_mem_mb": _peak_memory(start_mem is not None), "start_mem_mb": start_mem,
-        "history": {name: sim.history.column(name).tolist() for name in sim.history.names},
+        "history": {name: sim.recorder.column(name).tolist() for name in sim.recorder.names},
     }
 
 

@@ -97,9 +97,9 @@ def run_case(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] 
     sim = Simulation(build_scene(deck_from(data, ROOT / "inputs", deck)), out_dir=None, threads=1)
     for _ in range(steps):
         sim.step()
-        sim.history.record(sim.state)
-    rows = np.array(sim.history.rows, dtype=float)
-    names = sim.history.names
+        sim.recorder.record(sim.state)
+    rows = np.array(sim.recorder.rows, dtype=float)
+    names = sim.recorder.names
     if columns is None:  # all but the wall clock, which no rerun reproduces
         columns = [n for n in names if n != "wall_s"]
     rows = rows[:, [names.index(current_name(c)) for c in columns]]
@@ -129,7 +129,7 @@ def arrays(sim) -> dict[str, np.ndarray]:
 
 def fingerprint(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] | None = None) -> dict:
     sim, rows = run_case(deck, overrides, steps, columns)
-    names = columns if columns is not None else [n for n in sim.history.names if n != "wall_s"]
+    names = columns if columns is not None else [n for n in sim.recorder.names if n != "wall_s"]
     return {"steps": steps, "columns": names, "history": _digest(rows),
             "last_row": [float(v).hex() for v in rows[-1]],
             "arrays": {k: _digest(v) for k, v in sorted(arrays(sim).items())}}

@@ -109,7 +109,7 @@ def test_an_integrator_that_breaks_the_state_is_stopped_by_the_loop(tmp_path):
     sim = Simulation(scene, out_dir=tmp_path, integrator=Breaks(scene.materials))
     with pytest.raises(InstabilityError, match=r"unstable at step 3, .*particle 7 \(material 'soft'"):
         sim.run()
-    assert read_history(sim.history.path)["step"][-1] == 3
+    assert read_history(sim.recorder.path)["step"][-1] == 3
 
 
 class Probe(BodySet):
@@ -132,8 +132,8 @@ class Probe(BodySet):
 def test_history_sums_come_from_the_body_kinds():
     sim = Simulation(build_scene(deck_from(BLOCKS)))
     st = sim.state
-    sim.history.record(st)
-    plain = dict(zip(sim.history.names, sim.history.rows[-1]))
+    sim.recorder.record(st)
+    plain = dict(zip(sim.recorder.names, sim.recorder.rows[-1]))
     st.bodies.append(Probe())
     history = History(sim.scene, st)
     history.record(st)
@@ -158,7 +158,7 @@ def test_per_body_and_angular_momentum_columns_add_up_over_a_run():
     data = with_overrides(data, {"time.end": 0.5, "output.history_interval": 0.05})
     sim = Simulation(build_scene(deck_from(data, ROOT / "inputs", "two_blocks")))
     sim.run()
-    h = sim.history
+    h = sim.recorder
     for axis in "xy":
         np.testing.assert_allclose(h.column(f"p{axis}_body0") + h.column(f"p{axis}_body1"), h.column(f"p{axis}"),
                                    rtol=1e-12, atol=1e-15)
@@ -212,5 +212,5 @@ def test_no_task_reads_the_deck_while_stepping(deck):
     sim.scene.loaded.deck = Sealed()
     for _ in range(3):
         sim.step()
-    sim.history.record(sim.state)
+    sim.recorder.record(sim.state)
     assert sim.state.step == 3

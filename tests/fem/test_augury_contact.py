@@ -74,19 +74,19 @@ def run(h: float, transfer: str, iterations: int, end: float, shift: float | Non
     gaps, inside = [], 0
     every = end / 50
     nxt = every
-    sim.history.record(st)
+    sim.recorder.record(st)
     while st.t < end * (1 - 1e-9):
         sim.step()
         if st.t >= nxt * (1 - 1e-9):
             nxt += every
-            sim.history.record(st)
+            sim.recorder.record(st)
             gaps.append(boundary_gap(f.x, f.facets, f.node_body, 0, 1))
             for a, b in ((0, 1), (1, 0)):
                 poly = Polygon(f.x[loops[b]])
                 # strictly inside: shrink the polygon by a hair (radius < 0 for a CCW loop)
                 inside += int(poly.contains_points(f.x[loops[a]], radius=-1e-9 * h).sum())
-    rows = np.array(sim.history.rows, dtype=float)
-    col = {n: rows[:, i] for i, n in enumerate(sim.history.names)}
+    rows = np.array(sim.recorder.rows, dtype=float)
+    col = {n: rows[:, i] for i, n in enumerate(sim.recorder.names)}
     energy = col["kinetic_energy"] + col["strain_energy"]
     return {"col": col, "gaps": np.array(gaps), "inside": inside, "energy": energy / energy[0], "hc": 2.0 * h,
             "v_rel": (col["py_upper"] - col["py_lower"]) / float(np.sum(f.mass[f.node_body == 0]))}
@@ -188,8 +188,8 @@ def test_3d_blocks_conserve_momenta_through_the_collision(transfer):
     d["output"] = {"history_interval": 0.001}
     sim = Simulation(build_scene(deck_from(d)), threads=1)
     sim.run()
-    rows = np.array(sim.history.rows, dtype=float)
-    col = {n: rows[:, i] for i, n in enumerate(sim.history.names)}
+    rows = np.array(sim.recorder.rows, dtype=float)
+    col = {n: rows[:, i] for i, n in enumerate(sim.recorder.names)}
     P = np.stack([col[k] for k in ("px", "py", "pz")], axis=1)
     L = np.stack([col[k] for k in ("Lx", "Ly", "Lz")], axis=1)
     assert np.abs(P - P[0]).max() < 1e-12 * np.linalg.norm(P[0])
@@ -218,17 +218,17 @@ def test_mpm_disk_and_fem_block_meet_through_the_augury_grid(transfer):
     p, f = st.particles, st.fem
     loop = boundary_loop(f.facets, f.node_body, 0)
     deepest = 0.0
-    sim.history.record(st)
+    sim.recorder.record(st)
     while st.t < sim.end * (1 - 1e-9):
         sim.step()
         if st.step % 10 == 0:
-            sim.history.record(st)
+            sim.recorder.record(st)
             edges = f.x[loop]
             inside = Polygon(edges).contains_points(p.x)
             for q in p.x[inside]:
                 deepest = max(deepest, float(np.min(np.linalg.norm(edges - q, axis=1))))
-    rows = np.array(sim.history.rows, dtype=float)
-    c = {n: rows[:, i] for i, n in enumerate(sim.history.names)}
+    rows = np.array(sim.recorder.rows, dtype=float)
+    c = {n: rows[:, i] for i, n in enumerate(sim.recorder.names)}
     P = np.stack([c["px"], c["py"]], axis=1)
     assert np.abs(P - P[0]).max() < 1e-12 * np.linalg.norm(P[0])
     scale = float(np.sum(p.mass * np.linalg.norm(p.x, axis=1) * np.linalg.norm(p.v, axis=1))

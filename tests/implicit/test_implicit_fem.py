@@ -147,8 +147,8 @@ def slope_run(mu: float) -> tuple[np.ndarray, np.ndarray]:
          "time": {"end": 0.3, "dt": 1e-3}, "output": {"history_interval": 1e-3}}
     sim = Simulation(build_scene(deck_from(d)), threads=1)
     sim.run()
-    rows = np.array(sim.history.rows, dtype=float)
-    c = {n: rows[:, i] for i, n in enumerate(sim.history.names)}
+    rows = np.array(sim.recorder.rows, dtype=float)
+    c = {n: rows[:, i] for i, n in enumerate(sim.recorder.names)}
     th = np.radians(30.0)
     along = (c["cx_block"] - c["cx_block"][0]) * np.cos(th) - (c["cy_block"] - c["cy_block"][0]) * np.sin(th)
     return c["time"], along

@@ -56,8 +56,8 @@ def _without_wall_clock(csv: bytes) -> bytes:
 
 def _rows(sim: Simulation) -> list[list]:
     """The history rows without wall_s."""
-    i = sim.history.names.index("wall_s")
-    return [r[:i] + r[i + 1:] for r in sim.history.rows]
+    i = sim.recorder.names.index("wall_s")
+    return [r[:i] + r[i + 1:] for r in sim.recorder.rows]
 
 
 # (deck, steps, stop after): explicit LR contact with a rigid platen, imperfect interfaces,
@@ -92,7 +92,7 @@ def test_a_run_stopped_and_restarted_ends_bit_for_bit_as_the_uninterrupted_run(t
     again.run()
     assert again.state.step == whole.state.step > stop
     assert _everything(again) == _everything(whole)
-    assert _rows(again) == _rows(whole) and len(again.history.rows[0]) == len(_rows(again)[0]) + 1
+    assert _rows(again) == _rows(whole) and len(again.recorder.rows[0]) == len(_rows(again)[0]) + 1
     assert _files(tmp_path / "part") == _files(tmp_path / "whole")  # VTU, .pvd, CSV; checkpoint removed
     assert not ckpt.exists()
 

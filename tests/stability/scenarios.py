@@ -81,9 +81,9 @@ def column_error(**method) -> Measured:
     mm, stopped = run("two_blocks", **COLUMN_5PCT, **method)
 
     def strain(sim):
-        return -sim.history.column("u_platen_y") / 100.0
+        return -sim.recorder.column("u_platen_y") / 100.0
 
-    err = max_rel_error(strain(mm), mm.history.column("syy"), strain(smm), smm.history.column("syy"), 0.002, 0.05)
+    err = max_rel_error(strain(mm), mm.recorder.column("syy"), strain(smm), smm.recorder.column("syy"), 0.002, 0.05)
     return Measured(err, stopped)
 
 
@@ -166,7 +166,7 @@ def two_layer_energy(**overrides) -> tuple[float, str]:
         sim.run()
     except InstabilityError as exc:
         return float("nan"), str(exc).splitlines()[0]
-    h = sim.history
+    h = sim.recorder
     tail = max(1, len(h.rows) // 5)
     return float((h.column("strain_energy") + h.column("interface_energy"))[-tail:].mean()), ""
 
@@ -197,7 +197,7 @@ def sphere_moduli_gap(integration: str) -> Measured:
         sim.run()
     except InstabilityError as exc:
         return Measured(float("inf"), str(exc).splitlines()[0])
-    h = sim.history
+    h = sim.recorder
     tail = max(1, len(h.rows) // 5)
     mean = lambda c: float(h.column(c)[-tail:].mean())  # noqa: E731
     k_energy, k_pressure = cube_bulk_modulus(mean("strain_energy") + mean("interface_energy"),
@@ -212,7 +212,7 @@ def interface_energy_error(normal: str, Dn, bond: str = "consistent") -> Measure
     def energy(deck):
         sim = Simulation(build_scene(deck_from(deck, ROOT / "inputs")))
         sim.run()
-        h = sim.history
+        h = sim.recorder
         return float(h.column("interface_energy")[-max(1, len(h.rows) // 5):].mean())
 
     ref = energy(two_layer(1.0, 1.0, **{"contact.default.Dn": Dn}))

@@ -76,7 +76,7 @@ def test_material_stress_columns_average_to_the_global_stress():
     deck = with_overrides(OUTPUT_DECK, {"time.end": 0.05, "output": {"history_interval": 0.05,
                                                                       "material_stress": ["soft", "hard"]}})
     sim = simulate(deck)
-    h, P = sim.history, sim.state.particles
+    h, P = sim.recorder, sim.state.particles
     v_soft, v_hard = P.vol[P.mat == 0].sum(), P.vol[P.mat == 1].sum()
     for s in ("sxx", "syy", "sxy"):
         mixed = (v_soft * h.column(f"{s}_mat_soft")[-1] + v_hard * h.column(f"{s}_mat_hard")[-1]) / (v_soft + v_hard)
@@ -96,7 +96,7 @@ def platen_runs():
 
 def test_rigid_contact_platen_matches_a_roller_platen(platen_runs):
     """Measured: syy -57.91 (bc) and -57.81 MPa (contact); platen force -2736 and -2679 N."""
-    bc, contact = (r.history for r in platen_runs)
+    bc, contact = (r.recorder for r in platen_runs)
     assert contact.column("u_platen_y")[-1] == pytest.approx(-2.0, rel=1e-9)
     assert contact.column("syy")[-1] == pytest.approx(bc.column("syy")[-1], rel=0.005)
     assert contact.column("F_platen_y")[-1] == pytest.approx(bc.column("F_platen_y")[-1], rel=0.04)
@@ -106,7 +106,7 @@ def test_rigid_contact_platen_matches_a_roller_platen(platen_runs):
 def test_rigid_contact_work_balances_the_energy(platen_runs):
     """The contact platen's work (pass 2 impulses times its velocity) is the energy put in:
     measured 2449.7 against kinetic + strain 2442.1."""
-    h = platen_runs[1].history
+    h = platen_runs[1].recorder
     stored = h.column("kinetic_energy")[-1] + h.column("strain_energy")[-1]
     assert h.column("external_work")[-1] == pytest.approx(stored, rel=0.01)
     assert h.column("external_work")[-1] > 2000.0

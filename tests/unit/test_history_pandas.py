@@ -64,7 +64,7 @@ def collision(tmp_path_factory):
 
     def progress(state):
         if state.step % 40 == 0:
-            seen.append((len(sim.history.rows), len(pd.read_csv(sim.history.path))))
+            seen.append((len(sim.recorder.rows), len(pd.read_csv(sim.recorder.path))))
 
     sim.run(progress=progress)
     return sim, out, seen
@@ -73,12 +73,12 @@ def collision(tmp_path_factory):
 def test_pandas_reads_the_csv_as_it_is(collision):
     sim, out, _ = collision
     df = pd.read_csv(out / "collision_history.csv")
-    assert list(df.columns) == sim.history.names
+    assert list(df.columns) == sim.recorder.names
     assert all(n.isidentifier() for n in df.columns)
     for name in ("time", "step", "dt", "wall_s", "sxx", "kinetic_energy", "px", "ke_A", "px_mat_soft",
                  "contact_fx_soft_hard", "contact_impulse_y_hard_soft"):
         assert name in df.columns, name
-    rows = np.array(sim.history.rows, dtype=float)
+    rows = np.array(sim.recorder.rows, dtype=float)
     assert df.shape == rows.shape and df["step"].dtype == np.int64
     np.testing.assert_allclose(df.to_numpy(), rows, rtol=1e-9, atol=0)  # 10 significant digits
     assert np.all(np.diff(df["wall_s"]) >= 0) and df["wall_s"].iloc[0] >= 0
@@ -89,7 +89,7 @@ def test_the_sidecar_holds_units_title_deck_and_versions(collision, tmp_path):
     path = out / "collision_history.csv"
     meta = json.loads(sidecar_path(path).read_text())
     assert sidecar_path(path).name == "collision_history.json"
-    assert list(meta["columns"]) == sim.history.names
+    assert list(meta["columns"]) == sim.recorder.names
     units = meta["columns"]
     assert (units["time"], units["wall_s"], units["sxx"], units["kinetic_energy"]) == ("s", "s", "Pa", "J")
     assert units["contact_fx_soft_hard"] == "N" and units["contact_impulse_x_soft_hard"] == units["px"] == "kg m/s"
@@ -102,20 +102,20 @@ def test_the_sidecar_holds_units_title_deck_and_versions(collision, tmp_path):
     alone = tmp_path / "alone_history.csv"
     alone.write_bytes(path.read_bytes())
     assert history_title(alone) == "" and history_units(alone) == {}
-    assert list(read_history(alone)) == sim.history.names
+    assert list(read_history(alone)) == sim.recorder.names
 
 
 def test_rows_are_in_the_file_as_they_are_recorded(collision):
     sim, out, seen = collision
     assert len(seen) >= 5
     assert all(in_file == recorded for recorded, in_file in seen), seen
-    assert [r for r, _ in seen] == sorted(r for r, _ in seen) and seen[0][0] < len(sim.history.rows)
+    assert [r for r, _ in seen] == sorted(r for r, _ in seen) and seen[0][0] < len(sim.recorder.rows)
     text = (out / "collision_history.csv").read_text()
-    assert text.endswith("\n") and len(text.splitlines()) == 1 + len(sim.history.rows)
+    assert text.endswith("\n") and len(text.splitlines()) == 1 + len(sim.recorder.rows)
 
 
 def test_per_material_columns_are_sums_of_their_bodies_and_add_up_to_the_totals(collision):
-    h = collision[0].history
+    h = collision[0].recorder
     assert h.column("ke_A").max() > 0 and h.column("ke_C").max() > 0
     for axis in "xy":
         soft = h.column(f"p{axis}_mat_soft")
@@ -148,7 +148,7 @@ def _contact_balance(h) -> None:
 def test_contact_force_integrates_to_the_momentum_change_flip(collision):
     """FLIP: pass 2's force only (pass 1's change of the extrapolated momenta never reaches
     FLIP's particles)."""
-    _contact_balance(collision[0].history)
+    _contact_balance(collision[0].recorder)
 
 
 @pytest.mark.parametrize("scheme", ["pic", "xpic"])
@@ -157,7 +157,7 @@ def test_contact_force_integrates_to_the_momentum_change(scheme):
     Leaving either out misses the balance by percents."""
     sim = _sim(_deck(update={"scheme": scheme, "stress": "usavg"}))
     sim.run()
-    _contact_balance(sim.history)
+    _contact_balance(sim.recorder)
 
 
 def test_a_restart_leaves_exactly_the_checkpoint_rows_then_the_new_ones(tmp_path):

@@ -114,7 +114,7 @@ def test_history_csv_has_plain_names_every_row_and_a_units_sidecar(finished):
     assert meta["columns"]["time"] == "ms" and meta["columns"]["kinetic_energy"] == "mJ (= N mm)"
     assert meta["columns"]["F_platen_y"] == "N" and meta["columns"]["u_platen_y"] == "mm"
     cols = read_history(result.history_path)
-    assert len(cols["time"]) == len(sim.history.rows) == 11
+    assert len(cols["time"]) == len(sim.recorder.rows) == 11
     np.testing.assert_allclose(cols["u_platen_y"][-1], -0.05, rtol=1e-6)
     assert cols["F_platen_y"][-1] < 0  # the platen pushes the material down
 
@@ -329,7 +329,7 @@ def test_an_output_interval_far_below_the_step_records_every_step_and_ends():
     d["output"] = {"history_interval": 1e-300, "vtu_interval": 1e-300}
     sim = simulate(d)
     assert sim.state.step == 40
-    assert len(sim.history.rows) == 41
+    assert len(sim.recorder.rows) == 41
 
 
 @pytest.mark.parametrize("where", ["file in the way", "nul byte", "unwritable"])

@@ -19,7 +19,7 @@ def test_plot_overlays_histories_labelled_by_title(tmp_path):
         deck.update(title=f"bar, {scheme}", update={"scheme": scheme})
         deck["time"]["end"] = 0.05
         sim = simulate(deck, ROOT / "inputs", out_dir=tmp_path / scheme)
-        paths.append(sim.history.path)
+        paths.append(sim.recorder.path)
     assert history_title(paths[1]) == "bar, pic"
     assert len(read_history(paths[0])["time"]) > 10  # the title comes from the sidecar
     png = tmp_path / "px.png"
@@ -38,7 +38,7 @@ def test_plot_axis_labels_can_be_named(tmp_path, monkeypatch):
 
     deck = example("bar_vibration")
     deck["time"]["end"] = 0.01
-    path = simulate(deck, ROOT / "inputs", out_dir=tmp_path / "run").history.path
+    path = simulate(deck, ROOT / "inputs", out_dir=tmp_path / "run").recorder.path
     seen = []
     for what in ("set_xlabel", "set_ylabel"):
         original = getattr(matplotlib.axes.Axes, what)

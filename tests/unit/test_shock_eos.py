@@ -10,7 +10,7 @@ from mpmsim.deck.overrides import with_overrides
 from mpmsim.errors import InstabilityError
 from mpmsim.materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, mie_gruneisen_stress,
                                       neo_hookean_stress)
-from mpmsim.output.vtu import particle_mesh
+from mpmsim.output.vtu import MAIN_PART, part_meshes
 from mpmsim.shock import hugoniot
 
 from ..conftest import ROOT, simulate
@@ -88,13 +88,13 @@ def test_only_scenes_with_internal_energy_pay_for_it():
     plain = simulate(with_overrides(yaml.safe_load((ROOT / "inputs" / "bar_vibration.yaml").read_text()),
                                     {"time.end": 0.01}), ROOT / "inputs")
     assert plain.state.particles.U.shape == (1,)
-    assert "internal_energy" not in plain.history.names
+    assert "internal_energy" not in plain.recorder.names
     deck = shock_deck(**{"materials.nickel": {"type": "neo_hookean", "K": 188000.0, "G": 0.0, "density": 0.00887},
                          "materials.piston.velocity": [-200.0, 0.0]})
     sim = simulate(deck, ROOT / "inputs")
     U = sim.state.particles.U
     assert U.shape == (sim.state.particles.n,) and U.max() > 0.0 and U.min() >= 0.0
-    h = sim.history
+    h = sim.recorder
     total = h.column("kinetic_energy") + h.column("strain_energy") + h.column("internal_energy")
     assert h.column("internal_energy")[-1] > 0.01 * total[-1]  # the viscosity did dissipate
 
@@ -102,8 +102,8 @@ def test_only_scenes_with_internal_energy_pay_for_it():
 def test_vtu_and_history_carry_internal_energy_and_pressure():
     sim = simulate(shock_deck(**{"time.end": 5e-5}), ROOT / "inputs")
     P = sim.state.particles
-    mesh = particle_mesh(sim.state)
+    mesh = part_meshes(sim.state)[MAIN_PART]
     np.testing.assert_array_equal(mesh.point_data["internal_energy"][: P.n], P.U)
     np.testing.assert_array_equal(mesh.point_data["pressure"][: P.n], P.pressure)
     assert P.pressure.max() > 1000.0  # MPa: the shock has entered
-    assert sim.history.column("internal_energy")[-1] == pytest.approx(float((P.mass * P.U).sum()))
+    assert sim.recorder.column("internal_energy")[-1] == pytest.approx(float((P.mass * P.U).sum()))

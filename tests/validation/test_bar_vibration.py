@@ -19,7 +19,7 @@ def analytic_period(deck) -> float:
 
 def measured_period(sim) -> float:
     """The bar's momentum is P0 cos(2 pi t / T): zero crossings are T/2 apart."""
-    h = sim.history
+    h = sim.recorder
     tc = zero_crossings(h.column("time"), h.column("px"))
     assert len(tc) >= 4
     return 2 * (tc[-1] - tc[0]) / (len(tc) - 1)
@@ -51,7 +51,7 @@ def test_flip_keeps_energy_pic_dissipates():
     energies = {}
     for scheme in ("flip", "pic"):
         sim, _ = run_example("bar_vibration", **{"update.scheme": scheme})
-        h = sim.history
+        h = sim.recorder
         E = h.column("kinetic_energy") + h.column("strain_energy")
         energies[scheme] = E[-1] / E[0]
     assert abs(energies["flip"] - 1) < 0.005  # measured: 1.0 - 1e-4 over three periods

@@ -17,7 +17,7 @@ def analytic_syy(strain, K, G):
 @pytest.mark.parametrize("name", ["compression", "compression_3d"])
 def test_uniaxial_strain_follows_neo_hookean(name):
     sim, deck = run_example(name)
-    h = sim.history
+    h = sim.recorder
     m = deck["materials"]["block"]
     height = deck["bodies"][1]["max"][1] - deck["bodies"][1]["min"][1]
     strain = -h.column("u_top_y") / height

@@ -28,13 +28,13 @@ CP08 = {"contact.normal": "average_gradient", "contact.separation": "cutoff", "c
 
 
 def strain_of(sim) -> np.ndarray:
-    return -sim.history.column("u_platen_y") / 100.0
+    return -sim.recorder.column("u_platen_y") / 100.0
 
 
 def relative_error(mm, smm) -> tuple[np.ndarray, np.ndarray]:
     """(strain, |MM - SMM| / |SMM|) from 0.2% strain on (below it the stress is ~0)."""
-    eps, err = relative_error_curve(strain_of(mm), mm.history.column("syy"), strain_of(smm),
-                                    smm.history.column("syy"), 0.002)
+    eps, err = relative_error_curve(strain_of(mm), mm.recorder.column("syy"), strain_of(smm),
+                                    smm.recorder.column("syy"), 0.002)
     return eps, np.abs(err)
 
 
@@ -49,7 +49,7 @@ def test_perfect_interface_reproduces_single_material(law, scheme):
     smm, _ = run_example("column", **over)
     mm, _ = run_example("two_blocks", **over, **{"contact.default": {"law": law}})
     assert (mm.state.contact is None) == (law == "none")  # `none` merges the two materials
-    a, b = mm.history.column("syy"), smm.history.column("syy")
+    a, b = mm.recorder.column("syy"), smm.recorder.column("syy")
     assert abs(b[-1]) > 10.0  # MPa: the column is loaded
     np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10 * abs(b[-1]))
 
@@ -69,7 +69,7 @@ def test_three_stuck_materials_lump_to_single_material():
     mm = simulate(deck, ROOT / "inputs")
     cs = mm.state.contact
     assert np.diff(cs.cn_ptr[: cs.n_cn + 1]).max() == 3  # some nodes have three materials
-    a, b = mm.history.column("syy"), smm.history.column("syy")
+    a, b = mm.recorder.column("syy"), smm.recorder.column("syy")
     assert abs(b[-1]) > 10.0
     np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10 * abs(b[-1]))
 
@@ -112,7 +112,7 @@ def test_contact_passes_conserve_momentum_at_pair_nodes():
 # --------------------------------------------------------------- Fig. 2: contact time
 def load_onset(sim, threshold=0.05) -> float:
     """First time the lower block's mean axial stress passes `threshold` MPa."""
-    t, s = sim.history.column("time"), sim.history.column("syy_mat_lower")
+    t, s = sim.recorder.column("time"), sim.recorder.column("syy_mat_lower")
     hit = np.nonzero(np.abs(s) > threshold)[0]
     return float(t[hit[0]]) if len(hit) else np.inf
 
@@ -123,7 +123,7 @@ def test_lr_detects_contact_when_the_gap_closes(deck):
     onset = load_onset(sim)
     assert abs(onset / T_CONTACT - 1.0) < 0.01  # measured -0.18% (grid line), +0.21% (mid-cell)
     # nothing reaches the lower block before: its stress is exactly zero until 0.98 t_c
-    t, s = sim.history.column("time"), sim.history.column("syy_mat_lower")
+    t, s = sim.recorder.column("time"), sim.recorder.column("syy_mat_lower")
     assert np.all(s[t < 0.98 * T_CONTACT] == 0.0)
 
 
@@ -202,7 +202,7 @@ def test_lr_keeps_ellipses_apart_and_cp_does_not():
     # by default (stability.rigid_penetration); here its end state is what is compared
     cp, cp_overlap = ellipse_run(h, **CP08, **{"stability.rigid_penetration": False})
     for sim in (lr, cp):
-        assert sim.history.column("u_piston_y")[-1] == pytest.approx(-1.5, rel=1e-6)  # 75% of 2 mm
+        assert sim.recorder.column("u_piston_y")[-1] == pytest.approx(-1.5, rel=1e-6)  # 75% of 2 mm
     assert lr_overlap < 0.06
     assert cp_overlap > 4 * lr_overlap
     assert lr.state.contact.n_cn > 0

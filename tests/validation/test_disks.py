@@ -11,7 +11,7 @@ COARSE = {"grid.cell_size": 0.05, "time.end": 3.0}  # 20 x 20 cells keeps the te
 
 
 def energy_and_momentum(sim):
-    h = sim.history
+    h = sim.recorder
     E = h.column("kinetic_energy") + h.column("strain_energy")
     p = np.hypot(h.column("px"), h.column("py"))
     P = sim.state.particles

@@ -18,7 +18,7 @@ def settled(deck, *columns) -> dict:
     """Run to the end; each column's mean over the last fifth of the history (the static state
     under grid damping; residual ringing is below 0.5% there)."""
     sim = simulate(deck, ROOT / "inputs")
-    h = sim.history
+    h = sim.recorder
     tail = max(1, len(h.rows) // 5)
     return {c: float(h.column(c)[-tail:].mean()) for c in columns}
 
@@ -134,7 +134,7 @@ def test_traction_load_on_a_free_standing_layer():
     deck["contact"] = {}
     deck["grid"]["boundaries"] = {"ymin": "roller"}
     sim = simulate(deck, ROOT / "inputs")
-    h = sim.history
+    h = sim.recorder
     strain = float(h.column("strain_energy")[-max(1, len(h.rows) // 5):].mean())
     loads, P = sim.state.loads, sim.state.particles
     load_times_displacement = float((loads.force * (P.x - P.x0)[loads.particle]).sum())

@@ -80,7 +80,7 @@ def test_shock_speed_and_pressure_follow_the_linear_hugoniot(fraction):
 def energy_balance(cell_size):
     deck = bar(**{"grid.cell_size": cell_size, "output.history_interval": 2.5e-5})
     sim, _ = run(deck)
-    h = sim.history
+    h = sim.recorder
     t = h.column("time")
     total = h.column("kinetic_energy") + h.column("internal_energy") + h.column("strain_energy")
     work = h.column("external_work")

@@ -40,7 +40,7 @@ def free_free_energy_loss(scheme, order=None):
     if order:
         over["update.order"] = order
     sim, _ = run_example("bar_vibration", **over)
-    h = sim.history
+    h = sim.recorder
     E = h.column("kinetic_energy") + h.column("strain_energy")
     return 1 - E[-1] / E[0]
 
@@ -65,8 +65,8 @@ def test_xpic_filters_flip_null_space_noise():
     projected, lumped = {}, {}
     for scheme in ("flip", "xpic"):
         sim, _ = run_example("spinning_disk", **{"update.scheme": scheme, "output.null_space_noise": True})
-        projected[scheme] = sim.history.column("null_space_noise")[-1]
-        lumped[scheme] = sim.history.column("velocity_noise")[-1]
+        projected[scheme] = sim.recorder.column("null_space_noise")[-1]
+        lumped[scheme] = sim.recorder.column("velocity_noise")[-1]
     assert projected["flip"] > 0.1  # measured 0.122
     assert projected["xpic"] < 0.1 * projected["flip"]  # the 10x; measured 2000x
     assert lumped["flip"] > 0.1  # measured 0.142
