@@ -124,7 +124,7 @@ def _triangles(pts: np.ndarray, blocks: dict) -> np.ndarray:
         use02 = np.ones(len(q), dtype=bool)
         if pts.shape[1] == 2:
             a1, a2 = _area2(pts, q[:, [0, 1, 2]]), _area2(pts, q[:, [0, 2, 3]])
-            use02 = a1 * a2 > 0.0
+            use02 = np.sign(a1) * np.sign(a2) > 0.0  # signs: the product of tiny areas could underflow
         tris.append(np.where(use02[:, None], q[:, [0, 1, 2]], q[:, [1, 2, 3]]))
         tris.append(np.where(use02[:, None], q[:, [0, 2, 3]], q[:, [1, 3, 0]]))
     return np.concatenate(tris).astype(np.int64)
