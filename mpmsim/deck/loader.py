@@ -179,7 +179,7 @@ def _all_models() -> list[type[BaseModel]]:
             if isinstance(c, type) and issubclass(c, BaseModel) and c is not BaseModel]
 
 
-_TAGS = {"linear_elastic", "neo_hookean", "mie_gruneisen", "rigid", *schema.SHAPES_2D, *schema.SHAPES_3D, "box"}
+_TAGS = {"linear_elastic", "neo_hookean", "mie_gruneisen", "rigid", *schema.SHAPES_2D, *schema.SHAPES_3D, "box", "mesh"}
 _BRANCHES = {c.__name__ for c in _all_models()} | {"list[float]", "list[int]", "float", "int"}
 _FIELD_NAMES = sorted({name for c in _all_models() for name in c.model_fields})
 

@@ -168,11 +168,16 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             add(path + ["shape"], f"'{shape}' is a 3D shape; this is a plane_strain deck")
         if dim == 2 and body.z_range is not None:
             add(path + ["z_range"], "z_range is only for 3D analysis")
-        if dim == 3 and shape in SHAPES_2D:
-            if body.z_range is None:
+        if dim == 3 and (shape in SHAPES_2D or shape == "mesh"):  # a mesh given z_range is extruded too
+            if body.z_range is None and shape != "mesh":
                 add(path + ["z_range"], f"a '{shape}' in a 3d deck needs z_range: [z0, z1] to extrude it")
-            elif len(body.z_range) != 2 or body.z_range[1] <= body.z_range[0]:
+            elif body.z_range is not None and (len(body.z_range) != 2 or body.z_range[1] <= body.z_range[0]):
                 add(path + ["z_range"], "z_range must be [z0, z1] with z1 > z0")
+        if shape == "mesh":
+            if not (base_dir / body.file).is_file():
+                add(path + ["file"], f"mesh file not found: {base_dir / body.file}")
+            mesh_dim = 2 if dim == 2 or (body.z_range is not None and body.discretization == "particles") else 3
+            vec(path + ["translate"], body.translate, n=mesh_dim)
         if body.clip is not None:  # a box in the scene's space
             vec(path + ["clip", "min"], body.clip.min)
             vec(path + ["clip", "max"], body.clip.max)
@@ -236,8 +241,6 @@ def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple,
             for key in ("element_size", "transform", "constraints"):
                 if key in body.model_fields_set:
                     add(path + [key], "applies to FEM bodies (discretization: fem)")
-            if body.shape == "mesh":
-                add(path + ["discretization"], "a mesh file makes an FEM body: set discretization: fem")
             mat = deck.materials.get(body.material)
             if deck.integrator == "implicit":
                 if mat is not None and mat.type not in FEM_MATERIALS:
@@ -256,8 +259,6 @@ def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple,
         mat = deck.materials.get(body.material)
         if mat is not None and mat.type not in FEM_MATERIALS:
             add(path + ["material"], f"an FEM body's material is {' or '.join(FEM_MATERIALS)}, not {mat.type}")
-        if body.shape == "mesh" and not (base_dir / body.file).is_file():
-            add(path + ["file"], f"mesh file not found: {base_dir / body.file}")
         for j, t in enumerate(body.transform):
             if (t.rotate is None) == (t.translate is None):
                 add(path + ["transform", j], "give either rotate or translate")

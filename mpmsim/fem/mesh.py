@@ -373,12 +373,13 @@ def _one_line(exc: BaseException) -> str:
 
 def _meshio_read(path: Path):
     """meshio.read with its console output captured and every failure as a MeshError: for a
-    file no reader accepts meshio prints the reasons and calls sys.exit(1)."""
+    file no reader accepts meshio prints the reasons and calls sys.exit(1). numpy warnings of
+    its readers are silenced (the STL reader's size test of an ASCII file overflows)."""
     import meshio
 
     out, err = io.StringIO(), io.StringIO()
     try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), np.errstate(all="ignore"):
             return meshio.read(str(path))
     except (Exception, SystemExit) as exc:  # meshio raises many exception types for bad input
         said = " ".join((out.getvalue() + " " + err.getvalue()).split())
@@ -419,6 +420,55 @@ def _file_node_sets(raw, dim: int, renumber: np.ndarray) -> dict:
     return out
 
 
+def file_cells(path, dim: int, kinds: dict, need: str, what: str | None = None):
+    """Read a mesh file meshio understands and keep its cells of the meshio types in `kinds`
+    (type -> number of corner nodes kept: a quadratic cell keeps its corners). Returns (the
+    meshio mesh, points (n, dim) of the used nodes, renumbered in file order, {type: cells
+    (m, corners) int64 into those points}, renumber (file node -> kept node or -1)).
+    Raises MeshError naming the file for a missing or unreadable file, a file without such
+    cells (the message calls them `what`, default: the type names, and ends with `need`), bad
+    node indices, non-finite coordinates or, for dim 2, points off a plane z = const (a
+    constant z is dropped)."""
+    path = Path(path)
+    if dim not in (2, 3):
+        raise MeshError(f"{path}: dimension must be 2 or 3, got {dim}")
+    if not path.is_file():
+        raise MeshError(f"{path}: mesh file not found")
+    raw = _meshio_read(path)
+    blocks = {}
+    for c in raw.cells:
+        if c.type in kinds and len(c.data):
+            blocks.setdefault(c.type, []).append(np.asarray(c.data)[:, : kinds[c.type]])
+    if not blocks:
+        found = sorted({c.type for c in raw.cells})
+        want = what or " or ".join(kinds)
+        raise MeshError(f"{path}: no {want} cells (found: {', '.join(found) or 'none'}); {need}")
+    blocks = {k: np.concatenate(v).astype(np.int64) for k, v in blocks.items()}
+    pts = np.asarray(raw.points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] not in (2, 3) or (dim == 3 and pts.shape[1] != 3):
+        raise MeshError(f"{path}: points have {pts.shape[-1] if pts.ndim == 2 else '?'} coordinates; "
+                        f"a {dim}D mesh needs {dim}")
+    for kind, cells in blocks.items():
+        bad_index = np.flatnonzero(np.any((cells < 0) | (cells >= len(pts)), axis=1))
+        if bad_index.size:
+            c = int(bad_index[0])
+            raise MeshError(f"{path}: {kind} cell {c} refers to a node outside the {len(pts)} points")
+    used = np.unique(np.concatenate([c.ravel() for c in blocks.values()]))
+    if not np.all(np.isfinite(pts[used])):
+        raise MeshError(f"{path}: non-finite point coordinates")
+    if dim == 2 and pts.shape[1] == 3:
+        z = pts[used, 2]
+        extent = float(np.ptp(pts[used, :2], axis=0).max())
+        if np.ptp(z) > 1e-9 * max(extent, 1e-300):
+            noun = "triangles" if list(blocks) == ["triangle"] else "cells"
+            raise MeshError(f"{path}: the {noun} are not in a plane z = const (z spans {z.min():.6g} to "
+                            f"{z.max():.6g}); a 2D mesh must be flat")
+        pts = pts[:, :2]
+    renumber = np.full(len(pts), -1, dtype=np.int64)
+    renumber[used] = np.arange(len(used))
+    return raw, np.ascontiguousarray(pts[used]), {k: renumber[c] for k, c in blocks.items()}, renumber
+
+
 def read_mesh(path, dim: int) -> FemMesh:
     """Read a mesh file meshio understands (.msh, .vtu, .vtk, .inp, ...): its `triangle` cells
     (dim 2; a z coordinate that is constant is dropped) or `tetra` cells (dim 3). Negatively
@@ -428,40 +478,10 @@ def read_mesh(path, dim: int) -> FemMesh:
     cell (|signed volume| < 1e-12 x the mean; the message gives its 0-based index among the
     file's triangles/tetrahedra) or a non-manifold mesh."""
     path = Path(path)
-    if dim not in (2, 3):
-        raise MeshError(f"{path}: dimension must be 2 or 3, got {dim}")
-    if not path.is_file():
-        raise MeshError(f"{path}: mesh file not found")
-    raw = _meshio_read(path)
     kind = "triangle" if dim == 2 else "tetra"
-    blocks = [np.asarray(c.data) for c in raw.cells if c.type == kind]
-    if not blocks or sum(len(b) for b in blocks) == 0:
-        found = sorted({c.type for c in raw.cells})
-        raise MeshError(f"{path}: no {kind} cells (found: {', '.join(found) or 'none'}); a {dim}D FEM body needs "
-                        f"linear {'triangles' if dim == 2 else 'tetrahedra'}")
-    cells = np.concatenate(blocks).astype(np.int64).reshape(-1, dim + 1)
-    pts = np.asarray(raw.points, dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] not in (2, 3) or (dim == 3 and pts.shape[1] != 3):
-        raise MeshError(f"{path}: points have {pts.shape[-1] if pts.ndim == 2 else '?'} coordinates; "
-                        f"a {dim}D mesh needs {dim}")
-    bad_index = np.flatnonzero(np.any((cells < 0) | (cells >= len(pts)), axis=1))
-    if bad_index.size:
-        c = int(bad_index[0])
-        raise MeshError(f"{path}: {kind} cell {c} refers to a node outside the {len(pts)} points")
-    used = np.unique(cells)
-    if not np.all(np.isfinite(pts[used])):
-        raise MeshError(f"{path}: non-finite point coordinates")
-    if dim == 2 and pts.shape[1] == 3:
-        z = pts[used, 2]
-        extent = float(np.ptp(pts[used, :2], axis=0).max())
-        if np.ptp(z) > 1e-9 * max(extent, 1e-300):
-            raise MeshError(f"{path}: the triangles are not in a plane z = const (z spans {z.min():.6g} to "
-                            f"{z.max():.6g}); a 2D mesh must be flat")
-        pts = pts[:, :2]
-    renumber = np.full(len(pts), -1, dtype=np.int64)
-    renumber[used] = np.arange(len(used))
-    cells = renumber[cells]
-    pts = np.ascontiguousarray(pts[used])
+    raw, pts, blocks, renumber = file_cells(
+        path, dim, {kind: dim + 1}, f"a {dim}D FEM body needs linear {'triangles' if dim == 2 else 'tetrahedra'}")
+    cells = blocks[kind]
     vol = signed_volumes(pts, cells)
     mean = float(np.mean(np.abs(vol)))
     degenerate = np.flatnonzero(~(np.abs(vol) >= 1e-12 * mean) | (mean == 0.0))

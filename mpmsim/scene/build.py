@@ -16,6 +16,7 @@ from ..contact.spec import ContactSpec, build_contact_spec
 from ..deck.loader import LoadedDeck, raise_at
 from ..deck.schema import Image, RotationVelocity, SineVelocity
 from ..deck.semantics import body_name
+from ..fem.mesh import MeshError
 from ..materials import MaterialTable, build_material_table
 from .geometry import bbox, body_materials, inside
 from ..shapes import shape_function
@@ -109,7 +110,14 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     h = _cell_sizes(deck)
     faces = [FACE_CODES[getattr(deck.grid.boundaries, f)] for f in FACES[: 2 * dim]]
 
-    boxes = [clipped(bbox(b, base), b.clip) for _, b in particle_bodies]
+    boxes, problems = [], []
+    for i, b in particle_bodies:
+        try:
+            boxes.append(clipped(bbox(b, base, dim), b.clip))
+        except MeshError as exc:
+            problems.append((("bodies", i, "file"), str(exc)))
+    if problems:
+        raise_at(problems, loaded)
     if deck.grid.domain is not None:
         lo, hi = np.array(deck.grid.domain.min, float), np.array(deck.grid.domain.max, float)
         explicit = True
@@ -160,7 +168,8 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
         if body.clip is not None:
             sel &= np.all((pts >= np.asarray(body.clip.min)) & (pts <= np.asarray(body.clip.max)), axis=1)
         if not sel.any():
-            problems.append((("bodies", i), "holds no particle centre: it is smaller than the "
+            what = f"the mesh {base / body.file} " if body.shape == "mesh" else ""
+            problems.append((("bodies", i), f"{what}holds no particle centre: it is smaller than the "
                                             f"particle spacing {spacing.min():g} or misplaced"))
             continue
         k, pts = k[sel], pts[sel]

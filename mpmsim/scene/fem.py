@@ -56,8 +56,8 @@ def body_mesh(body, dim: int, base_dir):
     h = body.element_size
     if body.shape == "mesh":
         m = femmesh.read_mesh(base_dir / body.file, dim)
-        if body.scale != 1.0:
-            m = femmesh.transformed(m, scale=body.scale)
+        if body.scale != 1.0 or body.translate is not None:
+            m = femmesh.transformed(m, scale=body.scale, translation=body.translate)
     elif body.shape in ("rectangle", "box"):
         m = femmesh.rectangle(body.min, body.max, h) if dim == 2 else femmesh.box(body.min, body.max, h)
     elif body.shape == "circle":

@@ -1,7 +1,7 @@
 """Shape membership tests and bounding boxes, vectorised over points.
 
-`inside(body, points)` answers for an (n, dim) array of particle centres; 2D shapes in a 3D
-deck are extruded along z over `z_range`.
+`inside(body, points)` answers for an (n, dim) array of particle centres; 2D shapes (and 2D
+meshes) in a 3D deck are extruded along z over `z_range`. Mesh files: scene/meshbody.py.
 """
 
 from __future__ import annotations
@@ -11,9 +11,16 @@ from matplotlib.path import Path as MplPath
 
 from ..deck.schema import SHAPES_2D, Image
 from .bitmap import image_bbox, image_classes
+from .meshbody import mesh_region
 
 
-def bbox(body, base_dir) -> tuple[np.ndarray, np.ndarray]:
+def _extruded(body) -> bool:
+    return (body.shape in SHAPES_2D or body.shape == "mesh") and body.z_range is not None
+
+
+def bbox(body, base_dir, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """The body's bounding box in a `dim`-dimensional deck (a mesh file is read to find it:
+    fem.mesh.MeshError for a bad one)."""
     s = body.shape
     if s in ("rectangle", "box"):
         lo, hi = np.array(body.min, float), np.array(body.max, float)
@@ -38,9 +45,12 @@ def bbox(body, base_dir) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = v.min(axis=0), v.max(axis=0)
     elif s == "image":
         lo, hi = image_bbox(body, base_dir)
+    elif s == "mesh":
+        region = mesh_region(body, base_dir, dim)
+        lo, hi = region.lo.copy(), region.hi.copy()
     else:  # pragma: no cover - the schema admits no other shape
         raise ValueError(s)
-    if s in SHAPES_2D and body.z_range is not None:
+    if _extruded(body):
         lo = np.append(lo, body.z_range[0])
         hi = np.append(hi, body.z_range[1])
     return lo, hi
@@ -75,9 +85,11 @@ def inside(body, points: np.ndarray, base_dir) -> np.ndarray:
         mask = MplPath(np.array(body.vertices, float)).contains_points(xy)
     elif s == "image":
         mask = image_classes(body, xy, base_dir) >= 0
+    elif s == "mesh":
+        mask = mesh_region(body, base_dir, points.shape[1]).contains(points)
     else:  # pragma: no cover
         raise ValueError(s)
-    if s in SHAPES_2D and body.z_range is not None:
+    if _extruded(body):
         z = points[:, 2]
         mask &= (z >= body.z_range[0]) & (z <= body.z_range[1])
     return mask
