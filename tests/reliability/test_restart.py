@@ -42,9 +42,15 @@ def _everything(sim: Simulation) -> tuple[str, list[bytes]]:
 
 def _files(folder: Path) -> dict[str, bytes]:
     """Every file's bytes; a history CSV's without its wall_s column (the wall clock: no two
-    runs share it), every other column to the byte."""
-    return {p.name: _without_wall_clock(p.read_bytes()) if p.name.endswith("_history.csv") else p.read_bytes()
+    runs share it), every other column to the byte; the run log by its exit line only (it
+    records the command, dates and timings of the run that wrote it)."""
+    return {p.name: _without_wall_clock(p.read_bytes()) if p.name.endswith("_history.csv") else
+            _exit_line(p.read_bytes()) if p.name.endswith("_run.log") else p.read_bytes()
             for p in sorted(folder.iterdir())}
+
+
+def _exit_line(log: bytes) -> bytes:
+    return log.rstrip().split(b"\n")[-1]
 
 
 def _without_wall_clock(csv: bytes) -> bytes:
