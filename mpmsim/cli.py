@@ -241,22 +241,58 @@ class Terminated(KeyboardInterrupt):
     """A second SIGTERM, raised where the run is so it stops as Ctrl-C does (output kept whole)."""
 
 
-def default_threads(cpus: int | None = None, load: float | None = None) -> tuple[int, str]:
-    """(threads, why): the cores this process may run on that other processes are not keeping
-    busy (the 1-minute load average, rounded), at least one. A parallel region waits for its
-    slowest thread, so a thread sharing a core with a busy process slows the whole step many
-    times over; one thread per idle core avoids that."""
+def default_threads(cpus: set[int] | None = None, busy: float | None = None,
+                    load: float | None = None) -> tuple[int, str]:
+    """(threads, why): the cores this process may run on (its affinity) that other processes
+    are not keeping busy, at least one. A parallel region waits for its slowest thread, so a
+    thread sharing a core with a busy process slows the whole step many times over (measured:
+    bench/contention.py); one thread per idle core avoids that. `busy`: how many cores' worth
+    of CPU other processes used over the last 0.2 s (/proc/stat; rounded); without /proc, the
+    1-minute load average (`load`), which lags a newly started neighbour by up to a minute."""
     if cpus is None:
-        cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if load is None:
-        try:
-            load = os.getloadavg()[0]
-        except (OSError, AttributeError):
-            load = 0.0
-    busy = min(cpus, max(0, int(round(load))))
-    n = max(1, cpus - busy)
-    return n, (f"{cpus} cores, all idle" if busy == 0 else
-               f"{cpus} cores, {busy} kept busy by other processes (load {load:.1f})")
+        cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else set(range(os.cpu_count() or 1))
+    n_cpus = len(cpus)
+    how = "over the last 0.2 s"
+    if busy is None and load is None:
+        busy = busy_cores(cpus)
+    if busy is None:
+        if load is None:
+            try:
+                load = os.getloadavg()[0]
+            except (OSError, AttributeError):
+                load = 0.0
+        busy, how = load, "1-minute load average"
+    taken = min(n_cpus, max(0, int(busy + 0.5)))
+    n = max(1, n_cpus - taken)
+    return n, (f"{n_cpus} cores, all idle" if taken == 0 else
+               f"{n_cpus} cores, {taken} kept busy by other processes ({busy:.1f} cores' worth, {how})")
+
+
+def busy_cores(cpus: set[int], window: float = 0.2, stat=lambda: Path("/proc/stat").read_text()) -> float | None:
+    """Cores' worth of CPU time spent on `cpus` over `window` seconds while this process sleeps
+    (so all of it is other processes'), from /proc/stat (`stat()` reads it); None where that
+    file is not there."""
+    def sample() -> dict[int, tuple[int, int]]:
+        ticks = {}
+        for line in stat().splitlines():
+            name, *values = line.split()
+            if name.startswith("cpu") and name != "cpu" and int(name[3:]) in cpus:
+                v = [int(x) for x in values[:8]]
+                ticks[int(name[3:])] = (sum(v), v[3] + v[4])  # total, idle + iowait
+        return ticks
+
+    try:
+        first = sample()
+        time.sleep(window)
+        second = sample()
+    except (OSError, ValueError, IndexError):
+        return None
+    busy = 0.0
+    for cpu, (total, idle) in second.items():
+        if cpu in first:
+            d_total, d_idle = total - first[cpu][0], idle - first[cpu][1]
+            busy += (d_total - d_idle) / d_total if d_total > 0 else 0.0
+    return busy
 
 
 def _units(scene):

@@ -188,12 +188,54 @@ def test_default_threads_leave_busy_cores_alone():
     stalls every parallel region), never below one."""
     from mpmsim.cli import default_threads
 
-    assert default_threads(cpus=2, load=0.1)[0] == 2
-    assert default_threads(cpus=2, load=1.2)[0] == 1
-    assert default_threads(cpus=2, load=5.0)[0] == 1
-    assert default_threads(cpus=8, load=2.6)[0] == 5
-    n, why = default_threads(cpus=4, load=1.0)
-    assert n == 3 and "1 kept busy" in why
+    two, eight = {0, 1}, set(range(8))
+    assert default_threads(two, busy=0.1)[0] == 2
+    assert default_threads(two, busy=0.6)[0] == 1  # a neighbour on one core and a bit
+    assert default_threads(two, busy=2.0)[0] == 1
+    assert default_threads(eight, busy=2.6)[0] == 5
+    n, why = default_threads({0, 1, 2, 3}, busy=1.0)
+    assert n == 3 and "1 kept busy" in why and "0.2 s" in why
+    n, why = default_threads(two, load=1.2)  # no /proc/stat: the load average
+    assert n == 1 and "load average" in why
+
+
+def test_busy_cores_reads_proc_stat():
+    """Busy = (total - idle - iowait) ticks over total, summed over the process's cores; other
+    cores and the all-CPU line left out."""
+    from mpmsim.cli import busy_cores
+
+    samples = iter([
+        "cpu  900 0 0 900 0 0 0 0 0 0\ncpu0 100 0 0 400 0 0 0 0 0 0\ncpu1 300 0 0 200 0 0 0 0 0 0\n"
+        "cpu2 0 0 0 500 0 0 0 0 0 0\nintr 5\n",
+        # cpu0: 75 user + 25 system of 100 -> 1.0; cpu1: 10 busy + 80 idle + 10 iowait -> 0.1; cpu2 busy, not ours
+        "cpu  1200 0 0 1100 0 0 0 0 0 0\ncpu0 175 0 25 400 0 0 0 0 0 0\ncpu1 310 0 0 280 10 0 0 0 0 0\n"
+        "cpu2 100 0 0 500 0 0 0 0 0 0\nintr 9\n"])
+    assert busy_cores({0, 1}, window=0.0, stat=lambda: next(samples)) == pytest.approx(1.1)
+
+    def missing():
+        raise FileNotFoundError("/proc/stat")
+
+    assert busy_cores({0}, window=0.0, stat=missing) is None
+
+
+def test_busy_cores_sees_a_busy_neighbour():
+    """A process spinning on one core of the set counts as about one core (measured over 0.5 s)."""
+    import os
+    import subprocess
+    import sys
+
+    from mpmsim.cli import busy_cores
+
+    cpu = min(os.sched_getaffinity(0))
+    hog = subprocess.Popen([sys.executable, "-c", f"import os; os.sched_setaffinity(0, {{{cpu}}})\nwhile True: pass"])
+    try:
+        import time
+
+        time.sleep(0.5)
+        assert busy_cores({cpu}, window=0.5) > 0.9
+    finally:
+        hog.kill()
+        hog.wait()
 
 
 def test_kernels_are_cached_in_the_users_cache_when_the_package_is_read_only(tmp_path):
