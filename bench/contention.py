@@ -55,7 +55,7 @@ def run(deck: Path, out: Path, threads: int | None) -> tuple[float, int, str]:
         cmd += ["--threads", str(threads)]
     subprocess.run(cmd, check=True, capture_output=True, text=True)
     log = (out / "column_short_run.log").read_text()
-    rate = float(re.search(r"([\d.]+) M particle-steps/s", log).group(1))
+    rate = float(re.search(r"([\d.]+) M particle-steps/s", " ".join(log.split())).group(1))  # (title wraps)
     used = re.search(r"^threads: (\d+)$", log, re.M).group(1)
     why = re.search(r"^threads: \d+ \((.*); --threads N to choose\)$", log, re.M)
     return rate, int(used), why.group(1) if why else "given"
