@@ -56,13 +56,16 @@ HERE = os.path.dirname(os.path.abspath(__file__)) if "__file__" in globals() els
 
 
 def style(display):
-    """Particles as discs (2D) or spheres (3D) of the particle spacing; meshes as surfaces."""
+    """Particles as discs (2D) or spheres (3D) of the particle spacing; with FEM bodies in the
+    series, surfaces (particles as points of a few pixels)."""
     if SPACING > 0:
         display.SetRepresentationType("Point Gaussian")
         display.GaussianRadius = 0.5 * SPACING
         display.ShaderPreset = "Plain circle" if DIM == 2 else "Sphere"
-    else:
+    else:  # particles beside mesh cells: points of a few pixels
         display.SetRepresentationType("Surface")
+        display.PointSize = 5
+        display.RenderPointsAsSpheres = 1
 
 
 def main(argv):

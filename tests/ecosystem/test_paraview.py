@@ -99,3 +99,31 @@ def test_paraview_script(results, tmp_path):
     assert count(left, PALETTE[0]) > 5000 and count(left, PALETTE[1]) > 5000  # soft, hard
     assert count(left, PALETTE[2]) == 0 and count(left, PALETTE[3]) == 0  # rigid ones are not coloured
     assert count(pixels, (0.6, 0.6, 0.6)) > 2000  # grey platens
+
+
+def test_paraview_script_with_fem_bodies(tmp_path):
+    """An FEM block and a particle disk: one collection, both blocks shown (FEM cell stresses
+    averaged to the nodes, so the stress view covers both)."""
+    out = tmp_path / "res"
+    deck = Path(__file__).parents[2] / "inputs" / "fem_disk_block_2d.yaml"
+    result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet", "--steps", "30"])
+    assert result.exit_code == 0, result.output
+    files = frames(out / "fem_disk_block_2d.pvd")
+    particles = meshio.read(out / [f for f in files if "_fem_" not in f][-1])
+    fem = meshio.read(out / [f for f in files if "_fem_" in f][-1])
+    assert material_names(fem) == material_names(particles) == ["disk", "block"]
+    result = CliRunner().invoke(app, ["paraview", str(out / "fem_disk_block_2d.pvd")])
+    assert result.exit_code == 0, result.output
+    cmd = pvbatch()
+    if cmd is None:
+        assert not os.environ.get("MPMSIM_REQUIRE_PARAVIEW"), "pvbatch not found"
+        pytest.skip("ParaView (pvbatch) is not installed")
+    run = subprocess.run(cmd + [str(out / "fem_disk_block_2d_paraview.py"), "--report"], capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    report = parse_report(run.stdout)
+    assert report["points"] == len(particles.points) + len(fem.points)
+    assert report["materials"] == ["0", "disk", "1", "block"]
+    nodal_min = min(particles.point_data["stress"][:, 1].min(), fem.cell_data["stress"][0][:, 1].min())
+    assert report["stress_range"][0] >= nodal_min - 1e-9 * abs(nodal_min)  # node averages within the cells'
+    assert report["stress_range"][0] < 0.5 * nodal_min  # and the disk's impact shows
