@@ -1,8 +1,9 @@
-"""Command line: `mpmsim run DECK`, `mpmsim check DECK`, `mpmsim sweep SWEEP`, `mpmsim plot CSV...`,
-`mpmsim --version`.
+"""Command line: `mpmsim run DECK`, `mpmsim compile DECK`, `mpmsim check DECK`, `mpmsim sweep SWEEP`,
+`mpmsim plot CSV...`, `mpmsim paraview RESULTS`, `mpmsim --version`.
 
-Exit codes: 0 ok, 2 bad deck, bad command line or unusable checkpoint, 3 run stopped as
-unstable, 4 output could not be written (folder, disk), 130 / 143 stopped by Ctrl-C / SIGTERM
+Exit codes: 0 ok, 1 a sweep stopped by its Dask cluster (no workers, a lost scheduler), 2 bad
+deck, bad command line, unusable checkpoint or results folder, 3 run stopped as unstable, 4
+output could not be written (folder, disk), 130 / 143 stopped by Ctrl-C / SIGTERM
 (docs/reliability.md).
 """
 
