@@ -176,9 +176,14 @@ def run(
             raise StepLimit()
 
     previous = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
-    caught = warnings.catch_warnings(record=True)
-    seen = caught.__enter__()
-    warnings.simplefilter("default")
+    show = warnings.showwarning
+
+    def note_warning(message, category, filename, lineno, file=None, line=None):
+        """A warning the run gives goes to the log as well (as it happens: a failing run's too)."""
+        log.note(f"warning: {category.__name__}: {message} ({Path(filename).name}:{lineno})")
+        show(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = note_warning
     try:
         if not quiet:
             with progress_bar(scene.loaded.stem, end, tu, out) as report:
@@ -211,10 +216,7 @@ def run(
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-        caught.__exit__(None, None, None)
-        for w in seen:  # kept in the log, and shown as Python would have shown them
-            log.note(f"warning: {w.category.__name__}: {w.message} ({Path(w.filename).name}:{w.lineno})")
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        warnings.showwarning = show
     table = _timing_table(result, sim)
     report_lines = list(getattr(sim.integrator, "report", lambda: [])())
     for line in report_lines:

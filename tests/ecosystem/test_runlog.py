@@ -60,3 +60,25 @@ def test_stopped_and_unstable_runs(tmp_path):
     log = (out / "inverting_bar_run.log").read_text()
     assert re.search(r"exit: unstable at step 1, t = \S+ \S+ \(exit 3\)\n$", log)
     assert "J = -0.2094 <= 0: the particle inverted" in sections(log)["warnings and messages"]
+
+
+def test_a_warning_during_the_run_reaches_the_log(tmp_path, monkeypatch):
+    """A Python warning raised while the run steps is shown as usual and kept in the log."""
+    import warnings
+
+    from mpmsim.solver import Simulation
+
+    step = Simulation.step
+
+    def warn_once(self):
+        if self.state.step == 2:
+            warnings.warn("a test warning from step 2", RuntimeWarning)
+        return step(self)
+
+    monkeypatch.setattr(Simulation, "step", warn_once)
+    out = tmp_path / "res"
+    with pytest.warns(RuntimeWarning, match="a test warning"):
+        result = CliRunner().invoke(app, ["run", str(HERE / "platens.yaml"), "--out", str(out), "-q", "--steps", "5"])
+    assert result.exit_code == 0, result.output
+    messages = sections((out / "platens_run.log").read_text())["warnings and messages"]
+    assert "warning: RuntimeWarning: a test warning from step 2 (test_runlog.py:" in messages
