@@ -144,6 +144,7 @@ def run(
         with contextlib.suppress(OSError):  # (a full disk may refuse the log too)
             log.finish(f"{reason} (exit {code})")
         return typer.Exit(code)
+
     st, end = sim.state, scene.deck.time.end
     tu = _units(scene).time
 
