@@ -32,8 +32,6 @@ from .errors import DeckError, InstabilityError
 EXIT_BAD_DECK = 2
 EXIT_UNSTABLE = 3
 EXIT_IO = 4
-# particle-steps per second on one thread from `make bench` (2D uGIMP column); for estimates
-NOMINAL_RATE = 2.0e6
 
 app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, no_args_is_help=True,
                   help="Material point method simulator for multimaterial contact mechanics.")
@@ -410,9 +408,13 @@ def _check(scene) -> None:
                   + "; each takes a few iterations (docs/bfemp.md: ~50 ms per iteration for 1000 particles "
                   "on one thread)", highlight=False)
     elif scene.has_particles:
-        ps = steps * P.n
-        out.print(f"cost: {ps:.3g} particle-steps, about {ps / NOMINAL_RATE:.3g} s on one thread at "
-                  f"{NOMINAL_RATE / 1e6:g} M particle-steps/s (plus JIT compile on a first run)", highlight=False)
+        from .cost import step_microseconds, task_costs
+
+        us, missing = step_microseconds([name for name, _ in integrator.plan], P.n, int(state.entries.nodes.shape[1]))
+        lacking = f"; no cost measured for {', '.join(missing)}" if missing else ""
+        out.print(f"cost: {steps * P.n:.3g} particle-steps, about {us / 1e3:.3g} ms per step on one thread -> "
+                  f"{steps * us * 1e-6:.3g} s (plus JIT compile on a first run; task costs measured "
+                  f"{task_costs()['measured']}{lacking})", highlight=False)
         out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
     out.print(f"[bold]tasks per step[/] ({integrator.name} integrator; only what this scene needs):")
     for i, (name, why) in enumerate(integrator.plan, 1):
