@@ -215,11 +215,11 @@ class Simulation:
         st.t += st.dt
         st.step += 1
 
-    def _write_output(self, vtu: bool) -> None:
+    def _write_frame(self) -> None:
+        """A VTU frame of the state (the history appends its rows to the CSV as they are recorded)."""
         t0 = wallclock.perf_counter()
-        if vtu and self.vtu is not None:
+        if self.vtu is not None:
             self.files += self.vtu.write(self.state)
-        self.recorder.flush()
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
 
     def _write_last(self, recorded_at: float, written_at: float) -> None:
@@ -227,7 +227,8 @@ class Simulation:
         they already are (recorded or written at this time)."""
         if recorded_at != self.state.t:
             self.recorder.record(self.state)
-        self._write_output(vtu=written_at != self.state.t)
+        if written_at != self.state.t:
+            self._write_frame()
 
     # ------------------------------------------------------------------------ checkpoints
     def _checkpoint_root(self) -> dict:
@@ -277,7 +278,8 @@ class Simulation:
         timers and the rate; `first_step(seconds)` is called after it. `between_steps()` is
         called after each step's output, where the state is whole: a StopRequested it raises
         ends the run with the history and a last VTU frame of that state written (a
-        KeyboardInterrupt raised anywhere else writes the history only)."""
+        KeyboardInterrupt raised anywhere else leaves the rows recorded so far and the frames
+        written)."""
         if progress is True:
             from .deck.units import unit_system
             from .output.progress import progress_bar
@@ -295,7 +297,7 @@ class Simulation:
                 sums = total_sums(st)
                 st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
             self.recorder.record(st)
-            self._write_output(vtu=True)
+            self._write_frame()
             self.schedule = Schedule(st.t + vtu_dt, st.t + hist_dt, st.t + self.checkpoint_every, st.t, st.t)
         sc = self.schedule
         saved_at = wallclock.perf_counter()
@@ -313,7 +315,7 @@ class Simulation:
                     sc.recorded_at = st.t
                     sc.next_hist = next_time(sc.next_hist, hist_dt, st.t + eps)
                 if st.t >= sc.next_vtu - eps:
-                    self._write_output(vtu=True)
+                    self._write_frame()
                     sc.written_at = st.t
                     sc.next_vtu = next_time(sc.next_vtu, vtu_dt, st.t + eps)
                 by_time = st.t >= sc.next_checkpoint - eps
@@ -339,10 +341,7 @@ class Simulation:
             st.t += st.dt
             st.step += 1
             self.recorder.record(st)
-            self._write_output(vtu=True)
-            raise
-        except KeyboardInterrupt:
-            self._write_output(vtu=False)
+            self._write_frame()
             raise
         self._write_last(sc.recorded_at, sc.written_at)
         if self.checkpoint_path is not None:  # the run is complete: nothing to continue

@@ -216,12 +216,10 @@ class History:
         self.flush()
 
     def write_sidecar(self) -> None:
-        import numba
-
-        from .. import __version__
+        from .runlog import versions
 
         meta = {"title": self.title, "columns": dict(self.columns), "deck": self.deck.model_dump(mode="json"),
-                "mpmsim": __version__, "numba": numba.__version__, "numpy": np.__version__}
+                **versions()}
         write_text(sidecar_path(self.path), json.dumps(meta, indent=1) + "\n")
 
 
