@@ -96,6 +96,7 @@ def run(
     from .output.checkpoint import checkpoint_path, read_manifest
     from .output.progress import progress_bar
     from .output.runlog import RunLog
+    from .parallel import auto_threads
     from .solver import Simulation, StepLimit, StopRequested, default_output_dir
 
     cold = kernel_cache.is_empty()  # before the scene's own kernels fill it
@@ -110,6 +111,9 @@ def run(
         chosen, why = int(manifest.get("threads", 1)), "as the checkpointed run"
     else:
         chosen, why = default_threads()
+        small, reason = auto_threads(chosen, len(scene.deformable.x))
+        if reason:
+            chosen, why = small, reason
     numba.set_num_threads(max(1, min(chosen, numba.config.NUMBA_NUM_THREADS)))
     thread_line = f"threads: {numba.get_num_threads()} ({why}; --threads N to choose)"
     if not quiet and threads is None:
@@ -349,6 +353,7 @@ def compile(
 ) -> None:
     """Fill numba's kernel cache ahead of runs: build each deck's scene and take one step (no
     output), so a later `mpmsim run` starts at once."""
+    from .parallel import auto_threads
     from .solver import Simulation
 
     paths = list(decks or [])
@@ -361,8 +366,10 @@ def compile(
         out.print(f"{path}: compiling the kernels it uses (numba; cached ones load at once)...", highlight=False)
         t0 = time.perf_counter()
         scene = _load_scene(path)
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        threads, _ = auto_threads(cores, len(scene.deformable.x))  # the kernels a default run uses
         with _deck_errors():
-            Simulation(scene, out_dir=None, threads=1).step()
+            Simulation(scene, out_dir=None, threads=threads).step()
         out.print(f"{path}: kernels ready ({time.perf_counter() - t0:.1f} s)", highlight=False)
 
 

@@ -25,6 +25,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from .parallel import chunk_kernel
 from .views import ActiveFields, Scatter
 
 
@@ -64,7 +65,7 @@ def box_nodes(lo, hi, shape, out):
                 q += 1
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def zero_fields(fields, arr):
     """Zero the rows of a (n_fields, ncomp) array for the active fields."""
     for q in prange(fields.size):

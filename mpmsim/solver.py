@@ -31,6 +31,7 @@ from .output.checkpoint import CheckpointError, checkpoint_path, deck_digest, re
 from .integrators import Integrator, make_integrator
 from .output.history import History
 from .output.vtu import VtuSeries
+from .parallel import use_threads
 from .scene import Scene, build_scene
 from .bodies import KINETIC
 from .stability import StabilityCheck, total_sums
@@ -207,6 +208,7 @@ class Simulation:
         st.dt_rule = rule
         st.dt = min(rule, end - st.t)
         st.flags = StepFlags()
+        use_threads(st.threads)  # this state's kernel form (another simulation may have switched it)
         taken = self.integrator.advance(st, st.dt)
         st.dt = taken
         t0 = wallclock.perf_counter()

@@ -26,6 +26,7 @@ from .gridops import ActiveBox, n_threads
 from .loads import build_loads
 from .materials import MaterialTable
 from .materials.kernels import initial_modulus
+from .parallel import auto_threads, use_threads
 from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
@@ -183,7 +184,9 @@ class State:
         rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim, deck.stability.rigid_penetration)
         sf = shape_function(deck.shape_function)
         K = sf.nodes_per_particle(dim)
-        threads = threads or n_threads()
+        if threads is None:  # no count asked for: one thread for a small scene
+            threads, _ = auto_threads(n_threads(), particles.n)
+        use_threads(threads)  # kernels run from here on (shape functions below) in this form
         nr = len(mats.rigid)
         g = np.zeros(dim)
         if deck.gravity is not None:

@@ -11,11 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..faults import MESSAGES
 from ..gridops import chunk_range
 from ..materials.kernels import det3, energy_density
+from ..parallel import chunk_kernel
 from ..views import ParticleView
 from . import ANGULAR, FIRST_MOMENT, KINETIC, MASS, MOMENTUM, NSUMS, STRAIN, BodyInfo, BodySet, Sums
 
@@ -179,7 +180,7 @@ def angular_density(x, v, B):
     return L
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def particle_sums(P, M, nchunk, out, density):
     """Per chunk, the first entries of the `bodies.Sums` layout (stress integral, volume,
     kinetic, strain, momentum, internal energy) over particles P (views.ParticleView) of

@@ -104,12 +104,14 @@ class ContactTasks:
         self.laws = spec.laws()
         self.touch = self.method.touch
         self.sep_velocity = spec.separation == SEP_VELOCITY
+        self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
+        self.pass_2_kernel = contact_pass_2(bool(spec.has_interface))
 
     def geometry(self, state) -> None:
         """Plan the contact nodes: normals, separations, areas (and the consistent bond)."""
         cs, spec, g, f = state.contact, self.spec, state.grid, state.fields
-        plan_geometry(cs.nodes(g.n_nodes), g.view, f.mass, cs.sums(), cs.clouds(state.particles, state.rigid),
-                      self.laws, self.method, cs.warm_phi, state.dt_rule, state.nchunk, cs.targets())
+        self.plan(cs.nodes(g.n_nodes), g.view, f.mass, cs.sums(), cs.clouds(state.particles, state.rigid), self.laws,
+                  self.method, cs.warm_phi, state.dt_rule, state.nchunk, cs.targets())
         cs.n_con = 0
         if spec.consistent_bond and spec.has_interface:
             held = RigidHold(f.rigid_vol, state.materials.constrain, state.rigid.v_end)
@@ -137,7 +139,7 @@ class ContactTasks:
         nn, ns = g.n_nodes, cs.n_slots
         before = f.vnew[nn:nn + ns].copy()
         settings = Pass2Settings(self.sep_velocity, self.spec.interface_integration, self.touch, state.dt)
-        contact_pass_2(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
+        self.pass_2_kernel(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
                        cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
         pair_changes(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, True, cs.pair_step)

@@ -17,11 +17,12 @@ from numba import njit, prange
 
 from ..gridops import node_ijk, slab
 from ..materials.kernels import inv3
+from ..parallel import chunk_kernel
 
 ONE = np.uint64(1)
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def scatter_group_masks(sc, group, mask):
     """mask[node] |= bit of each particle's group at the nodes it weighs (sc: views.Scatter
     with grid nodes as fields)."""
@@ -98,7 +99,7 @@ def build_slots(box_nodes, mask, node_cn, cn_nodes, cn_ptr, slot_group, slot_nod
         cn_ptr[c] = s
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx):
     """fidx = n_nodes + the slot of the particle's group at contact nodes; elsewhere the node
     itself (keep_nodes, deformable particles) or -1 (rigid contact particles live only in
@@ -162,7 +163,7 @@ def build_clouds(sd, rsd, rgroup, node_cn, n_cn, shape_weights, ptr, idx, wts, f
             ptr[c + 1] += ptr[c]
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def scatter_slot_extras(sc, G, P, grid, n_nodes, slot_node, wants, sums):
     """Per-slot contact volume sum S V, and when asked (wants) mass-weighted displacement and
     position and the volume gradient sum G V (deformable particles P; slab-parallel over sc).

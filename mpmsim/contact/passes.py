@@ -31,6 +31,7 @@ there along the particles' displacement gradients (the normal one is d_LR under 
 
 from __future__ import annotations
 
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -38,6 +39,7 @@ from numba import njit, prange
 
 from ..bc import NO_BC, node_bc
 from ..gridops import chunk_range, node_ijk
+from ..parallel import chunk_kernel
 from .laws import apply_law, interface_impulse
 from .spec import INTERFACE
 
@@ -142,7 +144,7 @@ def exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, ge
                 share_change(a, b, rigid_b, out[d], d, dpb, s0)
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def exchange_pass(mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, nchunk, dp1):
     """Pass 1 (mode PASS_1): the laws on the extrapolated momenta where the surfaces touch
     (separation below `touch`, a length; always for velocity-only detection) and approach;
@@ -195,97 +197,104 @@ class Pass2Settings(NamedTuple):
     dt: float
 
 
-@njit(parallel=True, cache=True)
-def contact_pass_2(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, nchunk, sums):
-    """Contact on the updated momenta p+ = m v+; the change goes into v+ and a = f/m. Each
-    target's stick impulse, applied impulse and end-of-step separation are kept for XPIC.
-    Interfaces add their force here (and only here, notes §4.2) and their energy. held: the
-    velocity conditions at the step's end (rigid contact slots move at that velocity)."""
-    dim = vnew.shape[1]
-    n_cn, cn_nodes, cn_ptr, slot_group, n_def, nn = nodes
-    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
-    rigid_vol, constrain, rig_vel = held
-    role, partner, geo_n, geo_delta, geo_area, geo_open, bonded, slot_law, slot_mu, slot_mus, slot_stiff, _ = geo
-    stick2, applied2, delta2, contact2 = dec.stick2, dec.applied2, dec.delta2, dec.contact2
-    sep_velocity, integration, touch, dt = settings
-    chunk_reaction, chunk_work, chunk_energy = sums
-    for ch in prange(nchunk):
-        start, stop = chunk_range(ch, nchunk, n_cn)
-        pbuf = np.zeros((MAX_SLOTS, 3))
-        dpb = np.zeros((MAX_SLOTS, 3))
-        imp = np.zeros(3)
-        out = np.zeros(3)
-        n = np.zeros(3)
-        df = np.zeros(3)
-        chunk_work[ch] = 0.0
-        chunk_energy[ch] = 0.0
-        for r in range(chunk_reaction.shape[1]):
-            for d in range(dim):
-                chunk_reaction[ch, r, d] = 0.0
-        for c in range(start, stop):
-            s0 = cn_ptr[c]
-            s1 = cn_ptr[c + 1]
-            node = cn_nodes[c]
-            i, j, k = node_ijk(node, shape)
-            for s in range(s0, s1):
-                g = slot_group[s]
+@cache
+def contact_pass_2(has_interface: bool):
+    """Pass 2's kernel, with or without the interface law (a constant of the kernel: scenes
+    without interfaces do not compile their force integrators)."""
+
+    @chunk_kernel
+    def kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, nchunk, sums):
+        """Contact on the updated momenta p+ = m v+; the change goes into v+ and a = f/m. Each
+        target's stick impulse, applied impulse and end-of-step separation are kept for XPIC.
+        Interfaces add their force here (and only here, notes §4.2) and their energy. held: the
+        velocity conditions at the step's end (rigid contact slots move at that velocity)."""
+        dim = vnew.shape[1]
+        n_cn, cn_nodes, cn_ptr, slot_group, n_def, nn = nodes
+        shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
+        rigid_vol, constrain, rig_vel = held
+        role, partner, geo_n, geo_delta, geo_area, geo_open, bonded, slot_law, slot_mu, slot_mus, slot_stiff, _ = geo
+        stick2, applied2, delta2, contact2 = dec.stick2, dec.applied2, dec.delta2, dec.contact2
+        sep_velocity, integration, touch, dt = settings
+        chunk_reaction, chunk_work, chunk_energy = sums
+        for ch in prange(nchunk):
+            start, stop = chunk_range(ch, nchunk, n_cn)
+            pbuf = np.zeros((MAX_SLOTS, 3))
+            dpb = np.zeros((MAX_SLOTS, 3))
+            imp = np.zeros(3)
+            out = np.zeros(3)
+            n = np.zeros(3)
+            df = np.zeros(3)
+            chunk_work[ch] = 0.0
+            chunk_energy[ch] = 0.0
+            for r in range(chunk_reaction.shape[1]):
                 for d in range(dim):
-                    # a rigid slot has no grid update: it moves at its end-of-step velocity
-                    v = rig_vel[rigid_of_group[g], d] if g >= n_def else vnew[nn + s, d]
-                    pbuf[s - s0, d] = mass[nn + s] * v
-                    dpb[s - s0, d] = 0.0
-            for a in range(s0, s1):
-                if role[a] == 0:
-                    continue
-                b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n,
-                                                imp)
-                dotn = 0.0
-                for d in range(dim):
-                    dotn += imp[d] * n[d]
-                delta = geo_delta[a]
-                interface = slot_law[a] == INTERFACE
-                if not sep_velocity or interface:
-                    # the relative force of the update: df = (m_a/M) F - f_a, or -f_a against a
-                    # rigid material. It advances the separation to the end of the step (the
-                    # reference code does this for grid separations only; d_LR too needs it: a
-                    # 5 um gap closing by 70 um within the step must count as contact, or the
-                    # free update drives the surfaces through each other, docs/contact.md), and
-                    # it drives the interface force.
-                    relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim, df)
-                    dfn = 0.0
+                    chunk_reaction[ch, r, d] = 0.0
+            for c in range(start, stop):
+                s0 = cn_ptr[c]
+                s1 = cn_ptr[c + 1]
+                node = cn_nodes[c]
+                i, j, k = node_ijk(node, shape)
+                for s in range(s0, s1):
+                    g = slot_group[s]
                     for d in range(dim):
-                        dfn += df[d] * n[d]
-                    delta += dt * (dotn - 0.5 * dfn * dt) / mred
-                delta2[a] = delta
-                if interface:
-                    chunk_energy[ch] += interface_impulse(slot_stiff[a], bonded[a], imp, df, n, geo_delta[a],
-                                                          geo_open[a], geo_area[a], mred, dt, integration, dim, out)
-                    applied = True
-                else:
-                    touching = sep_velocity or delta < touch
-                    applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn,
-                                        touching and dotn < 0.0, dim, out)
-                for d in range(dim):
-                    stick2[a, d] = imp[d]
-                    applied2[a, d] = out[d] if applied else 0.0
-                if interface:  # XPIC increments re-impose only the bonded directions
-                    apply_law(INTERFACE, 0.0, 0.0, bonded[a], imp, n, dotn, True, dim, df)
+                        # a rigid slot has no grid update: it moves at its end-of-step velocity
+                        v = rig_vel[rigid_of_group[g], d] if g >= n_def else vnew[nn + s, d]
+                        pbuf[s - s0, d] = mass[nn + s] * v
+                        dpb[s - s0, d] = 0.0
+                for a in range(s0, s1):
+                    if role[a] == 0:
+                        continue
+                    b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n,
+                                                    imp)
+                    dotn = 0.0
                     for d in range(dim):
-                        applied2[a, d] = df[d]
-                contact2[a] = 1 if applied else 0
-                if applied:
+                        dotn += imp[d] * n[d]
+                    delta = geo_delta[a]
+                    interface = has_interface and slot_law[a] == INTERFACE
+                    if not sep_velocity or interface:
+                        # the relative force of the update: df = (m_a/M) F - f_a, or -f_a against a
+                        # rigid material. It advances the separation to the end of the step (the
+                        # reference code does this for grid separations only; d_LR too needs it: a
+                        # 5 um gap closing by 70 um within the step must count as contact, or the
+                        # free update drives the surfaces through each other, docs/contact.md), and
+                        # it drives the interface force.
+                        relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim, df)
+                        dfn = 0.0
+                        for d in range(dim):
+                            dfn += df[d] * n[d]
+                        delta += dt * (dotn - 0.5 * dfn * dt) / mred
+                    delta2[a] = delta
+                    if has_interface and interface:
+                        chunk_energy[ch] += interface_impulse(slot_stiff[a], bonded[a], imp, df, n, geo_delta[a],
+                                                              geo_open[a], geo_area[a], mred, dt, integration, dim, out)
+                        applied = True
+                    else:
+                        touching = sep_velocity or delta < touch
+                        applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn,
+                                            touching and dotn < 0.0, dim, out)
                     for d in range(dim):
-                        owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
-                                             rig_vel)
-                        if owner != NO_BC:
-                            continue  # a velocity condition holds this component
-                        share_change(a, b, rigid_b, out[d], d, dpb, s0)
-                        if rigid_b:
-                            r = rigid_of_group[slot_group[b]]
-                            chunk_reaction[ch, r, d] += out[d] / dt
-                            chunk_work[ch] += out[d] * rig_vel[r, d]  # the rigid body's work on the material
-            add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol,
-                             constrain, rig_vel, mass, dpb, vnew, acc, dt, dim)
+                        stick2[a, d] = imp[d]
+                        applied2[a, d] = out[d] if applied else 0.0
+                    if has_interface and interface:  # XPIC increments re-impose only the bonded directions
+                        apply_law(INTERFACE, 0.0, 0.0, bonded[a], imp, n, dotn, True, dim, df)
+                        for d in range(dim):
+                            applied2[a, d] = df[d]
+                    contact2[a] = 1 if applied else 0
+                    if applied:
+                        for d in range(dim):
+                            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
+                                                 rig_vel)
+                            if owner != NO_BC:
+                                continue  # a velocity condition holds this component
+                            share_change(a, b, rigid_b, out[d], d, dpb, s0)
+                            if rigid_b:
+                                r = rigid_of_group[slot_group[b]]
+                                chunk_reaction[ch, r, d] += out[d] / dt
+                                chunk_work[ch] += out[d] * rig_vel[r, d]  # the rigid body's work on the material
+                add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol,
+                                 constrain, rig_vel, mass, dpb, vnew, acc, dt, dim)
+
+    return kernel
 
 
 @njit(cache=True, inline="always")

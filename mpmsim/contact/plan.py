@@ -14,18 +14,21 @@ One function per concern, each readable alone:
   target_law           law, friction and the two sides' volumes of one target
   label_cloud          the point cloud's classes (-1 material a, +1 its partner side)
   regression_normal_of / specified_normal / gradient_normal   the normal methods
-  target_separation    LR, displacement, CP cutoff or DF fit separation
+  grid_separation      displacement, CP cutoff or DF fit separation (LR's: cloud_separation)
+  contact_geometry     the kernel of one normal method and separation
   interface_setup      openings at the interface point and the bonded directions
 """
 
 from __future__ import annotations
 
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range, node_ijk
+from ..parallel import chunk_kernel, specialize
 from .geometry import (cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal,
                        regression_scratch)
 from .spec import (AVERAGE_GRADIENT, FIRST_ORDER, FORCE_LIMIT, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT,
@@ -294,21 +297,13 @@ def gradient_normal(a, b, s0, s1, rigid_b, omega_a, omega_b, inp, dim, va, vb, n
 
 
 @njit(cache=True)
-def target_separation(a, b, s0, s1, c0, c1, xnode, n, hp, inp, labels, dim, va, vb):
-    """(separation, nearer edge's distance from the node, whether that distance weights the
-    area): d_LR from the deformed particle edges (Eq. 25), or grid separations from the two
-    sides' mass-weighted displacements (displacement), positions less a cutoff (CP), or the
-    DF fit. -1 (touching) for velocity-only detection."""
+def grid_separation(a, b, s0, s1, xnode, n, hp, inp, dim, va, vb):
+    """Grid separations from the two sides' mass-weighted displacements (displacement),
+    positions less a cutoff (CP), or the DF fit; -1 (touching) for velocity-only detection."""
     method, nodes, mass, sums = inp.method, inp.nodes, inp.mass, inp.sums
     sep = method.separation
     delta = -1.0
-    d_edge = 0.0
-    use_edge = False
-    if sep == SEP_LR:
-        delta, da, db = cloud_separation(inp.clouds, labels, c0, c1, n, xnode, dim)
-        d_edge = min(abs(da), abs(db))
-        use_edge = True
-    elif sep == SEP_DISPLACEMENT or sep == SEP_CUTOFF or sep == SEP_FIT:
+    if sep == SEP_DISPLACEMENT or sep == SEP_CUTOFF or sep == SEP_FIT:
         src = sums.disp if sep == SEP_DISPLACEMENT else sums.pos
         side_average(a, b, s0, s1, nodes, mass, src, dim, 0, va)
         side_average(a, b, s0, s1, nodes, mass, src, dim, 1, vb)
@@ -326,7 +321,7 @@ def target_separation(a, b, s0, s1, c0, c1, xnode, n, hp, inp, labels, dim, va, 
             ea = -(2.0 * (abs(qa) / (1.25 * hp)) ** fit_r - 1.0) * hp
             eb = (2.0 * (abs(qb) / (1.25 * hp)) ** fit_r - 1.0) * hp
             delta = eb - ea
-    return delta, d_edge, use_edge
+    return delta
 
 
 @njit(cache=True)
@@ -364,11 +359,16 @@ def interface_setup(a, b, rigid_b, s0, s1, ga, gb, delta, area, inp, geo, dim, v
     return delta
 
 
-@njit(cache=True)
+# The normal method, separation and whether some pair has the interface law, as constants of
+# the geometry kernels (contact_geometry() binds them; these values are never compiled)
+NORMAL, SEPARATION, INTERFACES = -1, -1, True
+
+
 def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
     """Law, normal, separation, area, level (and interface openings) of target a at a node
     at xnode; v holds four scratch vectors. Drops the target (role 0) where it cannot be
-    planned: a screened free-edge node, no usable point cloud."""
+    planned: a screened free-edge node, no usable point cloud. Compiled per method
+    (contact_geometry)."""
     dim = geo.normal.shape[1]
     nodes, method = inp.nodes, inp.method
     n, va, vb = v[0], v[2], v[3]  # v[1]: interface_setup's scratch
@@ -380,17 +380,23 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
         return
     if c1 > c0:
         label_cloud(a, b, ga, c0, c1, nodes, inp.clouds, R.labels)
-    normal = method.normal
-    if normal == LOGISTIC or normal == LINEAR_REGRESSION:
+    if NORMAL == LOGISTIC or NORMAL == LINEAR_REGRESSION:
         if not regression_normal_of(b, ga, rigid_b, node, c0, c1, inp, R, dim, n):
             geo.role[a] = 0  # no usable cloud: this material is left alone here
             return
-    elif normal == SPECIFIED:
+    elif NORMAL == SPECIFIED:
         specified_normal(ga, gb, rigid_b, xnode, method, dim, n)
     else:
         gradient_normal(a, b, s0, s1, rigid_b, omega_a, omega_b, inp, dim, va, vb, n)
     hp = h_perp(n, inp.grid.h, dim) if method.use_h_perp else inp.grid.h[0]
-    delta, d_edge, use_edge = target_separation(a, b, s0, s1, c0, c1, xnode, n, hp, inp, R.labels, dim, va, vb)
+    d_edge = 0.0
+    use_edge = False
+    if SEPARATION == SEP_LR:  # d_LR from the deformed particle edges (Eq. 25)
+        delta, da, db = cloud_separation(inp.clouds, R.labels, c0, c1, n, xnode, dim)
+        d_edge = min(abs(da), abs(db))
+        use_edge = True
+    else:
+        delta = grid_separation(a, b, s0, s1, xnode, n, hp, inp, dim, va, vb)
     for d in range(dim):
         geo.normal[a, d] = n[d]
     area = contact_area(omega_a, omega_b, hp, d_edge, use_edge, method.spline)
@@ -404,16 +410,18 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
     frac = np.sqrt(min(1.0, 2.0 * min(omega_a, omega_b) / tot)) if tot > 0.0 else 1.0
     geo.level[a] = (1.0 - frac) * hp * (-1.0 if omega_a >= omega_b else 1.0)
     geo.bonded[a] = 0
-    if geo.law[a] == INTERFACE:
+    if INTERFACES and geo.law[a] == INTERFACE:
         delta = interface_setup(a, b, rigid_b, s0, s1, ga, gb, delta, area, inp, geo, dim, v)
     geo.delta[a] = delta
 
 
-@njit(cache=True)
-def plan_nodes(start, stop, inp, max_cloud, geo):
+def plan_nodes(start, stop, inp, geo):
     """Plan contact nodes start:stop."""
     nodes, grid, clouds = inp.nodes, inp.grid, inp.clouds
     dim = geo.normal.shape[1]
+    max_cloud = 0
+    for c in range(start, stop):
+        max_cloud = max(max_cloud, clouds.ptr[c + 1] - clouds.ptr[c])
     R = regression_scratch(max_cloud)
     v = np.zeros((4, 3))
     xnode = np.zeros(3)
@@ -432,14 +440,21 @@ def plan_nodes(start, stop, inp, max_cloud, geo):
                 target_geometry(a, node, s0, s1, clouds.ptr[c], clouds.ptr[c + 1], xnode, inp, geo, R, v)
 
 
-@njit(parallel=True, cache=True)
-def contact_geometry(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt, nchunk, geo):
+def geometry_kernel(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt, nchunk, geo):
     """Plan every contact node (parallel over chunks of nodes); results in geo (Targets)."""
-    cloud_ptr, n_cn = clouds.ptr, nodes.n_cn
-    max_cloud = 0
-    for c in range(n_cn):
-        max_cloud = max(max_cloud, cloud_ptr[c + 1] - cloud_ptr[c])
+    n_cn = nodes.n_cn
     for ch in prange(nchunk):  # (numba's parallel loops read bundle members through locals only)
         start, stop = chunk_range(ch, nchunk, n_cn)
-        plan_nodes(start, stop, GeometryInputs(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt), max_cloud,
-                   geo)
+        plan_nodes(start, stop, GeometryInputs(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt), geo)
+
+
+@cache
+def contact_geometry(normal: int, separation: int, interfaces: bool):
+    """The geometry kernel (a ChunkKernel) of one normal method and separation (codes), with
+    or without interface laws: these are constants of target_geometry, so a scene compiles
+    the code of its own methods only."""
+    tag = f"{normal}_{separation}_{int(interfaces)}"
+    target = njit(cache=True)(specialize(target_geometry, tag, NORMAL=normal, SEPARATION=separation,
+                                         INTERFACES=interfaces))
+    plan = njit(cache=True)(specialize(plan_nodes, tag, target_geometry=target))
+    return chunk_kernel(specialize(geometry_kernel, tag, plan_nodes=plan))

@@ -25,6 +25,7 @@ from numba import njit, prange
 
 from ..gridops import chunk_range
 from ..materials.kernels import inv3
+from ..parallel import chunk_kernel
 from .grid_functions import weights_1d
 from .tensor import BAD_SUPPORT, clear_entries
 
@@ -59,7 +60,7 @@ def sample_points(scheme, dim, s, ws, coef):
     return npts
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def cpdi_shape_functions(x, F, grid, semi, sk, nchunk, sd, boxes):
     """As tensor_shape_functions, for CPDI: sample points of each particle's deformed domain
     (corners, or nine points for qCPDI) weighted by the grid function; boxes.code says why a

@@ -7,6 +7,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..gridops import chunk_range
+from ..parallel import chunk_kernel
 from .grid_functions import weights_1d
 
 BAD_SUPPORT = 5  # a particle's support (or a CPDI sample point's) left the grid
@@ -22,7 +23,7 @@ def clear_entries(p, nodes, S, G):
             G[p, k, d] = 0.0
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
     """Fill sd (shapes.ShapeData) for particles at x on grid (views.GridView) with the shape
     function sk (shapes.ShapeKind); `sd.lowest[p]` is the particle's lowest node (i, j, k) and

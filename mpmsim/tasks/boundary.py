@@ -17,12 +17,13 @@ from numba import njit, prange
 from ..bc import NO_BC, ghost_mirror, node_bc, rigid_holds
 from ..contact.workspace import no_contact
 from ..gridops import node_ijk
+from ..parallel import chunk_kernel
 from ..views import RigidHold
 
 NOT_GHOST, ZERO = -1, -2  # ghost_src codes: not a constrained ghost component; held at zero
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def grid_velocity(active, grid, held, mass, mom, vel):
     """vel = p/m on every active field, with velocity conditions imposed (for velocity gradients)."""
     dim = mom.shape[1]
@@ -80,7 +81,7 @@ def mirror_field(fid, mirror, nn, node_cn, cn_ptr, slot_group, mask, n_def):
     return -1
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def ghost_table(active, grid, held, slots, src, face):
     """For each active field and component: the field whose value a constrained ghost takes
     with the opposite sign (ZERO: held at zero; NOT_GHOST: not a constrained ghost value, or
@@ -116,7 +117,7 @@ def find_ghosts(state) -> None:
                 f.ghost_face)
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def mirror_ghosts(fields, ghost_src, field):
     """Constrained ghost components of the active fields take minus their mirror field's value."""
     dim = field.shape[1]

@@ -14,6 +14,7 @@ from numba import njit, prange
 
 from ..contact import extrapolate_contact
 from ..gridops import chunk_range, slab, zero_fields
+from ..parallel import chunk_kernel
 from .boundary import find_ghosts, has_walls
 from ..materials.kernels import inv3
 
@@ -21,7 +22,7 @@ from ..materials.kernels import inv3
 RIGID_MIN_WEIGHT = 1e-12
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, offs, grid, xref):
     """Scatter m and m (v + C (x_i - x_p)) of the particles to their fields (sc: views.Scatter;
     the affine term only with `affine`; masses only `with_mass`)."""
@@ -57,7 +58,7 @@ def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, off
                             gmom[i, d] += wm * pvel[p, d]
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def apic_affine(sd, offs, grid, x, B, nchunk, C):
     """C_p = B_p D_p^-1 with D_p = sum_i S_ip (x_i - x_p)(x_i - x_p)^T (sd: the particles'
     shapes.ShapeData)."""

@@ -3,15 +3,16 @@
 
 from __future__ import annotations
 
-from numba import njit, prange
+from numba import prange
 
 from ..gridops import slab, zero_fields
 from ..loads import damp_grid, p2g_loads
 from ..materials.kernels import VOIGT
+from ..parallel import chunk_kernel
 from .boundary import fold_ghost_forces, has_walls
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def p2g_forces(sc, G, P, gravity, has_gravity, gforce):
     """Internal forces (and gravity) of particles P scattered to their fields (sc: views.Scatter)."""
     nodes, S, vol, stress, pmass = sc.fidx, sc.S, P.vol, P.stress, P.mass

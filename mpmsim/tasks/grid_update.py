@@ -13,10 +13,11 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..gridops import chunk_range, node_ijk
+from ..parallel import chunk_kernel
 from .boundary import NOT_GHOST, has_walls, held_by
 
 
@@ -29,7 +30,7 @@ class UpdateFields(NamedTuple):
     vstart: np.ndarray  # out: start velocity with conditions imposed
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def grid_update_kernel(active, grid, held_start, held_end, f, dt, nchunk, chunk_reaction, chunk_work):
     """v+ and a on every active field; a component held by a velocity condition (at the step's
     end: held_end; its start value, held_start, seeds vstart) gets the force that lands it on
@@ -75,7 +76,7 @@ def grid_update_kernel(active, grid, held_start, held_end, f, dt, nchunk, chunk_
         chunk_work[c] = work
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def mirror_update(fields, ghost_src, ghost_face, f, dt, nchunk, chunk_reaction):
     """Second pass of the update: constrained ghost components of the box nodes take minus
     their mirror's new velocity (boundary.py); the extra force is added to that face's reaction."""

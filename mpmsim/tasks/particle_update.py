@@ -19,13 +19,15 @@ prescribed velocity (trapezoidal in time).
 
 from __future__ import annotations
 
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..gridops import chunk_range
 from ..faults import BAD_LEFT_GRID, BAD_NAN
+from ..parallel import chunk_kernel
 from ..views import Faults
 
 FLIP, PIC, XPIC, FMPM, APIC = 0, 1, 2, 3, 4
@@ -39,110 +41,116 @@ class GridVelocities(NamedTuple):
     vstar: np.ndarray  # XPIC/FMPM filtered
 
 
-@njit(parallel=True, cache=True)
-def particle_update_kernel(entries, offs, grid, gv, dt, scheme, P, gravity, lo, hi, nchunk, chunk_gwork, faults):
-    """Velocities and positions of particles P from the grid velocities gv (entries:
-    shapes.ShapeData whose nodes are the particles' fields); per chunk the work of gravity
-    and the first particle that went non-finite or left [lo, hi]."""
-    nodes, S, lowest = entries.nodes, entries.S, entries.lowest
-    origin, h = grid.origin, grid.h
-    vnew, acc, vstart, vstar = gv.vnew, gv.acc, gv.vstart, gv.vstar
-    x, v, B, pmass = P.x, P.v, P.B, P.mass
-    chunk_bad, chunk_code = faults.bad, faults.code
-    n, K = S.shape
-    dim = x.shape[1]
-    for c in prange(nchunk):
-        start, stop = chunk_range(c, nchunk, n)
-        sa = np.zeros(3)
-        sv = np.zeros(3)
-        s0 = np.zeros(3)
-        ss = np.zeros(3)
-        gwork = 0.0
-        bad = -1
-        code = 0
-        for p in range(start, stop):
-            for d in range(dim):
-                sa[d] = 0.0
-                sv[d] = 0.0
-                s0[d] = 0.0
-                ss[d] = 0.0
-            if scheme == APIC:
-                for a in range(dim):
-                    for b in range(dim):
-                        B[p, a, b] = 0.0
-            for k in range(K):  # gather only the fields this scheme uses
-                w = S[p, k]
-                i = nodes[p, k]
-                if scheme == FLIP:
-                    for d in range(dim):
-                        sa[d] += w * acc[i, d]
-                        sv[d] += w * vnew[i, d]
-                        s0[d] += w * vstart[i, d]
-                elif scheme == PIC:
-                    for d in range(dim):
-                        sv[d] += w * vnew[i, d]
-                        s0[d] += w * vstart[i, d]
-                elif scheme == XPIC:
-                    for d in range(dim):
-                        ss[d] += w * vstar[i, d]
-                        s0[d] += w * vstart[i, d]
-                elif scheme == FMPM:
-                    for d in range(dim):
-                        ss[d] += w * vstar[i, d]
-                else:  # APIC
-                    for d in range(dim):
-                        sv[d] += w * vnew[i, d]
-                    for b in range(dim):
-                        rb = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
-                        for a in range(dim):
-                            B[p, a, b] += w * vnew[i, a] * rb
-            outside = False
-            finite = True
-            for d in range(dim):
-                vold = v[p, d]
-                if scheme == FLIP:
-                    vn = vold + dt * sa[d]
-                    dx = 0.5 * dt * (s0[d] + sv[d])
-                elif scheme == PIC:
-                    vn = sv[d]
-                    dx = dt * (s0[d] + 0.5 * (vn - vold))
-                elif scheme == XPIC:
-                    vn = ss[d]
-                    dx = dt * (s0[d] + 0.5 * (vn - vold))
-                elif scheme == FMPM:
-                    vn = ss[d]
-                    dx = 0.5 * dt * (vn + vold)
-                else:  # APIC
-                    vn = sv[d]
-                    dx = dt * vn
-                x[p, d] += dx
-                v[p, d] = vn
-                gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
-                if x[p, d] < lo[d] or x[p, d] > hi[d]:
-                    outside = True
-                if not (np.isfinite(vn) and np.isfinite(x[p, d])):
-                    finite = False
-            if bad < 0 and not finite:
-                bad, code = p, BAD_NAN
-            elif bad < 0 and outside:
-                bad, code = p, BAD_LEFT_GRID
-        chunk_gwork[c] = gwork
-        chunk_bad[c] = bad
-        chunk_code[c] = code
+@cache
+def particle_update_kernel(scheme: int):
+    """The particle update of one scheme (code), compiled for it alone: `scheme` is a constant
+    of the kernel, so numba drops the other schemes' branches."""
+
+    @chunk_kernel
+    def kernel(entries, offs, grid, gv, dt, P, gravity, lo, hi, nchunk, chunk_gwork, faults):
+        """Velocities and positions of particles P from the grid velocities gv (entries:
+        shapes.ShapeData whose nodes are the particles' fields); per chunk the work of gravity
+        and the first particle that went non-finite or left [lo, hi]."""
+        nodes, S, lowest = entries.nodes, entries.S, entries.lowest
+        origin, h = grid.origin, grid.h
+        vnew, acc, vstart, vstar = gv.vnew, gv.acc, gv.vstart, gv.vstar
+        x, v, B, pmass = P.x, P.v, P.B, P.mass
+        chunk_bad, chunk_code = faults.bad, faults.code
+        n, K = S.shape
+        dim = x.shape[1]
+        for c in prange(nchunk):
+            start, stop = chunk_range(c, nchunk, n)
+            sa = np.zeros(3)
+            sv = np.zeros(3)
+            s0 = np.zeros(3)
+            ss = np.zeros(3)
+            gwork = 0.0
+            bad = -1
+            code = 0
+            for p in range(start, stop):
+                for d in range(dim):
+                    sa[d] = 0.0
+                    sv[d] = 0.0
+                    s0[d] = 0.0
+                    ss[d] = 0.0
+                if scheme == APIC:
+                    for a in range(dim):
+                        for b in range(dim):
+                            B[p, a, b] = 0.0
+                for k in range(K):  # gather only the fields this scheme uses
+                    w = S[p, k]
+                    i = nodes[p, k]
+                    if scheme == FLIP:
+                        for d in range(dim):
+                            sa[d] += w * acc[i, d]
+                            sv[d] += w * vnew[i, d]
+                            s0[d] += w * vstart[i, d]
+                    elif scheme == PIC:
+                        for d in range(dim):
+                            sv[d] += w * vnew[i, d]
+                            s0[d] += w * vstart[i, d]
+                    elif scheme == XPIC:
+                        for d in range(dim):
+                            ss[d] += w * vstar[i, d]
+                            s0[d] += w * vstart[i, d]
+                    elif scheme == FMPM:
+                        for d in range(dim):
+                            ss[d] += w * vstar[i, d]
+                    else:  # APIC
+                        for d in range(dim):
+                            sv[d] += w * vnew[i, d]
+                        for b in range(dim):
+                            rb = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
+                            for a in range(dim):
+                                B[p, a, b] += w * vnew[i, a] * rb
+                outside = False
+                finite = True
+                for d in range(dim):
+                    vold = v[p, d]
+                    if scheme == FLIP:
+                        vn = vold + dt * sa[d]
+                        dx = 0.5 * dt * (s0[d] + sv[d])
+                    elif scheme == PIC:
+                        vn = sv[d]
+                        dx = dt * (s0[d] + 0.5 * (vn - vold))
+                    elif scheme == XPIC:
+                        vn = ss[d]
+                        dx = dt * (s0[d] + 0.5 * (vn - vold))
+                    elif scheme == FMPM:
+                        vn = ss[d]
+                        dx = 0.5 * dt * (vn + vold)
+                    else:  # APIC
+                        vn = sv[d]
+                        dx = dt * vn
+                    x[p, d] += dx
+                    v[p, d] = vn
+                    gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
+                    if x[p, d] < lo[d] or x[p, d] > hi[d]:
+                        outside = True
+                    if not (np.isfinite(vn) and np.isfinite(x[p, d])):
+                        finite = False
+                if bad < 0 and not finite:
+                    bad, code = p, BAD_NAN
+                elif bad < 0 and outside:
+                    bad, code = p, BAD_LEFT_GRID
+            chunk_gwork[c] = gwork
+            chunk_bad[c] = bad
+            chunk_code[c] = code
+
+    return kernel
 
 
 def particle_update(scheme: str):
     """The particle update of one scheme (flip, pic, xpic, fmpm, apic)."""
-    code_of_scheme = SCHEMES[scheme]
+    kernel = particle_update_kernel(SCHEMES[scheme])
 
     def run(state) -> None:
         P, f = state.particles, state.fields
         nc = state.nchunk
         gwork = np.zeros(nc)
         faults = Faults.empty(nc)
-        particle_update_kernel(state.entries, state.entry_offsets, state.grid.view,
-                               GridVelocities(f.vnew, f.acc, f.vstart, f.vstar), state.dt, code_of_scheme, P.view(),
-                               state.gravity, *state.particle_bounds, nc, gwork, faults)
+        kernel(state.entries, state.entry_offsets, state.grid.view, GridVelocities(f.vnew, f.acc, f.vstart, f.vstar),
+               state.dt, P.view(), state.gravity, *state.particle_bounds, nc, gwork, faults)
         state.work_in += float(gwork.sum())
         if state.loads is not None:
             state.work_in += state.loads.work_of_step(P.x)

@@ -11,130 +11,155 @@ also update U and the pressure, and carry the viscous pressure q of Eq. (52) in 
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..faults import BAD_EOS, BAD_INVERTED, BAD_NAN
 from ..gridops import chunk_range
 from ..materials import MIE_GRUNEISEN
 from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, bulk_wave_modulus,
                                  constitutive_update, det3)
+from ..parallel import chunk_kernel
 from ..views import Faults
 from .boundary import set_grid_velocity
 
 
-@njit(parallel=True, cache=True)
-def update_stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
-    """Velocity gradient from the grid velocity gvel (entries: shapes.ShapeData whose nodes are
-    the particles' fields), F and volume, then the stress of each particle's material M
-    (views.MaterialView); per chunk the largest wave speed + |v| and the first bad particle."""
-    nodes, G = entries.nodes, entries.G
-    pvel, F, stress, vol, vol0, mat, U, pressure, qv = P.v, P.F, P.stress, P.vol, P.vol0, P.mat, P.U, P.pressure, P.q
-    code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
-    chunk_bad, chunk_code, chunk_value = faults.bad, faults.code, faults.value
-    n, K = nodes.shape
-    dim = F.shape[1]
-    for c in prange(nchunk):
-        start, stop = chunk_range(c, nchunk, n)
-        work = np.zeros((6, 3, 3))  # velocity gradient, F, and the constitutive update's scratch
-        L, F3, W, A, Ai, Q = work[0], work[1], work[2], work[3], work[4], work[5]
-        eos = np.zeros(EOS_N)
-        wave = 0.0
-        bad = -1
-        bad_code = 0
-        bad_value = 0.0
-        for p in range(start, stop):
-            for a in range(dim):
-                for b in range(dim):
-                    L[a, b] = 0.0
-            for k in range(K):
-                i = nodes[p, k]
+@cache
+def update_stress_kernel(model: int, tracked: bool):
+    """The stress update of the particles of one material model (type code `model`), compiled
+    for that model alone. `model` and `tracked` (some material of the model carries internal
+    energy) are constants of the kernel: numba drops the branches of the other models, so a
+    scene compiles only the models it uses. (Plain ints and bools: they key numba's cache.)"""
+
+    @chunk_kernel
+    def kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
+        """Velocity gradient from the grid velocity gvel (entries: shapes.ShapeData whose nodes
+        are the particles' fields), F and volume, then the stress of each particle whose material
+        (M: views.MaterialView) is of this model; per chunk the largest wave speed + |v| and the
+        first bad particle."""
+        nodes, G = entries.nodes, entries.G
+        pvel, F, stress, vol, vol0, mat, U, pressure, qv = P.v, P.F, P.stress, P.vol, P.vol0, P.mat, P.U, P.pressure, P.q
+        code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
+        chunk_bad, chunk_code, chunk_value = faults.bad, faults.code, faults.value
+        n, K = nodes.shape
+        dim = F.shape[1]
+        for c in prange(nchunk):
+            start, stop = chunk_range(c, nchunk, n)
+            work = np.zeros((6, 3, 3))  # velocity gradient, F, and the constitutive update's scratch
+            L, F3, W, A, Ai, Q = work[0], work[1], work[2], work[3], work[4], work[5]
+            eos = np.zeros(EOS_N)
+            wave = 0.0
+            bad = -1
+            bad_code = 0
+            bad_value = 0.0
+            for p in range(start, stop):
+                mt = mat[p]
+                if code[mt] != model:
+                    continue
                 for a in range(dim):
-                    va = gvel[i, a]
                     for b in range(dim):
-                        L[a, b] += va * G[p, k, b]
-            # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
-            for a in range(3):
-                for b in range(3):
-                    if a < dim and b < dim:
-                        s = F[p, a, b]
-                        for m in range(dim):
-                            s += dt * L[a, m] * F[p, m, b]
-                        F3[a, b] = s
-                    else:
-                        F3[a, b] = 1.0 if a == b else 0.0
-            J = det3(F3)
-            if not (J > 0.0):
-                if bad < 0:
-                    bad, bad_code, bad_value = p, BAD_INVERTED, J
-                continue
-            for a in range(dim):
-                for b in range(dim):
-                    F[p, a, b] = F3[a, b]
-            J0 = vol[p] / vol0[p]
-            vol[p] = vol0[p] * J
-            mt = mat[p]
-            tracked = energy[mt]
-            q = 0.0
-            if tracked:
-                # Eq. (52): q only in compression, C the current bulk wave speed
-                trD = 0.0
-                for a in range(dim):
-                    trD += L[a, a]
-                if trD < 0.0 and av[mt, 0] + av[mt, 1] > 0.0:
-                    C = np.sqrt(max(bulk_wave_modulus(code[mt], props[mt], J, pressure[p]), 0.0) * J / density[mt])
-                    dxd = -dx * trD
-                    q = density[mt] / J * dxd * (av[mt, 0] * C + av[mt, 1] * dxd)
-                for a in range(3):  # take out the last q: a hypoelastic stress is incremental
-                    stress[p, a] += qv[p]
-                eos[EOS_U] = U[p]
-                eos[EOS_P] = pressure[p]
-                eos[EOS_Q] = q
-                eos[EOS_J0] = J0
-                eos[EOS_RHO0] = density[mt]
-                eos[EOS_DEN] = 1.0
-            modulus = constitutive_update(code[mt], props[mt], F3, L, dt, stress[p], W, A, Ai, Q, eos)
-            if tracked:
-                q = eos[EOS_Q]
-                if code[mt] == MIE_GRUNEISEN:
-                    U[p] = eos[EOS_U]
-                    pressure[p] = eos[EOS_P]
-                    if not (eos[EOS_DEN] > 0.0) and bad < 0:
-                        bad, bad_code, bad_value = p, BAD_EOS, eos[EOS_DEN]
-                else:  # elastic energy is strain energy; U holds only the viscous dissipation
-                    U[p] += q * (J0 - J) / density[mt]
-                    pressure[p] = -(stress[p, 0] + stress[p, 1] + stress[p, 2]) / 3.0
+                        L[a, b] = 0.0
+                for k in range(K):
+                    i = nodes[p, k]
+                    for a in range(dim):
+                        va = gvel[i, a]
+                        for b in range(dim):
+                            L[a, b] += va * G[p, k, b]
+                # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
                 for a in range(3):
-                    stress[p, a] -= q
-                qv[p] = q
-            speed2 = 0.0
-            for a in range(dim):
-                speed2 += pvel[p, a] * pvel[p, a]
-            cp = np.sqrt(modulus * J / density[mt]) + np.sqrt(speed2)
-            if cp > wave:
-                wave = cp
-            finite = True
-            for a in range(6):
-                if not np.isfinite(stress[p, a]):
-                    finite = False
-            if not finite and bad < 0:
-                bad, bad_code, bad_value = p, BAD_NAN, 0.0
-        chunk_wave[c] = wave
-        chunk_bad[c] = bad
-        chunk_code[c] = bad_code
-        chunk_value[c] = bad_value
+                    for b in range(3):
+                        if a < dim and b < dim:
+                            s = F[p, a, b]
+                            for m in range(dim):
+                                s += dt * L[a, m] * F[p, m, b]
+                            F3[a, b] = s
+                        else:
+                            F3[a, b] = 1.0 if a == b else 0.0
+                J = det3(F3)
+                if not (J > 0.0):
+                    if bad < 0:
+                        bad, bad_code, bad_value = p, BAD_INVERTED, J
+                    continue
+                for a in range(dim):
+                    for b in range(dim):
+                        F[p, a, b] = F3[a, b]
+                J0 = vol[p] / vol0[p]
+                vol[p] = vol0[p] * J
+                track = tracked and energy[mt]
+                q = 0.0
+                if track:
+                    # Eq. (52): q only in compression, C the current bulk wave speed
+                    trD = 0.0
+                    for a in range(dim):
+                        trD += L[a, a]
+                    if trD < 0.0 and av[mt, 0] + av[mt, 1] > 0.0:
+                        C = np.sqrt(max(bulk_wave_modulus(model, props[mt], J, pressure[p]), 0.0) * J / density[mt])
+                        dxd = -dx * trD
+                        q = density[mt] / J * dxd * (av[mt, 0] * C + av[mt, 1] * dxd)
+                    for a in range(3):  # take out the last q: a hypoelastic stress is incremental
+                        stress[p, a] += qv[p]
+                    eos[EOS_U] = U[p]
+                    eos[EOS_P] = pressure[p]
+                    eos[EOS_Q] = q
+                    eos[EOS_J0] = J0
+                    eos[EOS_RHO0] = density[mt]
+                    eos[EOS_DEN] = 1.0
+                modulus = constitutive_update(model, props[mt], F3, L, dt, stress[p], W, A, Ai, Q, eos)
+                if track:
+                    q = eos[EOS_Q]
+                    if model == MIE_GRUNEISEN:
+                        U[p] = eos[EOS_U]
+                        pressure[p] = eos[EOS_P]
+                        if not (eos[EOS_DEN] > 0.0) and bad < 0:
+                            bad, bad_code, bad_value = p, BAD_EOS, eos[EOS_DEN]
+                    else:  # elastic energy is strain energy; U holds only the viscous dissipation
+                        U[p] += q * (J0 - J) / density[mt]
+                        pressure[p] = -(stress[p, 0] + stress[p, 1] + stress[p, 2]) / 3.0
+                    for a in range(3):
+                        stress[p, a] -= q
+                    qv[p] = q
+                speed2 = 0.0
+                for a in range(dim):
+                    speed2 += pvel[p, a] * pvel[p, a]
+                cp = np.sqrt(modulus * J / density[mt]) + np.sqrt(speed2)
+                if cp > wave:
+                    wave = cp
+                finite = True
+                for a in range(6):
+                    if not np.isfinite(stress[p, a]):
+                        finite = False
+                if not finite and bad < 0:
+                    bad, bad_code, bad_value = p, BAD_NAN, 0.0
+            chunk_wave[c] = wave
+            chunk_bad[c] = bad
+            chunk_code[c] = bad_code
+            chunk_value[c] = bad_value
+
+    return kernel
+
+
+def stress_kernels(materials) -> list:
+    """The stress kernels of a material table: one per material model its deformable
+    materials use."""
+    codes = np.asarray(materials.type_code)
+    return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any())) for m in np.unique(codes)]
 
 
 def _update_stress(state, dt, gvel) -> None:
     nc = state.nchunk
     wave = np.zeros(nc)
     faults = Faults.empty(nc)
-    update_stress_kernel(state.entries, gvel, dt, state.particles.view(), state.materials.view(),
-                         float(state.grid.h.min()), nc, wave, faults)
-    state.wave_max = float(wave.max())
-    first = faults.first()
-    if first is not None:
-        state.flags.set(*first)
+    P, M, dx = state.particles.view(), state.materials.view(), float(state.grid.h.min())
+    state.wave_max = 0.0
+    for kernel in stress_kernels(state.materials):
+        kernel(state.entries, gvel, dt, P, M, dx, nc, wave, faults)
+        state.wave_max = max(state.wave_max, float(wave.max()))
+        first = faults.first()
+        if first is not None:
+            state.flags.set(*first)
+            break
 
 
 def update_stress_first(fraction: float):

@@ -39,7 +39,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.bond import point_bond
@@ -47,6 +47,7 @@ from ..contact.passes import NO_BEFORE, increment_contact, pair_changes
 from ..contact.spec import SEP_VELOCITY
 from ..contact.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
+from ..parallel import chunk_kernel
 from ..views import RigidHold
 from .boundary import has_walls, mirror_ghosts
 
@@ -87,7 +88,7 @@ class SlotGain(NamedTuple):
     prev: np.ndarray  # (n_slots, dim) scratch: the slots' increment before contact
 
 
-@njit(parallel=True, cache=True)
+@chunk_kernel
 def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds, ghost_src, nchunk, sums, slot_gain):
     """The series v* = sum_j (I - S+S)^j v over the active fields (sc: the particles' entries
     into their fields, material slots at contact nodes), with contact re-imposed on every
