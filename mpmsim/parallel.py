@@ -70,7 +70,7 @@ class ChunkKernel:
             copy.__qualname__ = fn.__qualname__ + "_serial"  # numba names the cache file after it
             copy.__module__ = fn.__module__
             copy.__doc__ = fn.__doc__
-            self._serial = njit(cache=True)(copy)
+            self._serial = njit(cache=True, error_model="numpy")(copy)  # as in the parallel form
         return self._serial
 
     @property

@@ -41,7 +41,7 @@ def inv3(A, out):
     out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) / d
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def neo_hookean_stress(K, G, F3, s):
     """Cauchy stress of Eq. (18): sigma = K/2 (J - 1/J) I + G J^(-5/3) dev(F F^T)."""
     J = det3(F3)
@@ -113,7 +113,7 @@ def rotate_stress(L, dt, s, W, A, Ai, Q):
     s[5] = W[0, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def hypoelastic_stress(lam, mu, L, dt, s, W, A, Ai, Q):
     """Isotropic linear elastic increment after the rotation:
     sigma <- Q sigma Q^T + lam tr(de) I + 2 mu de."""
@@ -128,7 +128,7 @@ def hypoelastic_stress(lam, mu, L, dt, s, W, A, Ai, Q):
     return lam + 2.0 * mu
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def anisotropic_stress(props, L, dt, s, W, A, Ai, Q):
     """Linear elastic increment with a full stiffness C (props[0:36], Voigt xx yy zz xy yz xz,
     engineering shear strains) after the rotation: sigma <- Q sigma Q^T + C de."""
@@ -181,7 +181,7 @@ def mg_cold(K, gamma0, S1, eta):
     return K * f / (d * d), K * ((1.0 - gamma0 * eta) / (d * d) + 2.0 * S1 * f / (d * d * d)), d
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def mie_gruneisen_stress(K, G, gamma0, S1, F3, s, eos):
     """Mie–Grüneisen pressure (Eq. 51) with the neo-Hookean shear term of Eq. (18).
 
@@ -223,19 +223,6 @@ def bulk_wave_modulus(code, props, J, p):
                 c += props[36 + 6 * a + b]
         return 1.0 / c
     return props[0] + 2.0 / 3.0 * props[1]
-
-
-@njit(cache=True, inline="always")
-def constitutive_update(code, props, F3, L, dt, s, W, A, Ai, Q, eos):
-    """Update stress row `s` for deformation F3 (already updated) and velocity gradient L over
-    dt. Returns the longitudinal modulus used for the wave speed."""
-    if code == NEO_HOOKEAN:
-        return neo_hookean_stress(props[0], props[1], F3, s)
-    if code == MIE_GRUNEISEN:
-        return mie_gruneisen_stress(props[0], props[1], props[2], props[3], F3, s, eos)
-    if code == ANISOTROPIC:
-        return anisotropic_stress(props, L, dt, s, W, A, Ai, Q)
-    return hypoelastic_stress(props[0], props[1], L, dt, s, W, A, Ai, Q)
 
 
 @njit(cache=True, inline="always")

@@ -37,6 +37,9 @@ def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, off
             for q in slab(ptr, color, s):
                 p = order[q]
                 mp = pmass[p]
+                # the velocity in locals: stores into gmom cannot then force its reloads
+                vx, vy = pvel[p, 0], pvel[p, 1]
+                vz = pvel[p, 2] if dim == 3 else 0.0
                 for k in range(K):
                     w = S[p, k]
                     if w == 0.0:
@@ -54,8 +57,10 @@ def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, off
                                 vd += C[p, d, b] * r[b]
                             gmom[i, d] += wm * vd
                     else:
-                        for d in range(dim):
-                            gmom[i, d] += wm * pvel[p, d]
+                        gmom[i, 0] += wm * vx
+                        gmom[i, 1] += wm * vy
+                        if dim == 3:
+                            gmom[i, 2] += wm * vz
 
 
 @chunk_kernel

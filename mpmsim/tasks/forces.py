@@ -7,7 +7,6 @@ from numba import prange
 
 from ..gridops import slab, zero_fields
 from ..loads import damp_grid, p2g_loads
-from ..materials.kernels import VOIGT
 from ..parallel import chunk_kernel
 from .boundary import fold_ghost_forces, has_walls
 
@@ -24,17 +23,33 @@ def p2g_forces(sc, G, P, gravity, has_gravity, gforce):
             for q in slab(ptr, color, s):
                 p = order[q]
                 vp = vol[p]
+                wm = pmass[p]
+                # the particle's stress in locals: the stores into gforce below cannot then
+                # force its reloads (a compiled plain loop must assume the arrays may overlap)
+                sxx, syy, szz, sxy, syz, sxz = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3],
+                                                stress[p, 4], stress[p, 5])
                 for k in range(K):
                     w = S[p, k]
                     i = nodes[p, k]
-                    for a in range(dim):
-                        fa = 0.0
-                        for b in range(dim):
-                            fa -= stress[p, VOIGT[a, b]] * G[p, k, b]
-                        fa *= vp
-                        if has_gravity:
-                            fa += w * pmass[p] * gravity[a]
-                        gforce[i, a] += fa
+                    gx, gy = G[p, k, 0], G[p, k, 1]
+                    if dim == 3:
+                        gz = G[p, k, 2]
+                        fx = (0.0 - sxx * gx - sxy * gy - sxz * gz) * vp
+                        fy = (0.0 - sxy * gx - syy * gy - syz * gz) * vp
+                        fz = (0.0 - sxz * gx - syz * gy - szz * gz) * vp
+                    else:
+                        fx = (0.0 - sxx * gx - sxy * gy) * vp
+                        fy = (0.0 - sxy * gx - syy * gy) * vp
+                        fz = 0.0
+                    if has_gravity:
+                        fx += w * wm * gravity[0]
+                        fy += w * wm * gravity[1]
+                        if dim == 3:
+                            fz += w * wm * gravity[2]
+                    gforce[i, 0] += fx
+                    gforce[i, 1] += fy
+                    if dim == 3:
+                        gforce[i, 2] += fz
 
 
 def forces(state) -> None:

@@ -18,9 +18,9 @@ from numba import prange
 
 from ..faults import BAD_EOS, BAD_INVERTED, BAD_NAN
 from ..gridops import chunk_range
-from ..materials import MIE_GRUNEISEN
-from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, bulk_wave_modulus,
-                                 constitutive_update, det3)
+from ..materials import ANISOTROPIC, MIE_GRUNEISEN, NEO_HOOKEAN
+from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, anisotropic_stress,
+                                 bulk_wave_modulus, det3, hypoelastic_stress, mie_gruneisen_stress, neo_hookean_stress)
 from ..parallel import chunk_kernel
 from ..views import Faults
 from .boundary import set_grid_velocity
@@ -106,7 +106,17 @@ def update_stress_kernel(model: int, tracked: bool):
                     eos[EOS_J0] = J0
                     eos[EOS_RHO0] = density[mt]
                     eos[EOS_DEN] = 1.0
-                modulus = constitutive_update(model, props[mt], F3, L, dt, stress[p], W, A, Ai, Q, eos)
+                # the stress of this model (`model` is a constant: numba keeps one branch, before
+                # it inlines the model's function, so no other model is ever compiled here)
+                pr, sp = props[mt], stress[p]
+                if model == NEO_HOOKEAN:
+                    modulus = neo_hookean_stress(pr[0], pr[1], F3, sp)
+                elif model == MIE_GRUNEISEN:
+                    modulus = mie_gruneisen_stress(pr[0], pr[1], pr[2], pr[3], F3, sp, eos)
+                elif model == ANISOTROPIC:
+                    modulus = anisotropic_stress(pr, L, dt, sp, W, A, Ai, Q)
+                else:
+                    modulus = hypoelastic_stress(pr[0], pr[1], L, dt, sp, W, A, Ai, Q)
                 if track:
                     q = eos[EOS_Q]
                     if model == MIE_GRUNEISEN:
