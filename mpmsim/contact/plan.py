@@ -454,7 +454,7 @@ def contact_geometry(normal: int, separation: int, interfaces: bool):
     or without interface laws: these are constants of target_geometry, so a scene compiles
     the code of its own methods only."""
     tag = f"{normal}_{separation}_{int(interfaces)}"
-    target = njit(cache=True)(specialize(target_geometry, tag, NORMAL=normal, SEPARATION=separation,
+    target = njit(cache=True, inline="always")(specialize(target_geometry, tag, NORMAL=normal, SEPARATION=separation,
                                          INTERFACES=interfaces))
     plan = njit(cache=True)(specialize(plan_nodes, tag, target_geometry=target))
     return chunk_kernel(specialize(geometry_kernel, tag, plan_nodes=plan))
