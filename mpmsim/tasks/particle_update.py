@@ -38,6 +38,7 @@ from numba import njit, prange
 from ..gridops import chunk_range
 from ..faults import BAD_LEFT_GRID, BAD_NAN
 from ..views import Faults
+from .boundary import has_walls, mirror_ghosts
 
 FLIP, PIC, XPIC, FMPM, APIC = 0, 1, 2, 3, 4
 SCHEMES = {"flip": FLIP, "pic": PIC, "xpic": XPIC, "fmpm": FMPM, "apic": APIC}
@@ -158,6 +159,9 @@ def particle_update(scheme: str, position: str = "midpoint"):
     def run(state) -> None:
         P, f = state.particles, state.fields
         nc = state.nchunk
+        if code_of_position == UPDATED and state.contact is not None and has_walls(state):
+            # contact pass 2 changed v+ after the grid update mirrored it: the ghosts follow again
+            mirror_ghosts(state.box.fields, f.ghost_src, f.vnew)
         gwork = np.zeros(nc)
         faults = Faults.empty(nc)
         particle_update_kernel(state.entries, state.entry_offsets, state.grid.view,
