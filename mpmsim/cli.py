@@ -408,6 +408,12 @@ def _check(scene) -> None:
     steps = int(np.ceil(d.time.end / dt))
     out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
               highlight=False)
+    if scene.has_particles:
+        from .stability import compaction_warning
+
+        warning = compaction_warning(scene, state.particles.x)
+        if warning:
+            out.print(f"[yellow]warning:[/] {warning}", highlight=False)
     P = state.particles
     if scene.has_particles and d.integrator == "implicit":
         out.print(f"cost: {steps} Newton solves over {P.n} particles' grid nodes"

@@ -10,6 +10,8 @@ bodies, gravity and loads); growth beyond `stability.energy_tolerance` stops the
 
 from __future__ import annotations
 
+import numpy as np
+
 from .bodies import INTERNAL, KINETIC, STRAIN
 from .deck.units import unit_system
 from .errors import InstabilityError
@@ -66,3 +68,33 @@ class StabilityCheck:
                 f"{sums[KINETIC]:.4g} + {sums[STRAIN]:.4g} + {sums[INTERNAL]:.4g}{stored} exceeds the energy supplied "
                 f"({supplied:.4g}) by {excess_text(excess, supplied)}; fastest is {fastest}; {REMEDY}",
                 state.t, state.step)
+
+
+# a rigid body's travel, as a fraction of the deformable material's extent along that axis,
+# above which `mpmsim check` warns about the midpoint position updates
+COMPACTION_WARN_STRAIN = 0.1
+
+
+def compaction_warning(scene, x) -> str | None:
+    """A warning for a deck whose rigid bodies travel more than COMPACTION_WARN_STRAIN of the
+    deformable particles' (positions x) extent with FLIP, XPIC or FMPM and the midpoint position
+    updates, which let oscillations grow once the stress is large (docs/stability.md,
+    "High-rate compaction"); None otherwise."""
+    deck, mats = scene.deck, scene.materials
+    upd = deck.update
+    if upd.position != "midpoint" or upd.scheme not in ("flip", "xpic", "fmpm") or not mats.rigid or len(x) == 0:
+        return None
+    extent = x.max(axis=0) - x.min(axis=0)
+    worst, who = 0.0, ""
+    for name, motion in zip(mats.rigid, mats.motions):
+        dmin, dmax = motion.displacement_envelope(deck.time.end)
+        travel = np.maximum(np.abs(dmin), np.abs(dmax))
+        strain = float(np.max(travel / np.maximum(extent, 1e-300)))
+        if strain > worst:
+            worst, who = strain, name
+    if worst < COMPACTION_WARN_STRAIN:
+        return None
+    return (f"rigid '{who}' travels {100 * worst:.0f}% of the material's extent with update.scheme {upd.scheme} "
+            "and update.position midpoint: under large compression these positions let the kinetic energy grow "
+            "and the particle volumes stop adding up; use update.position: updated (docs/stability.md, "
+            "\"High-rate compaction\")")

@@ -601,6 +601,13 @@ class Update(Strict):
         "the updated particles. false (\"-\"): it uses the updated grid velocity directly; "
         "cheaper, and far less FLIP ringing in long quasi-static runs (docs/stability.md).",
     )
+    position: Literal["midpoint", "updated"] = Field(
+        default="midpoint",
+        description="Particle positions. midpoint: each scheme's second-order form (flip: x += dt S(v+ - a dt/2)). "
+        "updated: x += dt S v+, the updated grid velocity, for every scheme: what the stress update integrates "
+        "into F, and stable where the stress is large against the moduli (high-rate compaction: the midpoint "
+        "forms let FLIP, XPIC and FMPM blow up there; docs/stability.md, \"High-rate compaction\").",
+    )
 
     @model_validator(mode="after")
     def _default_order(self):

@@ -121,7 +121,9 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     else:
         skipped.append(("xpic", f"{upd.scheme} update needs no grid filter"))
     name = f"{upd.scheme}({upd.order})" if upd.order else upd.scheme
-    tasks.append(Task("particle update", particle_update(upd.scheme), f"{name} velocity and position update"))
+    tasks.append(Task("particle update", particle_update(upd.scheme, upd.position),
+                      f"{name} velocity and position update"
+                      + ("; positions by the updated grid velocity" if upd.position == "updated" else "")))
     if n_rigid:
         tasks.append(Task("move rigid", move_rigid, "rigid materials follow their prescribed velocity"))
     else:

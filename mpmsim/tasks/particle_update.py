@@ -3,18 +3,29 @@
 With a = f/m and v+ = p+/m per node, v the start-of-step lumped velocity (velocity
 conditions imposed, `vstart`), v* the XPIC/FMPM-filtered velocity, and S q = sum_i S_ip q_i:
 
-  FLIP:  V += dt S a;              x += dt S (v + v+)/2        (second order)
-  PIC:   V  = S v+;                x += dt [S v + (V_new - V_old)/2]
-  XPIC:  V  = S (v* + a dt);       x += dt [S v + (V_new - V_old)/2]   (published form; the
-         xpic task leaves v* + a dt, with the BC refinement documented there, in vstar)
-  FMPM:  V  = S v*  (v* from v+);  x += dt (V_new + V_old)/2
-  APIC:  V  = S v+, B = sum_i S_ip v+_i (x) (x_i - x_p);  x += dt V_new
+  FLIP:  V += dt S a
+  PIC:   V  = S v+
+  XPIC:  V  = S (v* + a dt)     (published form; the xpic task leaves v* + a dt, with the BC
+         refinement documented there, in vstar)
+  FMPM:  V  = S v*  (v* from v+)
+  APIC:  V  = S v+, B = sum_i S_ip v+_i (x) (x_i - x_p)
 
-Away from velocity conditions v = v+ - a dt, so FLIP's position update is the notes' §1.4
-form x += dt S(v+ - a dt/2).
+Positions (`update.position`):
 
-All second-order forms are exact for constant acceleration. Rigid particles move with their
-prescribed velocity (trapezoidal in time).
+  midpoint (default):  FLIP  x += dt S (v + v+)/2      (second order)
+                       PIC, XPIC  x += dt [S v + (V_new - V_old)/2]
+                       FMPM  x += dt (V_new + V_old)/2
+                       APIC  x += dt V_new  (= dt S v+)
+  updated, every scheme:  x += dt S v+
+
+The updated form moves a particle with the grid velocity that the stress update integrates
+into F (exactly so with `reextrapolate: false`), after the velocity: a symplectic-Euler pair.
+The midpoint forms, with the velocity updated by the start-of-step force, amplify every
+oscillation by a factor (1 + (w dt)^2 / 2)^(1/2) per step where the positions carry the
+stiffness, as they do under a stress large against the moduli (docs/stability.md, "High-rate
+compaction"). Away from velocity conditions v = v+ - a dt, so FLIP's midpoint form is the
+notes' §1.4 x += dt S(v+ - a dt/2), exact for constant acceleration. Rigid particles move
+with their prescribed velocity (trapezoidal in time).
 """
 
 from __future__ import annotations
@@ -29,9 +40,12 @@ from ..gridops import chunk_range
 from ..faults import BAD_LEFT_GRID, BAD_NAN
 from ..parallel import chunk_kernel
 from ..views import Faults
+from .boundary import has_walls, mirror_ghosts
 
 FLIP, PIC, XPIC, FMPM, APIC = 0, 1, 2, 3, 4
 SCHEMES = {"flip": FLIP, "pic": PIC, "xpic": XPIC, "fmpm": FMPM, "apic": APIC}
+UPDATED, MIDPOINT = 0, 1
+POSITIONS = {"updated": UPDATED, "midpoint": MIDPOINT}
 
 
 class GridVelocities(NamedTuple):
@@ -42,15 +56,15 @@ class GridVelocities(NamedTuple):
 
 
 @cache
-def particle_update_kernel(scheme: int):
-    """The particle update of one scheme (code), compiled for it alone: `scheme` is a constant
-    of the kernel, so numba drops the other schemes' branches."""
+def particle_update_kernel(scheme: int, position: int):
+    """The particle update of one scheme and position form (codes), compiled for them alone:
+    both are constants of the kernel, so numba drops the other branches."""
 
     @chunk_kernel
     def kernel(entries, offs, grid, gv, dt, P, gravity, lo, hi, nchunk, chunk_gwork, faults):
-        """Velocities and positions of particles P from the grid velocities gv (entries:
-        shapes.ShapeData whose nodes are the particles' fields); per chunk the work of gravity
-        and the first particle that went non-finite or left [lo, hi]."""
+        """Velocities and positions (`position`: UPDATED or MIDPOINT) of particles P from the grid
+        velocities gv (entries: shapes.ShapeData whose nodes are the particles' fields); per chunk
+        the work of gravity and the first particle that went non-finite or left [lo, hi]."""
         nodes, S, lowest = entries.nodes, entries.S, entries.lowest
         origin, h = grid.origin, grid.h
         vnew, acc, vstart, vstar = gv.vnew, gv.acc, gv.vstart, gv.vstar
@@ -89,13 +103,13 @@ def particle_update_kernel(scheme: int):
                         for d in range(dim):
                             sv[d] += w * vnew[i, d]
                             s0[d] += w * vstart[i, d]
-                    elif scheme == XPIC:
+                    elif scheme == XPIC or scheme == FMPM:
                         for d in range(dim):
                             ss[d] += w * vstar[i, d]
-                            s0[d] += w * vstart[i, d]
-                    elif scheme == FMPM:
-                        for d in range(dim):
-                            ss[d] += w * vstar[i, d]
+                            if position == UPDATED:
+                                sv[d] += w * vnew[i, d]
+                            elif scheme == XPIC:
+                                s0[d] += w * vstart[i, d]
                     else:  # APIC
                         for d in range(dim):
                             sv[d] += w * vnew[i, d]
@@ -122,9 +136,14 @@ def particle_update_kernel(scheme: int):
                     else:  # APIC
                         vn = sv[d]
                         dx = dt * vn
+                    if position == UPDATED:
+                        dx = dt * sv[d]
+                        # the work that changes 1/2 m V^2 by exactly m g (V_new^2 - V_old^2)/2g in free fall
+                        gwork += pmass[p] * gravity[d] * 0.5 * dt * (vold + vn)
+                    else:
+                        gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
                     x[p, d] += dx
                     v[p, d] = vn
-                    gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
                     if x[p, d] < lo[d] or x[p, d] > hi[d]:
                         outside = True
                     if not (np.isfinite(vn) and np.isfinite(x[p, d])):
@@ -140,13 +159,18 @@ def particle_update_kernel(scheme: int):
     return kernel
 
 
-def particle_update(scheme: str):
-    """The particle update of one scheme (flip, pic, xpic, fmpm, apic)."""
-    kernel = particle_update_kernel(SCHEMES[scheme])
+def particle_update(scheme: str, position: str = "midpoint"):
+    """The particle update of one scheme (flip, pic, xpic, fmpm, apic) with positions moved by
+    the updated grid velocity or by the scheme's midpoint form."""
+    code_of_position = POSITIONS[position]
+    kernel = particle_update_kernel(SCHEMES[scheme], code_of_position)
 
     def run(state) -> None:
         P, f = state.particles, state.fields
         nc = state.nchunk
+        if code_of_position == UPDATED and state.contact is not None and has_walls(state):
+            # contact pass 2 changed v+ after the grid update mirrored it: the ghosts follow again
+            mirror_ghosts(state.box.fields, f.ghost_src, f.vnew)
         gwork = np.zeros(nc)
         faults = Faults.empty(nc)
         kernel(state.entries, state.entry_offsets, state.grid.view, GridVelocities(f.vnew, f.acc, f.vstart, f.vstar),
