@@ -42,12 +42,14 @@ from typing import NamedTuple
 import numba
 import numpy as np
 import yaml
-from numba import njit
+from numba import njit, prange
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script: the package beside it
-    sys.path.insert(0, str(ROOT))
+for folder in (ROOT, ROOT / "bench"):  # the package beside it, and bench/column.py
+    if str(folder) not in sys.path:
+        sys.path.insert(0, str(folder))
 
+from column import steps_wall  # noqa: E402
 from mpmsim.cli import busy_cores  # noqa: E402
 from mpmsim.deck import load_deck_text  # noqa: E402
 from mpmsim.materials import NEO_HOOKEAN  # noqa: E402
@@ -389,16 +391,22 @@ def triad(a, b, c, s):
         a[i] = b[i] + s * c[i]
 
 
-def triad_gbs(n: int, repeats: int) -> float:
+@njit(cache=True, parallel=True)
+def triad_threads(a, b, c, s):
+    for i in prange(a.size):
+        a[i] = b[i] + s * c[i]
+
+
+def triad_gbs(n: int, repeats: int, kernel=triad) -> float:
     """Best triad bandwidth (GB/s, 3 x 8 bytes per element) over arrays of n elements."""
     a, b, c = np.zeros(n), np.random.rand(n), np.random.rand(n)
-    triad(a, b, c, 3.0)
+    kernel(a, b, c, 3.0)
     inner = max(1, int(2e7 // n))  # short arrays: repeat inside one timing
     best = np.inf
     for _ in range(repeats):
         t0 = time.perf_counter()
         for _ in range(inner):
-            triad(a, b, c, 3.0)
+            kernel(a, b, c, 3.0)
         best = min(best, (time.perf_counter() - t0) / inner)
     return 24.0 * n / best / 1e9
 
@@ -597,13 +605,7 @@ def shrink(data: dict) -> None:
 
 def timed(sim, steps: int, warmup: int) -> tuple[float, dict[str, float]]:
     """(seconds per step, seconds per step of each task) over `steps` warm steps."""
-    for _ in range(warmup):
-        sim.step()
-    sim.reset_timers()
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        sim.step()
-    wall = time.perf_counter() - t0
+    wall = steps_wall(sim, steps, warmup)
     return wall / steps, {k: v / steps for k, v in sim.timers.items() if k != "output"}
 
 
@@ -752,7 +754,7 @@ def cli_rate(deck: Path, out: Path, threads: int) -> tuple[float, float, float]:
     return rate, output, wall
 
 
-def big_report(steps: int, rounds: int) -> None:
+def big_report(steps: int, rounds: int, bw_mem: float) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         deck = big_deck(folder, steps + 1)
@@ -762,20 +764,23 @@ def big_report(steps: int, rounds: int) -> None:
             numba.set_num_threads(th)
             sim.step()
         cli_rate(deck, folder / "warm", 1)
-        rows: dict[str, list[float]] = {}
+        rows: dict[str, list[tuple[float, float]]] = {}
+        task_runs: dict[int, list] = {}
         outputs = []
         cpus = os.sched_getaffinity(0)
         for _ in range(rounds):
-            for th, sim in sims.items():
+            for th in sims:
                 numba.set_num_threads(th)
                 fresh = simulation(deck, th)
                 busy = busy_cores(cpus)
-                wall, _ = timed(fresh, steps - 2, 2)
-                rows.setdefault(f"Simulation.step(), {th} thread(s)", []).append((n / wall / 1e6, busy))
+                run = timed(fresh, steps - 2, 2)
+                task_runs.setdefault(th, []).append(run)
+                rows.setdefault(f"Simulation.step(), {th} thread(s)", []).append((n / run[0] / 1e6, busy))
             busy = busy_cores(cpus)
             rate, output, run_wall = cli_rate(deck, folder / "run", 1)
             rows.setdefault("mpmsim run --threads 1 (log's rate)", []).append((rate, busy))
             outputs.append((output, run_wall))
+        sim = fresh
     print(f"\n## column at 0.25 mm cells: {n} particles, about {steps} steps per measurement, best of {rounds}")
     print("| variant | M particle-steps/s each round (other processes' busy cores just before) | best |")
     print("|---|---|---|")
@@ -792,6 +797,21 @@ def big_report(steps: int, rounds: int) -> None:
     two = best.get("Simulation.step(), 2 thread(s)")
     if two is not None:
         print(f"speed-up 1 -> 2 threads: {two / one:.2f} (goal >= 1.8)")
+    if 2 in sims:
+        numba.set_num_threads(2)
+        busy = busy_cores(os.sched_getaffinity(0))
+        print(f"triad in memory on 2 threads: {triad_gbs(1 << 24, 7, triad_threads):.2f} GB/s (1 thread: "
+              f"{bw_mem:.2f}; other processes kept {busy:.1f} cores busy just before)")
+        numba.set_num_threads(1)
+    per = {th: best_of(r)[1] for th, r in task_runs.items()}
+    print("| task | 1 thread us/step | B/particle-step | GB/s | % of triad (memory) | 2 threads us/step | speed-up |")
+    print("|---|---|---|---|---|---|---|")
+    for task, t1 in per[1].items():
+        streamed = task_bytes(sim, task)[0] if task in TRAFFIC else float("nan")
+        gbs = streamed * n / t1 / 1e9 if t1 > 0 else 0.0
+        t2 = per.get(2, {}).get(task)
+        two_cols = f"{t2 * 1e6:.0f} | {t1 / t2:.2f}" if t2 else "- | -"
+        print(f"| {task} | {t1 * 1e6:.0f} | {streamed:.0f} | {gbs:.2f} | {100 * gbs / bw_mem:.0f} | {two_cols} |")
 
 
 def main() -> None:
@@ -814,7 +834,7 @@ def main() -> None:
     results = {name: deck_report(name, args.steps, args.rounds, bw_mem) for name in DECKS}
     flops_report(results, flop_rate(), cbrt_seconds())
     if not args.skip_256k:
-        big_report(args.big_steps, args.big_rounds)
+        big_report(args.big_steps, args.big_rounds, bw_mem)
     print(f"\n(traffic.py took {time.perf_counter() - t0:.0f} s)")
 
 
