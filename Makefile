@@ -31,6 +31,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/calibrate.py
 	$(BIN)/python bench/column.py
 	$(BIN)/python bench/column.py --deck bench/two_blocks.yaml --matrix-steps 0
+	$(BIN)/python bench/traffic.py
 	$(BIN)/python bench/fem_contact.py speed
 	$(BIN)/python bench/implicit.py
 

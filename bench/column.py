@@ -39,16 +39,21 @@ def load(deck: Path, shape: str | None = None, update: dict | None = None):
     return load_deck_text(yaml.safe_dump(data), deck)
 
 
-def measure(deck: Path, steps: int, threads: int, warmup: int = 5, shape=None, update=None):
-    numba.set_num_threads(threads)
-    sim = Simulation(build_scene(load(deck, shape, update)), out_dir=None, threads=threads)
+def steps_wall(sim: Simulation, steps: int, warmup: int) -> float:
+    """Wall seconds of `steps` steps after `warmup` ones (the timers zeroed after the warm-up)."""
     for _ in range(warmup):
         sim.step()
     sim.reset_timers()
     t0 = time.perf_counter()
     for _ in range(steps):
         sim.step()
-    wall = time.perf_counter() - t0
+    return time.perf_counter() - t0
+
+
+def measure(deck: Path, steps: int, threads: int, warmup: int = 5, shape=None, update=None):
+    numba.set_num_threads(threads)
+    sim = Simulation(build_scene(load(deck, shape, update)), out_dir=None, threads=threads)
+    wall = steps_wall(sim, steps, warmup)
     n = sim.state.particles.n
     return n * steps / wall, dict(sim.timers), n
 
