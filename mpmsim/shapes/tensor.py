@@ -64,16 +64,17 @@ def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
                 lowest[p, d] = base[d]
                 chunk_lo[c, d] = min(chunk_lo[c, d], base[d])
                 chunk_hi[c, d] = max(chunk_hi[c, d], base[d] + per_axis - 1)
-            for k in range(K):
-                a = k % per_axis
-                b = (k // per_axis) % per_axis
-                cc = k // (per_axis * per_axis)
-                nodes[p, k] = (base[0] + a) + shape[0] * ((base[1] + b) + shape[1] * (base[2] + cc))
-                wx = w[0, a]
-                wy = w[1, b]
-                wz = w[2, cc]
-                S[p, k] = wx * wy * wz
-                G[p, k, 0] = dw[0, a] * wy * wz
-                G[p, k, 1] = wx * dw[1, b] * wz
-                if dim == 3:
-                    G[p, k, 2] = wx * wy * dw[2, cc]
+            k = 0  # node k = a + per_axis (b + per_axis cc): nested loops, no divisions
+            for cc in range(per_axis if dim == 3 else 1):
+                for b in range(per_axis):
+                    for a in range(per_axis):
+                        nodes[p, k] = (base[0] + a) + shape[0] * ((base[1] + b) + shape[1] * (base[2] + cc))
+                        wx = w[0, a]
+                        wy = w[1, b]
+                        wz = w[2, cc]
+                        S[p, k] = wx * wy * wz
+                        G[p, k, 0] = dw[0, a] * wy * wz
+                        G[p, k, 1] = wx * dw[1, b] * wz
+                        if dim == 3:
+                            G[p, k, 2] = wx * wy * dw[2, cc]
+                        k += 1

@@ -72,6 +72,11 @@ def particle_update_kernel(scheme: int, position: int):
         chunk_bad, chunk_code = faults.bad, faults.code
         n, K = S.shape
         dim = x.shape[1]
+        # the grid fields this scheme and position form read
+        use_a = scheme == FLIP
+        use_v = scheme == FLIP or scheme == PIC or scheme == APIC or position == UPDATED
+        use_0 = scheme == FLIP or scheme == PIC or (scheme == XPIC and position != UPDATED)
+        use_s = scheme == XPIC or scheme == FMPM
         for c in prange(nchunk):
             start, stop = chunk_range(c, nchunk, n)
             sa = np.zeros(3)
@@ -82,41 +87,48 @@ def particle_update_kernel(scheme: int, position: int):
             bad = -1
             code = 0
             for p in range(start, stop):
-                for d in range(dim):
-                    sa[d] = 0.0
-                    sv[d] = 0.0
-                    s0[d] = 0.0
-                    ss[d] = 0.0
                 if scheme == APIC:
                     for a in range(dim):
                         for b in range(dim):
                             B[p, a, b] = 0.0
+                # the sums S q run in scalar locals (a compiled plain loop must assume scratch
+                # rows may overlap the grid arrays it reads, and would reload them: 1.7x slower)
+                ax = ay = az = 0.0  # S a
+                vx = vy = vz = 0.0  # S v+
+                zx = zy = zz = 0.0  # S v (start)
+                sx = sy = sz = 0.0  # S v*
                 for k in range(K):  # gather only the fields this scheme uses
                     w = S[p, k]
                     i = nodes[p, k]
-                    if scheme == FLIP:
-                        for d in range(dim):
-                            sa[d] += w * acc[i, d]
-                            sv[d] += w * vnew[i, d]
-                            s0[d] += w * vstart[i, d]
-                    elif scheme == PIC:
-                        for d in range(dim):
-                            sv[d] += w * vnew[i, d]
-                            s0[d] += w * vstart[i, d]
-                    elif scheme == XPIC or scheme == FMPM:
-                        for d in range(dim):
-                            ss[d] += w * vstar[i, d]
-                            if position == UPDATED:
-                                sv[d] += w * vnew[i, d]
-                            elif scheme == XPIC:
-                                s0[d] += w * vstart[i, d]
-                    else:  # APIC
-                        for d in range(dim):
-                            sv[d] += w * vnew[i, d]
+                    if use_a:
+                        ax += w * acc[i, 0]
+                        ay += w * acc[i, 1]
+                        if dim == 3:
+                            az += w * acc[i, 2]
+                    if use_v:
+                        vx += w * vnew[i, 0]
+                        vy += w * vnew[i, 1]
+                        if dim == 3:
+                            vz += w * vnew[i, 2]
+                    if use_0:
+                        zx += w * vstart[i, 0]
+                        zy += w * vstart[i, 1]
+                        if dim == 3:
+                            zz += w * vstart[i, 2]
+                    if use_s:
+                        sx += w * vstar[i, 0]
+                        sy += w * vstar[i, 1]
+                        if dim == 3:
+                            sz += w * vstar[i, 2]
+                    if scheme == APIC:
                         for b in range(dim):
                             rb = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
                             for a in range(dim):
                                 B[p, a, b] += w * vnew[i, a] * rb
+                sa[0], sa[1], sa[2] = ax, ay, az
+                sv[0], sv[1], sv[2] = vx, vy, vz
+                s0[0], s0[1], s0[2] = zx, zy, zz
+                ss[0], ss[1], ss[2] = sx, sy, sz
                 outside = False
                 finite = True
                 for d in range(dim):

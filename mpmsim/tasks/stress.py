@@ -58,25 +58,49 @@ def update_stress_kernel(model: int, tracked: bool):
                 mt = mat[p]
                 if code[mt] != model:
                     continue
-                for a in range(dim):
-                    for b in range(dim):
-                        L[a, b] = 0.0
-                for k in range(K):
-                    i = nodes[p, k]
-                    for a in range(dim):
-                        va = gvel[i, a]
-                        for b in range(dim):
-                            L[a, b] += va * G[p, k, b]
                 # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
-                for a in range(3):
-                    for b in range(3):
-                        if a < dim and b < dim:
+                if dim == 2:
+                    # in 2D the sums run in scalar locals: a compiled plain loop must assume the
+                    # scratch rows may overlap the arrays it reads, and reloads them (1.5x slower)
+                    l00 = 0.0
+                    l01 = 0.0
+                    l10 = 0.0
+                    l11 = 0.0
+                    for k in range(K):
+                        i = nodes[p, k]
+                        v0, v1 = gvel[i, 0], gvel[i, 1]
+                        g0, g1 = G[p, k, 0], G[p, k, 1]
+                        l00 += v0 * g0
+                        l01 += v0 * g1
+                        l10 += v1 * g0
+                        l11 += v1 * g1
+                    L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
+                    f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
+                    F3[0, 0] = f00 + dt * l00 * f00 + dt * l01 * f10
+                    F3[0, 1] = f01 + dt * l00 * f01 + dt * l01 * f11
+                    F3[1, 0] = f10 + dt * l10 * f00 + dt * l11 * f10
+                    F3[1, 1] = f11 + dt * l10 * f01 + dt * l11 * f11
+                    F3[0, 2] = 0.0
+                    F3[1, 2] = 0.0
+                    F3[2, 0] = 0.0
+                    F3[2, 1] = 0.0
+                    F3[2, 2] = 1.0
+                else:
+                    for a in range(dim):
+                        for b in range(dim):
+                            L[a, b] = 0.0
+                    for k in range(K):
+                        i = nodes[p, k]
+                        for a in range(dim):
+                            va = gvel[i, a]
+                            for b in range(dim):
+                                L[a, b] += va * G[p, k, b]
+                    for a in range(3):
+                        for b in range(3):
                             s = F[p, a, b]
                             for m in range(dim):
                                 s += dt * L[a, m] * F[p, m, b]
                             F3[a, b] = s
-                        else:
-                            F3[a, b] = 1.0 if a == b else 0.0
                 J = det3(F3)
                 if not (J > 0.0):
                     if bad < 0:
