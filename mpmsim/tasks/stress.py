@@ -109,9 +109,9 @@ def update_stress_kernel(model: int, tracked: bool):
                 for a in range(dim):
                     for b in range(dim):
                         F[p, a, b] = F3[a, b]
-                J0 = vol[p] / vol0[p]
-                vol[p] = vol0[p] * J
                 track = tracked and energy[mt]
+                J0 = vol[p] / vol0[p] if track else 1.0  # (read only with internal energy)
+                vol[p] = vol0[p] * J
                 q = 0.0
                 if track:
                     # Eq. (52): q only in compression, C the current bulk wave speed
