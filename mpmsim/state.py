@@ -184,7 +184,7 @@ class State:
         rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim, deck.stability.rigid_penetration)
         sf = shape_function(deck.shape_function)
         K = sf.nodes_per_particle(dim)
-        if threads is None:  # no count asked for: one thread for a small scene
+        if not threads:  # no count asked for: one thread for a small scene
             threads, _ = auto_threads(n_threads(), particles.n)
         use_threads(threads)  # kernels run from here on (shape functions below) in this form
         nr = len(mats.rigid)

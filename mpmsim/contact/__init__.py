@@ -140,7 +140,7 @@ class ContactTasks:
         before = f.vnew[nn:nn + ns].copy()
         settings = Pass2Settings(self.sep_velocity, self.spec.interface_integration, self.touch, state.dt)
         self.pass_2_kernel(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
-                       cs.targets(), cs.decisions(), settings, nc, sums)
+                           cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
         pair_changes(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, True, cs.pair_step)
         settle_pairs(cs.pair_step, cs.pair_force, cs.pair_impulse, state.dt)
