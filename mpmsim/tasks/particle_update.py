@@ -92,7 +92,8 @@ def particle_update_kernel(scheme: int, position: int):
                         for b in range(dim):
                             B[p, a, b] = 0.0
                 # the sums S q run in scalar locals (a compiled plain loop must assume scratch
-                # rows may overlap the grid arrays it reads, and would reload them: 1.7x slower)
+                # rows may overlap the grid arrays it reads, and would reload them: 1.7x slower;
+                # an inlined helper returning the three sums was 4.6x slower than these lines)
                 ax = ay = az = 0.0  # S a
                 vx = vy = vz = 0.0  # S v+
                 zx = zy = zz = 0.0  # S v (start)
