@@ -68,6 +68,28 @@ def neo_hookean_stress(K, G, F3, s):
 
 
 @njit(cache=True, inline="always")
+def neo_hookean_stress_2d(K, G, J, f00, f01, f10, f11, s):
+    """neo_hookean_stress for plane strain (F33 = 1, no out-of-plane entries), from F's four
+    in-plane entries and J = f00 f11 - f01 f10: the same operations without the terms that are
+    exactly zero, so the same numbers bit for bit (the zero shear terms come out +0, as there)."""
+    bxx = f00 ** 2 + f01 ** 2
+    byy = f10 ** 2 + f11 ** 2
+    bxy = f00 * f10 + f01 * f11 + 0.0  # (+ 0.0: the 3D sum's last term, which turns -0 into +0)
+    tr3 = (bxx + byy + 1.0) / 3.0
+    pres = 0.5 * K * (J - 1.0 / J)
+    cj = np.cbrt(J)
+    c = G / (J * cj * cj)
+    s[0] = pres + c * (bxx - tr3)
+    s[1] = pres + c * (byy - tr3)
+    s[2] = pres + c * (1.0 - tr3)
+    s[3] = c * bxy
+    s[4] = c * 0.0
+    s[5] = c * 0.0
+    bmax = max(bxx + abs(bxy) + 0.0, max(byy + abs(bxy) + 0.0, 1.0 + 0.0 + 0.0))
+    return 0.5 * K * (J + 1.0 / J) + 4.0 / 3.0 * c * bmax
+
+
+@njit(cache=True, inline="always")
 def neo_hookean_energy(K, G, F3):
     """Strain energy per reference volume, Eq. (18)."""
     J = det3(F3)

@@ -20,7 +20,8 @@ from ..faults import BAD_EOS, BAD_INVERTED, BAD_NAN
 from ..gridops import chunk_range
 from ..materials import ANISOTROPIC, MIE_GRUNEISEN, NEO_HOOKEAN
 from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, anisotropic_stress,
-                                 bulk_wave_modulus, det3, hypoelastic_stress, mie_gruneisen_stress, neo_hookean_stress)
+                                 bulk_wave_modulus, det3, hypoelastic_stress, mie_gruneisen_stress, neo_hookean_stress,
+                                 neo_hookean_stress_2d)
 from ..parallel import chunk_kernel
 from ..views import Faults
 from .boundary import set_grid_velocity
@@ -59,6 +60,7 @@ def update_stress_kernel(model: int, tracked: bool):
                 if code[mt] != model:
                     continue
                 # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
+                n00 = n01 = n10 = n11 = 0.0  # 2D: the new F's in-plane entries
                 if dim == 2:
                     # in 2D the sums run in scalar locals: a compiled plain loop must assume the
                     # scratch rows may overlap the arrays it reads, and reloads them (1.5x slower)
@@ -74,17 +76,20 @@ def update_stress_kernel(model: int, tracked: bool):
                         l01 += v0 * g1
                         l10 += v1 * g0
                         l11 += v1 * g1
-                    L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
+                    if model != NEO_HOOKEAN or tracked:  # (the 2D neo-Hookean path reads neither)
+                        L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
                     f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
-                    F3[0, 0] = f00 + dt * l00 * f00 + dt * l01 * f10
-                    F3[0, 1] = f01 + dt * l00 * f01 + dt * l01 * f11
-                    F3[1, 0] = f10 + dt * l10 * f00 + dt * l11 * f10
-                    F3[1, 1] = f11 + dt * l10 * f01 + dt * l11 * f11
-                    F3[0, 2] = 0.0
-                    F3[1, 2] = 0.0
-                    F3[2, 0] = 0.0
-                    F3[2, 1] = 0.0
-                    F3[2, 2] = 1.0
+                    n00 = f00 + dt * l00 * f00 + dt * l01 * f10
+                    n01 = f01 + dt * l00 * f01 + dt * l01 * f11
+                    n10 = f10 + dt * l10 * f00 + dt * l11 * f10
+                    n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+                    if model != NEO_HOOKEAN:
+                        F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
+                        F3[0, 2] = 0.0
+                        F3[1, 2] = 0.0
+                        F3[2, 0] = 0.0
+                        F3[2, 1] = 0.0
+                        F3[2, 2] = 1.0
                 else:
                     for a in range(dim):
                         for b in range(dim):
@@ -101,14 +106,19 @@ def update_stress_kernel(model: int, tracked: bool):
                             for m in range(dim):
                                 s += dt * L[a, m] * F[p, m, b]
                             F3[a, b] = s
-                J = det3(F3)
+                # det3 of the padded F; in 2D its out-of-plane terms are exact zeros, which change
+                # nothing where J > 0 (elsewhere the particle is reported inverted either way)
+                J = n00 * n11 - n01 * n10 if dim == 2 else det3(F3)
                 if not (J > 0.0):
                     if bad < 0:
                         bad, bad_code, bad_value = p, BAD_INVERTED, J
                     continue
-                for a in range(dim):
-                    for b in range(dim):
-                        F[p, a, b] = F3[a, b]
+                if dim == 2:
+                    F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1] = n00, n01, n10, n11
+                else:
+                    for a in range(dim):
+                        for b in range(dim):
+                            F[p, a, b] = F3[a, b]
                 track = tracked and energy[mt]
                 J0 = vol[p] / vol0[p] if track else 1.0  # (read only with internal energy)
                 vol[p] = vol0[p] * J
@@ -133,7 +143,9 @@ def update_stress_kernel(model: int, tracked: bool):
                 # the stress of this model (`model` is a constant: numba keeps one branch, before
                 # it inlines the model's function, so no other model is ever compiled here)
                 pr, sp = props[mt], stress[p]
-                if model == NEO_HOOKEAN:
+                if model == NEO_HOOKEAN and dim == 2:
+                    modulus = neo_hookean_stress_2d(pr[0], pr[1], J, n00, n01, n10, n11, sp)
+                elif model == NEO_HOOKEAN:
                     modulus = neo_hookean_stress(pr[0], pr[1], F3, sp)
                 elif model == MIE_GRUNEISEN:
                     modulus = mie_gruneisen_stress(pr[0], pr[1], pr[2], pr[3], F3, sp, eos)
