@@ -93,7 +93,9 @@ def specialize(fn, tag: str, **bind):
     take the given values, named `<qualname>_<tag>`. numba reads globals as constants when it
     compiles, so bound method codes prune the branches of the other methods, and bound
     functions replace the ones it calls; the name gives the copy its own cache file, so `tag`
-    must tell every binding apart. (A kernel made inside a factory could instead close over
+    must tell every binding apart. numba ties the cache entry to `fn`'s source file: a binding
+    to a function of another file must show in `tag` too, and an edit of that function needs a
+    new tag or `make clean-cache`. (A kernel made inside a factory could instead close over
     its constants, but a compiled function in a closure cell changes numba's cache key in
     every process; one bound as a global does not.)"""
     scope = dict(fn.__globals__)
