@@ -3,13 +3,14 @@
 A kernel whose outer loop runs over chunks (`for c in prange(nchunk)`) can be compiled two
 ways: with numba's `parallel=True`, which turns the loop into a threaded region, or as a
 plain loop. Compiling the threaded form costs 1.5-3x the time of the plain one (numba's
-parfor passes and a second compiled body per kernel), and on a small scene it buys nothing:
-a step of a few thousand particles is over before a second thread has earned its start.
+parfor passes and a second compiled body per kernel), and on a small scene it buys little:
+a step of a few thousand particles gains under 20% from a second thread, or loses.
 So every chunked kernel is decorated with `@chunk_kernel` instead of
 `@njit(parallel=True, cache=True)`, and
 
 - `kernel(*args)` runs the serial or the parallel form, as `use_threads(...)` last chose
-  for this process (the integrator chooses before each step, from its State);
+  for this process (Simulation.step chooses before each step, from its State's thread
+  count; State.from_scene before the first kernels);
 - each form is compiled only when first used, and cached in its own file: the serial copy
   of the function gets the qualified name `<name>_serial`, which names numba's cache file.
 
