@@ -482,7 +482,7 @@ def no_model_2d(K, G, J, f00, f01, f10, f11, s):
 def without_model():
     """The neo-Hookean stress kernel with the model replaced by `no_model` (the rest as is):
     its in-cache time against the real kernel's is the model's cost."""
-    kernel = update_stress_kernel(NEO_HOOKEAN, False)
+    kernel = update_stress_kernel(NEO_HOOKEAN, False, 2)
     return njit(cache=True, error_model="numpy")(specialize(kernel.py_func, "no_model_3d_2d", neo_hookean_stress=no_model,
                                                                       neo_hookean_stress_2d=no_model_2d))
 
@@ -494,8 +494,8 @@ def replays(sim) -> dict:
     st = sim.state
     P, sd, f, g = st.particles, st.entries, st.fields, st.grid
     view = P.view()
-    stress = update_stress_kernel(NEO_HOOKEAN, False)
-    flip = particle_update_kernel(FLIP, MIDPOINT)
+    stress = update_stress_kernel(NEO_HOOKEAN, False, 2)
+    flip = particle_update_kernel(FLIP, MIDPOINT, 2)
     M = st.materials.view()
     gv = GridVelocities(f.vnew, f.acc, f.vstart, f.vstar)
     lo, hi = st.particle_bounds

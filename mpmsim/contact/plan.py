@@ -208,24 +208,24 @@ def label_cloud(a, b, ga, c0, c1, nodes, clouds, labels):
 
 
 @njit(cache=True)
-def regression_normal_of(b, ga, rigid_b, node, c0, c1, inp, R, dim, n):
+def regression_normal_of(b, ga, rigid_b, node, c0, c1, method, warm_phi, clouds, grad, R, dim, n):
     """Logistic or linear regression normal of the labelled cloud (LR paper §3.1); the
     centroid direction if the fit fails; against a rigid material with rigid_bias >= 10, the
-    rigid material's volume gradient. False: no usable cloud (the target is dropped)."""
-    method, warm_phi = inp.method, inp.warm_phi
+    rigid material's volume gradient (grad: the slots' volume gradients). False: no usable
+    cloud (the target is dropped). (It takes the pieces of the geometry's inputs it reads,
+    not the whole bundle: passing that down costs compile time at every call level.)"""
     for r in range(4):
         R.phi0[r] = warm_phi[node, ga, r] if method.warm else 0.0
-    m, wsum = gather_cloud(inp.clouds, c0, c1, dim, R)
+    m, wsum = gather_cloud(clouds, c0, c1, dim, R)
     ok = -1
     if m > 0:
         ok = regression_normal(R, m, wsum, dim, method.h_min, method.normal == LOGISTIC, n)
     if method.warm and ok > 0:
         for r in range(dim + 1):
             warm_phi[node, ga, r] = R.phi[r]
-    if ok < 0 and not cloud_direction(inp.clouds, R.labels, c0, c1, dim, n):
+    if ok < 0 and not cloud_direction(clouds, R.labels, c0, c1, dim, n):
         return False
     if rigid_b and method.rigid_bias >= 10.0:
-        grad = inp.sums.grad
         gn = 0.0
         for d in range(dim):
             gn += grad[b, d] ** 2
@@ -381,7 +381,8 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
     if c1 > c0:
         label_cloud(a, b, ga, c0, c1, nodes, inp.clouds, R.labels)
     if NORMAL == LOGISTIC or NORMAL == LINEAR_REGRESSION:
-        if not regression_normal_of(b, ga, rigid_b, node, c0, c1, inp, R, dim, n):
+        if not regression_normal_of(b, ga, rigid_b, node, c0, c1, method, inp.warm_phi, inp.clouds, inp.sums.grad, R,
+                                    dim, n):
             geo.role[a] = 0  # no usable cloud: this material is left alone here
             return
     elif NORMAL == SPECIFIED:

@@ -56,9 +56,10 @@ class GridVelocities(NamedTuple):
 
 
 @cache
-def particle_update_kernel(scheme: int, position: int):
-    """The particle update of one scheme and position form (codes), compiled for them alone:
-    both are constants of the kernel, so numba drops the other branches."""
+def particle_update_kernel(scheme: int, position: int, dim: int):
+    """The particle update of one scheme and position form (codes) in `dim` dimensions,
+    compiled for them alone: all three are constants of the kernel, so numba drops the other
+    branches."""
 
     @chunk_kernel
     def kernel(entries, offs, grid, gv, dt, P, gravity, lo, hi, nchunk, chunk_gwork, faults):
@@ -71,7 +72,6 @@ def particle_update_kernel(scheme: int, position: int):
         x, v, B, pmass = P.x, P.v, P.B, P.mass
         chunk_bad, chunk_code = faults.bad, faults.code
         n, K = S.shape
-        dim = x.shape[1]
         # the grid fields this scheme and position form read
         use_a = scheme == FLIP
         use_v = scheme == FLIP or scheme == PIC or scheme == APIC or position == UPDATED
@@ -176,7 +176,7 @@ def particle_update(scheme: str, position: str = "midpoint"):
     """The particle update of one scheme (flip, pic, xpic, fmpm, apic) with positions moved by
     the updated grid velocity or by the scheme's midpoint form."""
     code_of_position = POSITIONS[position]
-    kernel = particle_update_kernel(SCHEMES[scheme], code_of_position)
+    code_of_scheme = SCHEMES[scheme]
 
     def run(state) -> None:
         P, f = state.particles, state.fields
@@ -186,6 +186,7 @@ def particle_update(scheme: str, position: str = "midpoint"):
             mirror_ghosts(state.box.fields, f.ghost_src, f.vnew)
         gwork = np.zeros(nc)
         faults = Faults.empty(nc)
+        kernel = particle_update_kernel(code_of_scheme, code_of_position, state.dim)
         kernel(state.entries, state.entry_offsets, state.grid.view, GridVelocities(f.vnew, f.acc, f.vstart, f.vstar),
                state.dt, P.view(), state.gravity, *state.particle_bounds, nc, gwork, faults)
         state.work_in += float(gwork.sum())

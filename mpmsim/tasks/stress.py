@@ -28,10 +28,10 @@ from .boundary import set_grid_velocity
 
 
 @cache
-def update_stress_kernel(model: int, tracked: bool):
+def update_stress_kernel(model: int, tracked: bool, dim: int):
     """The stress update of the particles of one material model (type code `model`), compiled
-    for that model alone. `model` and `tracked` (some material of the model carries internal
-    energy) are constants of the kernel: numba drops the branches of the other models, so a
+    for that model alone. `model`, `tracked` (some material of the model carries internal
+    energy) and `dim` are constants of the kernel: numba drops the branches of the other models, so a
     scene compiles only the models it uses. (Plain ints and bools: they key numba's cache.)"""
 
     @chunk_kernel
@@ -45,7 +45,6 @@ def update_stress_kernel(model: int, tracked: bool):
         code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
         chunk_bad, chunk_code, chunk_value = faults.bad, faults.code, faults.value
         n, K = nodes.shape
-        dim = F.shape[1]
         for c in prange(nchunk):
             start, stop = chunk_range(c, nchunk, n)
             work = np.zeros((6, 3, 3))  # velocity gradient, F, and the constitutive update's scratch
@@ -186,11 +185,11 @@ def update_stress_kernel(model: int, tracked: bool):
     return kernel
 
 
-def stress_kernels(materials) -> list:
+def stress_kernels(materials, dim: int) -> list:
     """The stress kernels of a material table: one per material model its deformable
     materials use."""
     codes = np.asarray(materials.type_code)
-    return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any())) for m in np.unique(codes)]
+    return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any()), int(dim)) for m in np.unique(codes)]
 
 
 def _update_stress(state, dt, gvel) -> None:
@@ -199,7 +198,7 @@ def _update_stress(state, dt, gvel) -> None:
     faults = Faults.empty(nc)
     P, M, dx = state.particles.view(), state.materials.view(), float(state.grid.h.min())
     state.wave_max = 0.0
-    for kernel in stress_kernels(state.materials):
+    for kernel in stress_kernels(state.materials, state.dim):
         kernel(state.entries, gvel, dt, P, M, dx, nc, wave, faults)
         state.wave_max = max(state.wave_max, float(wave.max()))
         first = faults.first()
