@@ -409,10 +409,9 @@ def _check(scene) -> None:
     out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
               highlight=False)
     if scene.has_particles:
-        from .stability import compaction_warning
+        from .stability import compaction_warnings
 
-        warning = compaction_warning(scene, state.particles.x)
-        if warning:
+        for warning in compaction_warnings(scene, state.particles.x):
             out.print(f"[yellow]warning:[/] {warning}", highlight=False)
     P = state.particles
     if scene.has_particles and d.integrator == "implicit":

@@ -46,8 +46,7 @@ def test_a_run_that_goes_wrong_stops_with_exit_3_naming_when_and_what(tmp_path, 
 
 def test_the_platen_deck_at_the_paper_speed_is_not_stopped():
     """The check does not fire where contact holds: the same scene at 0.9622 m/s (compression.yaml)
-    for 0.5 ms, and the ellipse compaction of the LR paper's Fig. 6 at 3.5x its cell size, are
-    run to the end by the validation tests; here the first 0.5 ms of compression.yaml."""
+    for 0.5 ms is run to the end by the validation tests; here its first 0.5 ms."""
     import yaml
 
     from tests.conftest import simulate

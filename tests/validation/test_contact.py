@@ -193,19 +193,21 @@ def ellipse_run(h, **over):
 
 def test_lr_keeps_ellipses_apart_and_cp_does_not():
     """Twenty ellipses compressed 75% at 1/20 mm cells (3.5x coarser than the paper): the
-    area claimed by two materials is 3.1% with LR and 24% with CP = 0.8. The final stresses
-    (85 and 62 GPa here; paper at full size 105 and 80) are reported, not asserted: they are
-    not converged in the grid (docs/contact.md)."""
+    area claimed by two materials is 2.0% with LR and 35% with CP = 0.8, whose ellipses pass
+    into each other, so that their particle volumes add up to more than the box (1.34x;
+    LR 0.998x). The final stresses (137 and 85 GPa here) are compared at full size in
+    docs/contact.md."""
     h = 0.05
     lr, lr_overlap = ellipse_run(h)
-    # CP also lets ellipse material half a particle spacing into the piston, which stops a run
-    # by default (stability.rigid_penetration); here its end state is what is compared
-    cp, cp_overlap = ellipse_run(h, **CP08, **{"stability.rigid_penetration": False})
+    cp, cp_overlap = ellipse_run(h, **CP08)
     for sim in (lr, cp):
         assert sim.recorder.column("u_piston_y")[-1] == pytest.approx(-1.5, rel=1e-6)  # 75% of 2 mm
     assert lr_overlap < 0.06
     assert cp_overlap > 4 * lr_overlap
     assert lr.state.contact.n_cn > 0
+    box = 1.0 * 0.5
+    assert lr.state.particles.vol.sum() / box < 1.005
+    assert cp.state.particles.vol.sum() / box > 1.1
 
 
 def test_uniform_cloud_weights_touch_slightly_early():
