@@ -58,6 +58,12 @@ VARIANTS = [
                                           "update": {"scheme": "xpic", "order": 5, "stress": "usavg"}}),
     ("two_layer/nodal-bond", "two_layer", {"contact.interface_bond": "nodal"}),
     ("two_layer/oscillator", "two_layer", {"contact.interface_integration": "oscillator"}),
+    # the paper's Fig. 6 settings (the deck uses PIC and a velocity-condition piston): XPIC(5)
+    # with 20 materials against a rigid contact piston
+    ("ellipse_box/xpic5-contact-piston", "ellipse_box", {
+        "update": {"scheme": "xpic", "order": 5, "stress": "usavg"},
+        "materials.piston": {"type": "rigid", "mode": "contact", "velocity": [0.0, -100.0]},
+        "stability.energy_tolerance": 0.25}),
 ]
 
 
