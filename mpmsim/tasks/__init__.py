@@ -19,7 +19,7 @@ from .forces import forces
 from .grid_update import grid_update
 from .particle_update import move_rigid, particle_update
 from .setup import compute_shape_functions, prescribed_motion
-from .stress import update_stress_first, update_stress_last
+from .stress import stress_kernels, update_stress_first, update_stress_last
 from .xpic import xpic
 from .fem import AuguryContact, fem_tasks
 from ..shapes import shape_function
@@ -98,8 +98,9 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     energy = "; internal energy" + (", artificial viscosity" if deck.artificial_viscosity else "") \
         if scene.materials.tracks_energy else ""
     fraction = 0.5 if upd.stress == "usavg" else 1.0
+    stress = stress_kernels(scene.materials, scene.dim)  # one per material model in the scene
     if upd.stress in ("usf", "usavg"):
-        tasks.append(Task("update stress first", update_stress_first(fraction),
+        tasks.append(Task("update stress first", update_stress_first(fraction, stress),
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"
                           + energy))
     else:
@@ -121,7 +122,7 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     else:
         skipped.append(("xpic", f"{upd.scheme} update needs no grid filter"))
     name = f"{upd.scheme}({upd.order})" if upd.order else upd.scheme
-    tasks.append(Task("particle update", particle_update(upd.scheme, upd.position),
+    tasks.append(Task("particle update", particle_update(upd.scheme, upd.position, scene.dim),
                       f"{name} velocity and position update"
                       + ("; positions by the updated grid velocity" if upd.position == "updated" else "")))
     if n_rigid:
@@ -134,7 +135,7 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
             tasks.append(Task("contact pass 3", ct.pass_3, "contact laws on the re-extrapolated momenta"))
     if upd.stress in ("usl", "usavg"):
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
-        tasks.append(Task("update stress last", update_stress_last(fraction, upd.reextrapolate),
+        tasks.append(Task("update stress last", update_stress_last(fraction, upd.reextrapolate, stress),
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from {source}" + energy))
     else:
         skipped.append(("update stress last", f"stress update {upd.stress}"))

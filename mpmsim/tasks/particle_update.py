@@ -172,11 +172,11 @@ def particle_update_kernel(scheme: int, position: int, dim: int):
     return kernel
 
 
-def particle_update(scheme: str, position: str = "midpoint"):
+def particle_update(scheme: str, position: str, dim: int):
     """The particle update of one scheme (flip, pic, xpic, fmpm, apic) with positions moved by
     the updated grid velocity or by the scheme's midpoint form."""
     code_of_position = POSITIONS[position]
-    code_of_scheme = SCHEMES[scheme]
+    kernel = particle_update_kernel(SCHEMES[scheme], code_of_position, dim)
 
     def run(state) -> None:
         P, f = state.particles, state.fields
@@ -186,7 +186,6 @@ def particle_update(scheme: str, position: str = "midpoint"):
             mirror_ghosts(state.box.fields, f.ghost_src, f.vnew)
         gwork = np.zeros(nc)
         faults = Faults.empty(nc)
-        kernel = particle_update_kernel(code_of_scheme, code_of_position, state.dim)
         kernel(state.entries, state.entry_offsets, state.grid.view, GridVelocities(f.vnew, f.acc, f.vstart, f.vstar),
                state.dt, P.view(), state.gravity, *state.particle_bounds, nc, gwork, faults)
         state.work_in += float(gwork.sum())

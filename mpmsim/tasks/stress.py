@@ -192,13 +192,13 @@ def stress_kernels(materials, dim: int) -> list:
     return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any()), int(dim)) for m in np.unique(codes)]
 
 
-def _update_stress(state, dt, gvel) -> None:
+def _update_stress(state, dt, gvel, kernels) -> None:
     nc = state.nchunk
     wave = np.zeros(nc)
     faults = Faults.empty(nc)
     P, M, dx = state.particles.view(), state.materials.view(), float(state.grid.h.min())
     state.wave_max = 0.0
-    for kernel in stress_kernels(state.materials, state.dim):
+    for kernel in kernels:
         kernel(state.entries, gvel, dt, P, M, dx, nc, wave, faults)
         state.wave_max = max(state.wave_max, float(wave.max()))
         first = faults.first()
@@ -207,18 +207,18 @@ def _update_stress(state, dt, gvel) -> None:
             break
 
 
-def update_stress_first(fraction: float):
+def update_stress_first(fraction: float, kernels: list):
     """USF/USAVG (fraction 1 or 1/2 of the step): velocities from the initial extrapolation,
-    BCs at the step's start."""
+    BCs at the step's start. kernels: the scene's stress_kernels."""
 
     def run(state) -> None:
         set_grid_velocity(state, state.rigid.v_start)
-        _update_stress(state, fraction * state.dt, state.fields.vel)
+        _update_stress(state, fraction * state.dt, state.fields.vel, kernels)
 
     return run
 
 
-def update_stress_last(fraction: float, reextrapolate: bool):
+def update_stress_last(fraction: float, reextrapolate: bool, kernels: list):
     """USL/USAVG (fraction 1 or 1/2 of the step). Default ("+", reextrapolate): from the
     momenta the re-extrapolate task rebuilt (and contact pass 3 corrected), with velocity
     conditions at the step's end. With `update.reextrapolate: false` ("-"): from the updated
@@ -231,6 +231,6 @@ def update_stress_last(fraction: float, reextrapolate: bool):
             gvel = state.fields.vel
         else:
             gvel = state.fields.vnew
-        _update_stress(state, fraction * state.dt, gvel)
+        _update_stress(state, fraction * state.dt, gvel, kernels)
 
     return run
