@@ -71,7 +71,10 @@ class ChunkKernel:
             copy.__qualname__ = fn.__qualname__ + "_serial"  # numba names the cache file after it
             copy.__module__ = fn.__module__
             copy.__doc__ = fn.__doc__
-            self._serial = njit(cache=True, error_model="numpy")(copy)  # as in the parallel form
+            # numpy's error model, as in the parallel form. numba's cache key does not hold the
+            # options: after changing them here, rename the copy (or `make clean-cache`), or a
+            # checkout whose kernel files did not change loads forms built with the old ones
+            self._serial = njit(cache=True, error_model="numpy")(copy)
         return self._serial
 
     @property
