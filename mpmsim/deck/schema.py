@@ -606,7 +606,9 @@ class Update(Strict):
         description="Particle positions. midpoint: each scheme's second-order form (flip: x += dt S(v+ - a dt/2)). "
         "updated: x += dt S v+, the updated grid velocity, for every scheme: what the stress update integrates "
         "into F, and stable where the stress is large against the moduli (high-rate compaction: the midpoint "
-        "forms let FLIP, XPIC and FMPM blow up there; docs/stability.md, \"High-rate compaction\").",
+        "forms let FLIP, XPIC and FMPM blow up there; docs/stability.md, \"High-rate compaction\"). Not where "
+        "grains of three or more materials are compacted in contact: there updated positions fail with every "
+        "scheme, and PIC with the midpoint form is what keeps the volumes (docs/contact.md, \"Ellipses in a box\").",
     )
 
     @model_validator(mode="after")
