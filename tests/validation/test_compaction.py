@@ -48,10 +48,10 @@ def filled_box(shape: str, scheme: str, position: str = "updated", contact: dict
     return deck
 
 
-def compress(deck: dict):
-    """Step the deck; at every 1% of compression (lam, volume-averaged sigma_yy, sum J V0 over
-    the box area)."""
-    sim = Simulation(build_scene(deck_from(deck)))
+def compress(deck: dict, directory=None):
+    """Step the deck (files it names relative to `directory`); at every 1% of compression (lam,
+    volume-averaged sigma_yy, sum J V0 over the box area)."""
+    sim = Simulation(build_scene(deck_from(deck, directory)))
     st, P = sim.state, sim.state.particles
     rows, nxt = [], 0.01
     while st.t < sim.end * (1 - 1e-9):
@@ -129,15 +129,7 @@ def test_ellipse_box_volumes_stay_within_the_box():
     deck = example("ellipse_box")
     deck["grid"]["cell_size"] = h
     deck["bodies"][1]["max"] = [1.0, 2.0 + 2 * h]
-    sim = Simulation(build_scene(deck_from(deck, ROOT / "inputs")))
-    st, P = sim.state, sim.state.particles
-    ratios, nxt = [], 0.01
-    while st.t < sim.end * (1 - 1e-9):
-        sim.step()
-        stroke = SPEED * st.t / HEIGHT
-        if stroke >= nxt - 1e-9:
-            ratios.append(P.vol.sum() / (WIDTH * HEIGHT * (1 - stroke)))
-            nxt += 0.01
+    _, _, ratios = compress(deck, ROOT / "inputs")
     assert len(ratios) == 75
     assert max(ratios) < 1.005, max(ratios)
     assert ratios[-1] > 0.95, ratios[-1]
