@@ -223,12 +223,16 @@ def plot_tradeoff(curves: dict, costs: dict) -> None:
     print(f"wrote {FIGURES / 'contact_accuracy_vs_cost.png'}")
 
 
+ENERGY = ("external_work", "kinetic_energy", "strain_energy", "transfer_loss", "contact_loss", "condition_loss",
+          "force_gap_loss", "energy_residual")
+
+
 def ellipse_to_end(job):
     """Worker: the full-size ellipse box to its end; final stress, overlap and wall time."""
     from mpmsim.overlap import overlap_fraction
 
     label, overrides = job
-    sim = simulation("ellipse_box", overrides)
+    sim = simulation("ellipse_box", {**overrides, "output.energy_ledger": True})
     t0 = time.perf_counter()
     stopped = ""
     try:
@@ -242,7 +246,8 @@ def ellipse_to_end(job):
     return {"method": label, "syy": float(np.sum(P.stress[:, 1] * P.vol) / P.vol.sum()), "overlap": frac,
             "wall": wall, "steps": sim.state.step, "particles": P.n, "stopped": stopped,
             "stroke": 100.0 * sim.state.t / 2.0, "volumes": float(P.vol.sum() / box),
-            "history": [sim.recorder.column("time").tolist(), sim.recorder.column("syy").tolist()]}
+            "history": [sim.recorder.column("time").tolist(), sim.recorder.column("syy").tolist()],
+            "energy": {c: float(sim.recorder.column(c)[-1]) for c in ENERGY}}
 
 
 def ellipses(workers: int) -> list:
@@ -263,6 +268,12 @@ def ellipses(workers: int) -> list:
         ratio = float(np.interp(t[-1], lr_t, lr_syy)) / syy[-1]
         print(f"| {r['method']} | {-r['syy'] / 1000:.1f}{note} | {ratio:.3f} | {100 * r['overlap']:.1f}% "
               f"| {r['stroke']:.1%} | {r['volumes']:.4f} | {r['steps']} | {r['wall'] / 60:.1f} min |")
+    print("\nEnergy ledger at the end, % of the piston work (external_work)")
+    print("| method | " + " | ".join(ENERGY[1:]) + " |")
+    print("|---|" + "---|" * (len(ENERGY) - 1))
+    for r in out:
+        e = r["energy"]
+        print(f"| {r['method']} | " + " | ".join(f"{100 * e[c] / e[ENERGY[0]]:.2f}" for c in ENERGY[1:]) + " |")
     return out
 
 

@@ -116,6 +116,7 @@ class State:
     energy0: float = 0.0  # mechanical energy at the start of the run
     interface_energy: float = 0.0  # imperfect interfaces, end of the last step
     work_in: float = 0.0  # signed work done on the material by walls, rigid materials, gravity
+    ledger: np.ndarray | None = None  # the energy ledger's losses (tasks/ledger.py LOSSES), when the deck asks
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)
     flags: StepFlags = field(default_factory=StepFlags)
     particle_bounds: tuple = ()  # (lo, hi): where particle centres may go (GridSpec.particle_bounds)
@@ -207,6 +208,8 @@ class State:
             damping=deck.damping.grid if deck.damping is not None else 0.0,
         )
         state.reaction = np.zeros((6 + nr, dim))
+        if deck.output.energy_ledger:
+            state.ledger = np.zeros(4)  # tasks/ledger.py LOSSES
         state.particle_bounds = scene.grid.particle_bounds
         mass = particles.mass
         state.energy0 = 0.5 * float(np.sum(mass[:, None] * particles.v**2))

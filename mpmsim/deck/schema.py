@@ -644,6 +644,11 @@ class Output(Strict):
         "velocities the grid cannot represent, ||V - S S+ V|| / ||V|| with S+ the mass-weighted "
         "pseudo-inverse (a sparse solve per history row). velocity_noise, always written, uses the "
         "transfers' lumped S+ instead and has a floor (docs/shape-functions.md).")
+    energy_ledger: bool = Field(
+        default=False, description="Add the history columns transfer_loss, contact_loss, condition_loss, "
+        "force_gap_loss and energy_residual: where the work put in goes besides kinetic and strain energy, "
+        "booked where it happens in each step (explicit particle runs; three extra tasks per step; "
+        "docs/validation.md, \"Energy ledger\").")
 
     @field_validator("checkpoint_interval")
     @classmethod

@@ -58,6 +58,9 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             add(["integrator"], "implicit barrier contact between FEM bodies is 2D for now")
     elif deck.implicit is not None:
         add(["implicit"], "settings for integrator: implicit, but the deck's integrator is explicit")
+    if deck.output.energy_ledger and (deck.integrator != "explicit" or fem or not particle_bodies):
+        add(["output", "energy_ledger"], "the energy ledger follows the explicit MPM step: it needs "
+                                         "integrator: explicit and particle bodies only (no FEM bodies)")
     # grid
     cs = deck.grid.cell_size if deck.grid is not None else 1.0
     if not isinstance(cs, list) and cs <= 0:

@@ -11,6 +11,8 @@ history adds them up and adds the run's accounts. Columns, in order:
   Mie–Grüneisen or artificial viscosity), linear momentum p<axis>, angular momentum about
   the origin (L, or Lx, Ly, Lz in 3D; with APIC's affine part), interface energy;
 - particle velocity noise (and its null-space part when asked for);
+- with output.energy_ledger: transfer_loss, contact_loss, condition_loss, force_gap_loss and
+  energy_residual (mpmsim/tasks/ledger.py);
 - reaction forces of constrained faces (what the face exerts on the material, from the last
   step: instantaneous, not averaged);
 - each body kind's own columns (rigid materials: reaction force and displacement);
@@ -40,6 +42,7 @@ from ..bodies import ANGULAR, FIRST_MOMENT, INTERNAL, KINETIC, MASS, MOMENTUM, S
 from ..deck.units import unit_system
 from ..noise import null_space_noise, velocity_noise
 from ..scene.grid import FACES
+from ..tasks.ledger import LOSSES, energy_residual
 from .atomic import write_text
 
 STRESS_NAMES = ("sxx", "syy", "szz", "sxy", "syz", "sxz")
@@ -91,6 +94,9 @@ class History:
         self._null_space = deck.output.null_space_noise and self._noise
         if self._null_space:
             self.columns += [("null_space_noise", "-")]
+        self._ledger = deck.output.energy_ledger
+        if self._ledger:
+            self.columns += [(n, u.energy) for n in (*LOSSES, "energy_residual")]
         faces = state.grid.face_type[: 2 * dim] if state.grid is not None else np.zeros(2 * dim)
         self._faces = [f for f, t in zip(FACES[: 2 * dim], faces) if t != 0]
         for f in self._faces:
@@ -154,6 +160,9 @@ class History:
             row.append(velocity_noise(state))
         if self._null_space:
             row.append(null_space_noise(state))
+        if self._ledger:
+            row += list(state.ledger)
+            row.append(energy_residual(state))
         face_index = {f: i for i, f in enumerate(FACES)}
         for f in self._faces:
             row += list(state.reaction[face_index[f]])

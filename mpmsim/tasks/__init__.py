@@ -17,6 +17,7 @@ from ..contact import ContactTasks, material_fields
 from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
 from .grid_update import grid_update
+from .ledger import EnergyLedger
 from .particle_update import move_rigid, particle_update
 from .setup import compute_shape_functions, prescribed_motion
 from .stress import stress_kernels, update_stress_first, update_stress_last
@@ -112,9 +113,18 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     bc_rigid = [r for r in scene.materials.rigid if getattr(deck.materials[r], "mode", "bc") == "bc"]
     bc = ", ".join(faces + [f"rigid '{r}'" for r in bc_rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
+    ledger = None
+    if deck.output.energy_ledger:
+        ledger = EnergyLedger(upd.stress, upd.reextrapolate, contact is not None and contact.passes == 2)
+        tasks.append(Task("energy ledger: update", ledger.updated,
+                          "output.energy_ledger: keep the update's velocities; transfer and pass 1 losses"))
+    else:
+        skipped.append(("energy ledger", "output.energy_ledger: false"))
     if contact is not None:
         tasks.append(Task("contact pass 2", ct.pass_2, "contact laws on the updated momenta: contact forces"
                           + ("; interface forces and energy" if contact.has_interface else "")))
+        if ledger is not None:
+            tasks.append(Task("energy ledger: contact", ledger.contact, "rigid contact materials' work in pass 2"))
     if upd.scheme in ("xpic", "fmpm"):
         what = "start-of-step" if upd.scheme == "xpic" else "updated"
         tasks.append(Task("xpic", xpic(upd.scheme, upd.order, contact), f"{upd.scheme.upper()}({upd.order}): filter the {what} grid velocity, "
@@ -139,4 +149,7 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from {source}" + energy))
     else:
         skipped.append(("update stress last", f"stress update {upd.stress}"))
+    if ledger is not None:
+        tasks.append(Task("energy ledger: step", ledger.step_end,
+                          "transfer, contact, condition and force-gap losses of the step"))
     return tasks, skipped

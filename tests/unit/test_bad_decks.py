@@ -45,6 +45,10 @@ CASES = [
     ("axisymmetric reserved", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric")], "analysis", 3, "not available"),
     ("bad enum", [("{ymin: fixed}", "{ymin: glued}")], "grid.boundaries.ymin", 5, "'fixed'"),
     ("both cfl and dt", [("time: {end: 0.1}", "time: {end: 0.1, cfl: 0.5, dt: 0.001}")], "time.dt", 10, "either"),
+    ("energy ledger off the explicit step", [("time: {end: 0.1}", "time: {end: 0.1, dt: 0.01}\n"
+                                               "integrator: implicit\nupdate: {scheme: pic}\n"
+                                               "output: {energy_ledger: true}")],
+     "output.energy_ledger", 13, "explicit MPM step"),
     ("implausible density", [("density: 0.001", "density: 2.78")], "materials.block.density", 7, "g/mm^3"),
     ("missing image", [("  - {shape: rectangle, min: [0, 0], max: [4, 4], material: block}",
                         "  - {shape: image, file: nowhere.png, pixel_size: 0.5, origin: [0, 0],\n"

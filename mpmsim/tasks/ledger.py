@@ -1,0 +1,189 @@
+"""Tasks: the energy ledger (`output.energy_ledger`), where the work put into an explicit MPM
+run goes, step by step.
+
+Every change of the grid's kinetic energy within a step has a named cause. With m the field
+mass, v1 = p/m the field velocity after the extrapolation (and contact pass 1), v+ after the
+momentum update with the velocity conditions, vc after contact pass 2, and the mean
+v_bar = (v1 + vc)/2, the update satisfies exactly, field by field,
+
+  1/2 m (|vc|^2 - |v1|^2) = (f + f_bc + f_c) . v_bar dt,
+  f_bc = m (v+ - v1)/dt - f   (what the velocity conditions and wall mirrors add),
+  f_c  = m (vc - v+)/dt        (what contact pass 2 adds).
+
+The stress update integrates the velocity v_s = w1 v_first + w2 v_last (USAVG: halves of the
+start-of-step velocity with conditions imposed and the end-of-step one, re-extrapolated for
+usavg+/usl+), so the internal forces' work at v_bar is minus the stress power plus the work
+f . (v_bar - v_s) dt on velocity the stress update does not integrate. Summed over the run
+this gives the balance
+
+  external_work + E0 = kinetic + strain (+ internal + interface) energy
+                       + transfer_loss + contact_loss + condition_loss + force_gap_loss + R
+
+with the four losses (cumulative, energy units; history columns of the same names):
+- transfer_loss: kinetic energy lost between particles and grid, P2G (sum 1/2 m V^2 minus the
+  grid's) plus G2P (the grid's at vc minus the particles' after their update);
+- contact_loss: kinetic energy removed by contact pass 1, minus the work of pass 2's contact
+  changes at v_bar, plus the work a rigid contact material does there (booked in
+  external_work); energy stored by imperfect interfaces is in it (also in interface_energy);
+- condition_loss: the work booked for the velocity conditions minus what reaches the grid:
+  1/2 m (v_bc - v1)^2 where a condition lands a field on its velocity (an inelastic impact);
+- force_gap_loss: minus the internal forces' work f . (v_bar - v_s) dt at free components:
+  negative where the forces drive grid velocity that the stress update smooths away
+  (re-extrapolation) and the transfers then take out.
+R (history column energy_residual) is what is left: the stress update's time integration
+(stress power at the force's stress against the change of the strain energy W(F)), grid
+damping, and the difference between the external forces' work booked on the particles and
+their grid work. It is small where F, the stress and the strain energy agree
+(docs/validation.md, "Energy ledger").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..bodies import INTERNAL, KINETIC, STRAIN
+from ..stability import total_sums
+
+# order of the ledger's totals (state.ledger) and of their history columns
+LOSSES = ("transfer_loss", "contact_loss", "condition_loss", "force_gap_loss")
+TRANSFER, CONTACT, CONDITION, FORCE_GAP = range(4)
+
+
+@njit(cache=True)
+def particle_kinetic(mass, v):
+    """sum 1/2 m |V|^2 over particles."""
+    e = 0.0
+    for p in range(mass.size):
+        s = 0.0
+        for d in range(v.shape[1]):
+            s += v[p, d] * v[p, d]
+        e += 0.5 * mass[p] * s
+    return e
+
+
+@njit(cache=True)
+def keep_update(fields, skip, mass, mom, vel, vnew, v1, vfirst, vplus):
+    """After the momentum update: per active field (in box order) v1 = p/m, the velocity the
+    first stress update used and v+; returns the grid's kinetic energy at v1."""
+    e = 0.0
+    for q in range(fields.size):
+        fid = fields[q]
+        m = mass[fid]
+        live = m > 0.0 and not skip[q]
+        for d in range(mom.shape[1]):
+            v1[q, d] = mom[fid, d] / m if live else 0.0
+            vfirst[q, d] = vel[fid, d]
+            vplus[q, d] = vnew[fid, d]
+            if live:
+                e += 0.5 * m * v1[q, d] * v1[q, d]
+    return e
+
+
+@njit(cache=True)
+def pass_1_drop(nn, n_slots, mass, mom, dp1):
+    """Kinetic energy contact pass 1 removed (dp1: its change of each slot's momentum)."""
+    e = 0.0
+    for s in range(n_slots):
+        m = mass[nn + s]
+        if m <= 0.0:
+            continue
+        for d in range(mom.shape[1]):
+            p = mom[nn + s, d]
+            before = p - dp1[s, d]
+            e += 0.5 * (before * before - p * p) / m
+    return e
+
+
+@njit(cache=True)
+def step_sums(fields, skip, mass, force, vnew, vlast, v1, vfirst, vplus, w_first, w_last, dt, out):
+    """End of the step, over live active fields: out = (grid kinetic energy at vc, work of the
+    conditions' forces at v_bar, of pass 2's contact forces at v_bar, the forces' work on
+    velocity the stress update does not see at free components, and at held ones)."""
+    for r in range(5):
+        out[r] = 0.0
+    for q in range(fields.size):
+        fid = fields[q]
+        m = mass[fid]
+        if m <= 0.0 or skip[q]:
+            continue
+        for d in range(force.shape[1]):
+            vc = vnew[fid, d]
+            f = force[fid, d]
+            vbar = 0.5 * (v1[q, d] + vc)
+            jump = m * (vplus[q, d] - v1[q, d])  # (f + f_bc) dt
+            bc = jump - f * dt  # f_bc dt
+            vs = w_first * vfirst[q, d] + w_last * vlast[fid, d]
+            gap = f * (vbar - vs) * dt
+            out[0] += 0.5 * m * vc * vc
+            out[1] += bc * vbar
+            out[2] += m * (vc - vplus[q, d]) * vbar
+            if abs(bc) > 1e-12 * (abs(jump) + abs(f * dt) + abs(m * v1[q, d])):
+                out[4] += gap  # a held component: part of the condition's account
+            else:
+                out[3] += gap
+
+
+class EnergyLedger:
+    """The ledger's three tasks (after the momentum update, after contact pass 2, at the end of
+    the step) and the snapshots they pass on; the totals go into state.ledger (LOSSES order)."""
+
+    def __init__(self, stress: str, reextrapolate: bool, pass_1: bool):
+        self.w_first = {"usf": 1.0, "usavg": 0.5, "usl": 0.0}[stress]
+        self.w_last = 1.0 - self.w_first
+        self.last_from_vel = reextrapolate and stress != "usf"  # re-extrapolated velocities
+        self.pass_1 = pass_1
+        self.ke_start = -1.0  # particles' kinetic energy at the start of the step (< 0: not yet)
+        self.ke_grid = 0.0  # the grid's at v1 (after pass 1)
+        self.marks = np.zeros(2)  # external_work at the step's start (a run starts at 0) and after the update
+        self.v1 = self.vfirst = self.vplus = np.zeros((0, 0))
+        self.sums = np.zeros(5)
+
+    def updated(self, state) -> None:
+        """After the momentum update: keep v1, the first stress velocity and v+; book the
+        P2G and pass-1 losses."""
+        f, box, P = state.fields, state.box, state.particles
+        if self.ke_start < 0.0:  # the first step: the particles have not moved yet
+            self.ke_start = particle_kinetic(P.mass, P.v)
+        n, dim = box.fields.size, state.dim
+        if self.v1.shape != (n, dim):
+            self.v1, self.vfirst, self.vplus = (np.zeros((n, dim)) for _ in range(3))
+        self.ke_grid = keep_update(box.fields, box.skip, f.mass, f.mom, f.vel, f.vnew, self.v1, self.vfirst,
+                                   self.vplus)
+        drop = 0.0
+        if self.pass_1 and state.contact is not None:
+            cs = state.contact
+            drop = pass_1_drop(state.grid.n_nodes, cs.n_slots, f.mass, f.mom, cs.dp1)
+        state.ledger[TRANSFER] += self.ke_start - (self.ke_grid + drop)
+        state.ledger[CONTACT] += drop
+        self.marks[1] = state.work_in
+
+    def contact(self, state) -> None:
+        """After contact pass 2: the work a rigid contact material did there is part of its
+        exchange (booked in external_work)."""
+        state.ledger[CONTACT] += state.work_in - self.marks[1]
+
+    def step_end(self, state) -> None:
+        """End of the step: the G2P loss, pass 2's contact work, the conditions' losses and the
+        force gap."""
+        f, box, P = state.fields, state.box, state.particles
+        vlast = f.vel if self.last_from_vel else f.vnew
+        s = self.sums
+        step_sums(box.fields, box.skip, f.mass, f.force, f.vnew, vlast, self.v1, self.vfirst, self.vplus,
+                  self.w_first, self.w_last, state.dt, s)
+        ke_grid_end, w_bc, w_contact, gap_free, gap_held = s
+        ke_particles = particle_kinetic(P.mass, P.v)
+        led = state.ledger
+        led[TRANSFER] += ke_grid_end - ke_particles
+        led[CONTACT] -= w_contact
+        led[CONDITION] += (self.marks[1] - self.marks[0]) - w_bc - gap_held
+        led[FORCE_GAP] -= gap_free
+        self.ke_start = ke_particles
+        self.marks[0] = state.work_in
+
+
+def energy_residual(state) -> float:
+    """external_work + E0 minus the energies and the four losses (LOSSES) at this state."""
+    s = total_sums(state)
+    stored = s[KINETIC] + s[STRAIN] + s[INTERNAL] + state.interface_energy if s is not None else 0.0
+    return state.energy0 + state.work_in - stored - float(np.sum(state.ledger))
