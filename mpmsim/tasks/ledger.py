@@ -81,12 +81,13 @@ def keep_update(fields, skip, mass, mom, vel, vnew, v1, vfirst, vplus):
 
 
 @njit(cache=True)
-def pass_1_drop(nn, n_slots, mass, mom, dp1):
-    """Kinetic energy contact pass 1 removed (dp1: its change of each slot's momentum)."""
+def pass_1_drop(nn, n_slots, slot_group, n_def, mass, mom, dp1):
+    """Kinetic energy contact pass 1 removed (dp1: its change of each deformable slot's
+    momentum; rigid slots keep theirs, and their dp1 rows are not written)."""
     e = 0.0
     for s in range(n_slots):
         m = mass[nn + s]
-        if m <= 0.0:
+        if m <= 0.0 or slot_group[s] >= n_def:
             continue
         for d in range(mom.shape[1]):
             p = mom[nn + s, d]
@@ -134,7 +135,6 @@ class EnergyLedger:
         self.last_from_vel = reextrapolate and stress != "usf"  # re-extrapolated velocities
         self.pass_1 = pass_1
         self.ke_start = -1.0  # particles' kinetic energy at the start of the step (< 0: not yet)
-        self.ke_grid = 0.0  # the grid's at v1 (after pass 1)
         self.marks = np.zeros(2)  # external_work at the step's start (a run starts at 0) and after the update
         self.v1 = self.vfirst = self.vplus = np.zeros((0, 0))
         self.sums = np.zeros(5)
@@ -148,13 +148,13 @@ class EnergyLedger:
         n, dim = box.fields.size, state.dim
         if self.v1.shape != (n, dim):
             self.v1, self.vfirst, self.vplus = (np.zeros((n, dim)) for _ in range(3))
-        self.ke_grid = keep_update(box.fields, box.skip, f.mass, f.mom, f.vel, f.vnew, self.v1, self.vfirst,
-                                   self.vplus)
+        ke_grid = keep_update(box.fields, box.skip, f.mass, f.mom, f.vel, f.vnew, self.v1, self.vfirst, self.vplus)
         drop = 0.0
         if self.pass_1 and state.contact is not None:
             cs = state.contact
-            drop = pass_1_drop(state.grid.n_nodes, cs.n_slots, f.mass, f.mom, cs.dp1)
-        state.ledger[TRANSFER] += self.ke_start - (self.ke_grid + drop)
+            drop = pass_1_drop(state.grid.n_nodes, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, f.mass, f.mom,
+                               cs.dp1)
+        state.ledger[TRANSFER] += self.ke_start - (ke_grid + drop)
         state.ledger[CONTACT] += drop
         self.marks[1] = state.work_in
 
