@@ -222,6 +222,9 @@ def run(
         warnings.showwarning = show
     table = _timing_table(result, sim)
     report_lines = list(getattr(sim.integrator, "report", lambda: [])())
+    if st.ledger is not None:
+        from .tasks.ledger import ledger_summary
+        report_lines.append(ledger_summary(st, _units(scene).energy))
     for line in report_lines:
         log.note(line)
     with contextlib.suppress(OSError):

@@ -187,3 +187,23 @@ def energy_residual(state) -> float:
     s = total_sums(state)
     stored = s[KINETIC] + s[STRAIN] + s[INTERNAL] + state.interface_energy if s is not None else 0.0
     return state.energy0 + state.work_in - stored - float(np.sum(state.ledger))
+
+
+def ledger_summary(state, energy_unit: str) -> str:
+    """One line for the end of a run: the energy supplied (initial energy + external work) and
+    where it is, in % of it (the parts add up to 100%)."""
+    s = total_sums(state)
+    if s is None:
+        return "energy ledger: no deformable material"
+    parts = [("kinetic", s[KINETIC]), ("strain", s[STRAIN])]
+    if s[INTERNAL]:
+        parts.append(("internal", s[INTERNAL]))
+    if state.interface_energy:
+        parts.append(("interfaces", state.interface_energy))
+    parts += [(name.removesuffix("_loss").replace("_", " "), v) for name, v in zip(LOSSES, state.ledger)]
+    parts.append(("residual", energy_residual(state)))
+    supplied = state.energy0 + state.work_in
+    if supplied == 0.0:
+        return f"energy ledger: no energy supplied ({energy_unit})"
+    return (f"energy ledger: initial energy + work = {supplied:.4g} {energy_unit}; "
+            + ", ".join(f"{name} {100 * v / supplied:.2f}%" for name, v in parts))

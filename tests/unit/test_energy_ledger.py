@@ -3,6 +3,8 @@ known exactly, and its promise to observe without changing the run."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import yaml
@@ -73,3 +75,24 @@ def test_the_ledger_observes_without_changing_the_run():
         runs.append(sim.state.particles)
     for name in ("x", "v", "F", "stress"):
         assert np.array_equal(getattr(runs[0], name), getattr(runs[1], name)), name
+
+
+@pytest.mark.compaction
+def test_run_prints_where_the_energy_went(tmp_path):
+    """`mpmsim run` ends a ledger run with one line: the energy supplied and its parts in %,
+    which add up to 100% (the residual closes them)."""
+    from typer.testing import CliRunner
+
+    from mpmsim.cli import app
+
+    deck = block({"xmin": "roller"})
+    deck["time"] = {"end": 0.2}
+    path = tmp_path / "block.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    result = CliRunner().invoke(app, ["run", str(path), "--out", str(tmp_path / "out"), "--threads", "1"])
+    assert result.exit_code == 0, result.output
+    line = next(ln for ln in result.output.splitlines() if ln.startswith("energy ledger:"))
+    parts = {k.strip(): float(v) for k, v in re.findall(r"([a-z ]+) (-?[0-9.]+)%", line.split(";")[1])}
+    assert set(parts) == {"kinetic", "strain", "transfer", "contact", "condition", "force gap", "residual"}
+    assert sum(parts.values()) == pytest.approx(100.0, abs=0.05)
+    assert parts["condition"] > 1.0  # the wall stops the block: an inelastic impact on the grid
