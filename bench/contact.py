@@ -5,6 +5,7 @@
     python bench/contact.py all        # both, then the accuracy-against-cost chart
     python bench/contact.py ellipses   # Fig. 6 at full size: LR, DF, CP to 75% compression
     python bench/contact.py chart      # redraw both charts from the saved results
+    python bench/contact.py ledger     # cost of output.energy_ledger on the 1/20 mm ellipse box
 
 Accuracy: the two-block column (inputs/two_blocks.yaml) against one block (inputs/column.yaml),
 max |MM - SMM| / SMM of the mean axial stress from 0.2% strain on; writes
@@ -277,12 +278,43 @@ def ellipses(workers: int) -> list:
     return out
 
 
+def ledger_cost(steps: int) -> None:
+    """The energy ledger's cost: the ellipse box at 1/20 mm (LR, PIC), `steps` timed steps
+    after 50 warm ones, with the ledger off and on, alternated in one process, on 1 and 2
+    threads; particle-steps/s of each and the ledger tasks' share of the step's task time."""
+    import numba
+
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    print("| threads | ledger | M particle-steps/s | ledger tasks' share |")
+    print("|---|---|---|---|")
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        for on in (False, True, False, True):
+            ov = {**ELLIPSE_COARSE, "output.energy_ledger": on}
+            sim = Simulation(build_scene(deck("ellipse_box", ov)), out_dir=None, threads=threads)
+            for _ in range(50):
+                sim.step()
+            sim.reset_timers()
+            t0 = time.perf_counter()
+            for _ in range(steps):
+                sim.step()
+            wall = time.perf_counter() - t0
+            tasks = {k: v for k, v in sim.integrator.timers.items()}
+            share = sum(v for k, v in tasks.items() if k.startswith("energy ledger")) / sum(tasks.values())
+            rate = sim.state.particles.n * steps / wall / 1e6
+            print(f"| {threads} | {'on' if on else 'off'} | {rate:.3f} | {100 * share:.1f}% |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["accuracy", "cost", "all", "ellipses", "chart"])
+    ap.add_argument("what", choices=["accuracy", "cost", "all", "ellipses", "chart", "ledger"])
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--steps", type=int, default=200, help="timed steps on the 1 mm column")
     args = ap.parse_args()
+    if args.what == "ledger":
+        return ledger_cost(1000)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     RESULTS.mkdir(parents=True, exist_ok=True)
     curves = costs = None
