@@ -16,10 +16,11 @@ from ..views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras)
-from .passes import (NO_BEFORE, PASS_1, PASS_3, Pass2Settings, Pass2Sums, contact_pass_2, exchange_pass,
+from .passes import (NO_BEFORE, PASS_1, PASS_3, PASS_3_RECHECK, Pass2Settings, Pass2Sums, contact_pass_2,
+                     exchange_pass,
                      pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
-from .spec import SEP_VELOCITY, build_contact_spec
+from .spec import SEP_LR, SEP_VELOCITY, build_contact_spec
 from .workspace import ContactWorkspace
 
 _NO_ACC = np.zeros((1, 3))  # point_bond on momenta: no force to record
@@ -104,6 +105,10 @@ class ContactTasks:
         self.laws = spec.laws()
         self.touch = self.method.touch
         self.sep_velocity = spec.separation == SEP_VELOCITY
+        self.recheck = spec.recheck
+        # pass 2 advances separations to the end of the step, except point-cloud ones under
+        # recheck (the reference code's passes)
+        self.advance = not (spec.recheck and int(self.method.separation) == SEP_LR)
         self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
         self.pass_2_kernel = contact_pass_2(bool(spec.has_interface))
 
@@ -138,7 +143,8 @@ class ContactTasks:
         held = RigidHold(f.rigid_vol, state.materials.constrain, state.rigid.v_end)
         nn, ns = g.n_nodes, cs.n_slots
         before = f.vnew[nn:nn + ns].copy()
-        settings = Pass2Settings(self.sep_velocity, self.spec.interface_integration, self.touch, state.dt)
+        settings = Pass2Settings(self.sep_velocity, self.advance, self.spec.interface_integration, self.touch,
+                                 state.dt)
         self.pass_2_kernel(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
                            cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
@@ -150,8 +156,11 @@ class ContactTasks:
             state.work_in += float(sums.work.sum())
 
     def pass_3(self, state) -> None:
-        """Pass 2's decisions enforced on the re-extrapolated momenta."""
+        """Pass 2's decisions enforced on the re-extrapolated momenta (keep), or the laws where
+        the moved particles' surfaces touch and approach (recheck: the geometry recomputed)."""
         cs, f, nn = state.contact, state.fields, state.grid.n_nodes
-        exchange_pass(PASS_3, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.contact2, self.sep_velocity, self.touch,
-                      state.nchunk, cs.dp1)
+        if self.recheck:
+            self.geometry(state)
+        exchange_pass(PASS_3_RECHECK if self.recheck else PASS_3, cs.nodes(nn), f.mass, f.mom, cs.targets(),
+                      cs.contact2, self.sep_velocity, self.touch, state.nchunk, cs.dp1)
         point_bond(cs.bonds(), nn, f.mass, f.mom, True, _NO_ACC, 0.0, cs.normal, state.dim)

@@ -91,6 +91,7 @@ class ContactSpec:
     touch: float  # touching tolerance, cells
     fit_exponent: float
     passes: int
+    recheck: bool  # pass 3 recomputes the geometry and re-tests contact (the reference code's passes)
     xpic_term: bool
     warm_start: bool
     shape_weights: bool  # point-cloud regression weights: shape function at the node (else 1)
@@ -212,7 +213,7 @@ def build_contact_spec(deck: Deck, materials) -> ContactSpec | None:
         centre[: len(c.normal_center)] = c.normal_center
     return ContactSpec(n_groups, n_def, np.array(groups, dtype=np.int64), rigid_group, rigid_of_group, law, mu, mus,
                        stiff, NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff,
-                       c.touch_tolerance, c.fit_exponent, c.passes, c.xpic_contact_term, c.warm_start,
+                       c.touch_tolerance, c.fit_exponent, c.passes, c.pass_3 == "recheck", c.xpic_contact_term, c.warm_start,
                        c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
                        INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
                        c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface")

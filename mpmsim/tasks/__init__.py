@@ -142,7 +142,9 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     if upd.stress in ("usl", "usavg") and upd.reextrapolate:
         tasks.append(Task("re-extrapolate", reextrapolate, "momenta from the updated particles (usl+/usavg+)"))
         if contact is not None:
-            tasks.append(Task("contact pass 3", ct.pass_3, "contact laws on the re-extrapolated momenta"))
+            how = ("geometry recomputed from the moved particles, contact re-tested" if ct.recheck
+                   else "pass 2's decisions kept")
+            tasks.append(Task("contact pass 3", ct.pass_3, f"contact laws on the re-extrapolated momenta ({how})"))
     if upd.stress in ("usl", "usavg"):
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"
         tasks.append(Task("update stress last", update_stress_last(fraction, upd.reextrapolate, stress),

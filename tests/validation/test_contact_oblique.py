@@ -1,0 +1,233 @@
+"""Oblique impact: contact that pushes only along its normal and never beyond Coulomb.
+
+A steel cylinder (R = 10 mm) strikes an aluminium block at 45 degrees, v = (1, -1) m/s
+(inputs/oblique_impact.yaml, with the reference code's passes: `contact.pass_3: recheck`), at
+R/h = 10 and 20, frictionless and with Coulomb friction mu = 0.1, 0.3, 0.6. The cylinder's
+velocities after the impact are compared with the reference code's (NairnMPM v19 on the same scene: tests/validation/data/oblique_reference.json
+says how they were made; the input files are beside it). What contact must never do is
+checked on every run: a tangential impulse without friction, a tangential change above mu
+times the normal change at any contact node in passes 1 and 2, a rebound faster than the
+impact. A steel sphere dropped on a block in 3D, normally and obliquely, at R/h = 5 and 10,
+must never gain energy (with the default `pass_3: keep`; `recheck` gains 1.4% at R/h = 5
+obliquely, docs/contact.md). Numbers in docs/contact.md, "Oblique impact".
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mpmsim.contact.laws import apply_law
+from mpmsim.contact.spec import COULOMB
+from mpmsim.deck.overrides import with_overrides
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+
+from ..conftest import ROOT, deck_from
+from .helpers import example
+
+pytestmark = pytest.mark.contact_oblique
+
+DATA = Path(__file__).with_name("data")
+REFERENCE = json.loads((DATA / "oblique_reference.json").read_text())
+
+
+def law_of(mu: float) -> dict:
+    return {"law": "frictionless"} if mu == 0.0 else {"law": "coulomb", "friction": mu}
+
+
+class NodeBound:
+    """Checks every contact node right after pass 2 (while the geometry is still the one
+    passes 1 and 2 used; `recheck` recomputes it in pass 3): the worst excess of a node's
+    tangential change over mu times its normal change, in pass 1 (dp1) and pass 2
+    (applied2), relative to the node's change; and the cumulative tangential and normal
+    impulses of pass 2 in each node's own frame."""
+
+    def __init__(self, sim):
+        self.worst = 0.0
+        self.checked = 0
+        self.tangential = 0.0
+        self.normal = 0.0
+        tasks = sim.integrator.tasks
+        i = [t.name for t in tasks].index("contact pass 2")
+        pass_2 = tasks[i].run
+
+        def run(state):
+            pass_2(state)
+            self.check(state)
+
+        tasks[i] = dataclasses.replace(tasks[i], run=run)
+
+    def check(self, state) -> None:
+        cs = state.contact
+        dim = state.dim
+        a = np.nonzero(cs.role[: cs.n_slots] != 0)[0]
+        n = cs.normal[a, :dim]
+        mu = cs.mu[a]
+        for k, change in enumerate((cs.dp1[a, :dim], cs.applied2[a, :dim])):
+            pn = np.einsum("ij,ij->i", change, n)
+            pt = np.linalg.norm(change - pn[:, None] * n, axis=1)
+            size = np.linalg.norm(change, axis=1)
+            live = size > 0.0
+            self.checked += int(live.sum())
+            if live.any():
+                excess = (pt[live] - mu[live] * np.abs(pn[live])) / size[live]
+                self.worst = max(self.worst, float(excess.max()))
+            if k == 1:
+                self.tangential += float(pt.sum())
+                self.normal += float(np.abs(pn).sum())
+
+
+@cache
+def cylinder(h: float, mu: float) -> dict:
+    """Run the oblique cylinder at cell size h and friction mu: final velocities, the
+    cylinder's cumulative impulse over time, the per-node Coulomb check."""
+    data = with_overrides(example("oblique_impact"), {"grid.cell_size": h, "contact.default": law_of(mu)})
+    sim = Simulation(build_scene(deck_from(data, ROOT / "inputs")))
+    bound = NodeBound(sim)
+    sim.run()
+    col = sim.recorder.column
+    px, py = col("px_cylinder"), col("py_cylinder")
+    mass = px[0]  # initial velocity (1, -1)
+    return {"v": (px[-1] / mass, py[-1] / mass), "Ix": px - px[0], "Iy": py - py[0], "bound": bound}
+
+
+CASES = [(1.0, 0.0), (1.0, 0.1), (1.0, 0.3), (1.0, 0.6), (0.5, 0.0), (0.5, 0.3)]
+
+
+def case_id(case) -> str:
+    h, mu = case
+    return f"R/h={10.0 / h:g}-mu={mu:g}"
+
+
+@pytest.mark.parametrize("case", CASES, ids=case_id)
+def test_cylinder_velocities_match_the_reference_code(case):
+    """Must-show 1: vx and vy after the impact within 2% of the reference code's."""
+    h, mu = case
+    ref = REFERENCE["runs"][f"h={h:g} mu={mu:g}"]
+    vx, vy = cylinder(h, mu)["v"]
+    assert vx == pytest.approx(ref["vx"], rel=0.02)
+    assert vy == pytest.approx(ref["vy"], rel=0.02)
+
+
+@pytest.mark.parametrize("h", [1.0, 0.5], ids=lambda h: f"R/h={10 / h:g}")
+def test_frictionless_contact_pushes_along_the_normal_only(h):
+    """Must-show 2: without friction the tangential impulse on the cylinder is at most 1% of
+    the normal impulse (the flat block's normal is y) at R/h = 20 (measured 0.28%). At R/h = 10
+    it is 1.16%, and 1.15% in the reference code: the two nodes flanking the first contact see
+    the wedge between the curved and the flat surface and tilt their normals by 1-2.5 degrees
+    (docs/contact.md); the bound there is 1.5%. It falls as (h/R)^2 (0.28% at R/h = 20)."""
+    run = cylinder(h, 0.0)
+    assert run["Iy"][-1] > 4.0  # the cylinder rebounded (N ms per mm: m (1 + vy) with m = 2.48 g)
+    assert abs(run["Ix"][-1]) <= (0.01 if h <= 0.5 else 0.015) * run["Iy"][-1]
+    assert run["bound"].worst <= 1e-12  # every node: the change is along its normal
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c[1] > 0.0], ids=case_id)
+def test_coulomb_bound_holds_cumulatively_and_at_every_node(case):
+    """Must-show 3: at every contact node the tangential change of passes 1 and 2 stays below
+    mu times the normal change (each node's own normal), so the cumulative pass-2 impulses in
+    the nodes' frames do too; on the cylinder the tangential (x) impulse stays below mu times
+    the normal (y) impulse (+1%) from 10% of the final normal impulse on. Before that the first
+    contact acts at nodes whose normals tilt 1-2.5 degrees from y, which adds up to 0.04 to
+    the x/y ratio: 0.307 at 6% of the impulse for mu = 0.3 at R/h = 20, and 0.307 in the
+    reference code too (docs/contact.md)."""
+    h, mu = case
+    run = cylinder(h, mu)
+    bound = run["bound"]
+    assert bound.checked > 100
+    assert bound.worst <= 1e-12
+    assert bound.tangential <= mu * bound.normal * (1 + 1e-12)
+    assert bound.tangential > 0.5 * mu * bound.normal  # friction acted (slip at many node-steps)
+    Ix, Iy = run["Ix"], run["Iy"]
+    loaded = Iy > 0.1 * Iy[-1]
+    assert loaded.sum() > 3
+    assert np.all(np.abs(Ix[loaded]) <= 1.01 * mu * Iy[loaded])
+
+
+@pytest.mark.parametrize("case", CASES, ids=case_id)
+def test_no_rebound_faster_than_the_impact(case):
+    """Must-show 4: vy after the impact is at most the impact speed."""
+    vx, vy = cylinder(*case)["v"]
+    assert 0.0 < vy <= 1.0
+
+
+# --------------------------------------------------------------- the law itself
+vectors = st.lists(st.floats(-10.0, 10.0), min_size=3, max_size=3)
+
+
+@settings(max_examples=400, deadline=None)
+@given(dp=vectors, n=vectors, mu=st.floats(0.0, 2.0), mu_static=st.one_of(st.just(-1.0), st.floats(0.0, 3.0)),
+       dim=st.sampled_from([2, 3]), decided=st.booleans())
+def test_coulomb_law_never_exceeds_its_bound(dp, n, mu, mu_static, dim, decided):
+    """For any stick impulse and normal, in contact: the applied tangential change is at most
+    max(mu, mu_static if it sticks) times the applied normal change, and the normal change is
+    the stick impulse's normal part. `decided` (pass 3, XPIC increments: a contact kept from
+    pass 2) also admits a separating normal part."""
+    n = np.array(n[:dim] + [0.0] * (3 - dim))
+    if np.linalg.norm(n) < 1e-3:
+        return
+    n /= np.linalg.norm(n)
+    dp = np.array(dp[:dim] + [0.0] * (3 - dim))
+    dotn = float(dp @ n)
+    if not decided and dotn >= 0.0:
+        dotn = -abs(dotn) - 1e-3  # the passes call the law in contact only when approaching
+        dp = dp - (float(dp @ n) - dotn) * n
+    out = np.zeros(3)
+    assert apply_law(COULOMB, mu, mu_static, 0, dp, n, dotn, True, dim, out)
+    applied_n = float(out @ n)
+    tangential = np.linalg.norm(out - applied_n * n)
+    assert applied_n == pytest.approx(dotn, abs=1e-12 * (1 + abs(dotn)))
+    stuck = np.allclose(out, dp, atol=1e-12 * (1 + np.abs(dp).max()))
+    cap = max(mu, mu_static) if stuck else mu
+    assert tangential <= cap * abs(applied_n) * (1 + 1e-12) + 1e-12
+
+
+# --------------------------------------------------------------- 3D: no energy gain
+def sphere_deck(h: float, oblique: bool) -> dict:
+    """A steel sphere (R = 10 mm) on an aluminium block, half model (z >= 0, roller at z = 0),
+    its lowest particle domains on the block's top (they touch at t = 0), striking at
+    (1, -1, 0) or (0, -1, 0) m/s."""
+    data = example("oblique_impact")
+    space = h / 2  # particle spacing (2 per cell direction)
+    top = 6.0  # block top, on a grid line
+    yc = top + 10.0 + 0.25 * space  # lowest lattice row half a spacing above the top
+    x0 = -4.0 if oblique else 0.0
+    data.update({
+        "title": "Steel sphere on an aluminium block, half model",
+        "analysis": "3d",
+        "grid": {"cell_size": h, "domain": {"min": [-16.0, 0.0, 0.0], "max": [16.0, yc + 12.0, 14.0]},
+                 "boundaries": {"ymin": "fixed", "zmin": "roller"}},
+        "bodies": [
+            {"name": "block", "shape": "box", "min": [-14.0, 0.0, 0.0], "max": [14.0, top, 12.0], "material": "alu"},
+            {"name": "sphere", "shape": "sphere", "center": [x0, yc, 0.0], "radius": 10.0, "material": "steel",
+             "velocity": [1.0 if oblique else 0.0, -1.0, 0.0],
+             "clip": {"min": [-20.0, 0.0, 0.0], "max": [20.0, 40.0, 20.0]}},
+        ],
+        "contact": {"normal": "logistic_regression", "default": {"law": "frictionless"}},
+        "time": {"end": 0.08, "cfl": 0.5},
+        "output": {"history_interval": 0.001},
+    })
+    return data
+
+
+@pytest.mark.parametrize("h", [2.0, 1.0], ids=lambda h: f"R/h={10 / h:g}")
+@pytest.mark.parametrize("oblique", [False, True], ids=["normal", "oblique"])
+def test_sphere_impact_never_gains_energy(h, oblique):
+    """Must-show 5: total energy (kinetic + strain) never above its initial value by more
+    than 0.5% (measured: at most +0.26%, R/h = 5 oblique), and the sphere rebounds no faster
+    than it came."""
+    sim = Simulation(build_scene(deck_from(sphere_deck(h, oblique), ROOT / "inputs")))
+    sim.run()
+    col = sim.recorder.column
+    energy = col("kinetic_energy") + col("strain_energy")
+    assert energy.max() <= 1.005 * energy[0]
+    vy = col("py_sphere") / abs(col("py_sphere")[0])
+    assert 0.9 < vy[-1] <= 1.0  # it bounced (0.92-0.99 measured)
