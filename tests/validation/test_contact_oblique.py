@@ -3,8 +3,9 @@
 A steel cylinder (R = 10 mm) strikes an aluminium block at 45 degrees, v = (1, -1) m/s
 (inputs/oblique_impact.yaml, with the reference code's passes: `contact.pass_3: recheck`), at
 R/h = 10 and 20, frictionless and with Coulomb friction mu = 0.1, 0.3, 0.6. The cylinder's
-velocities after the impact are compared with the reference code's (NairnMPM v19 on the same scene: tests/validation/data/oblique_reference.json
-says how they were made; the input files are beside it). What contact must never do is
+velocities after the impact are compared with the reference code's (NairnMPM v19 on the
+same scene: tests/validation/data/oblique_reference.json says how they were made; the input
+files are beside it). What contact must never do is
 checked on every run: a tangential impulse without friction, a tangential change above mu
 times the normal change at any contact node in passes 1 and 2, a rebound faster than the
 impact. A steel sphere dropped on a block in 3D, normally and obliquely, at R/h = 5 and 10,
