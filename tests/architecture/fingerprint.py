@@ -22,6 +22,7 @@ from mpmsim.deck.overrides import with_overrides
 ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = Path(__file__).with_name("reference.json")
 STEPS = 25
+FEM_STEPS = 12
 
 # method variants over scenes that cover them: (case name, deck, overrides)
 VARIANTS = [
@@ -70,18 +71,34 @@ VARIANTS = [
 
 
 def particle_decks() -> list[str]:
-    """The decks of inputs/ whose bodies are all particle bodies (the kinds the reference was
-    recorded for; FEM decks have their own tests)."""
+    """The decks of inputs/ whose bodies are all particle bodies, run by the explicit step."""
+    return [d for d, fem in _decks() if not fem]
+
+
+def fem_decks() -> list[str]:
+    """The decks of inputs/ with FEM bodies or the implicit integrator (fewer steps: an
+    implicit step is a Newton solve)."""
+    return [d for d, fem in _decks() if fem]
+
+
+def _decks() -> list[tuple[str, bool]]:
     out = []
     for p in sorted((ROOT / "inputs").glob("*.yaml")):
-        bodies = yaml.safe_load(p.read_text()).get("bodies") or []
-        if all(b.get("discretization", "particles") == "particles" for b in bodies):
-            out.append(p.stem)
+        data = yaml.safe_load(p.read_text())
+        bodies = data.get("bodies") or []
+        fem = data.get("integrator", "explicit") != "explicit" or any(
+            b.get("discretization", "particles") != "particles" for b in bodies)
+        out.append((p.stem, fem))
     return out
 
 
 def cases() -> list[tuple[str, str, dict]]:
-    return [(d, d, {}) for d in particle_decks()] + VARIANTS
+    return [(d, d, {}) for d in particle_decks()] + [(d, d, {}) for d in fem_decks()] + VARIANTS
+
+
+def steps_of(name: str) -> int:
+    """Steps a new case records: FEM and implicit decks run FEM_STEPS."""
+    return FEM_STEPS if name in fem_decks() else STEPS
 
 
 def _digest(a) -> str:
@@ -130,6 +147,9 @@ def arrays(sim) -> dict[str, np.ndarray]:
             out[f"particles.{k}"] = getattr(P, k)
     if R.n:
         out["rigid.x"], out["rigid.v"] = R.x, R.v
+    if st.fem is not None:
+        for k in ("x", "v", "a", "a_contact", "B", "contact_work"):
+            out[f"fem.{k}"] = getattr(st.fem, k)
     out["reaction"] = st.reaction
     out["work_in"] = np.array([st.work_in, st.interface_energy])
     return out
@@ -150,7 +170,7 @@ def main(argv: list[str]) -> None:
         if want and name not in want:
             continue
         kept = ref.get(name, {})  # a case keeps its step count and history columns
-        ref[name] = fingerprint(deck, overrides, kept.get("steps", STEPS), kept.get("columns"))
+        ref[name] = fingerprint(deck, overrides, kept.get("steps", steps_of(name)), kept.get("columns"))
         print(name, ref[name]["history"], flush=True)
     REFERENCE.write_text(json.dumps(ref, indent=1, sort_keys=True) + "\n")
 
