@@ -195,7 +195,7 @@ def sliding_loss(offset: float, apic: bool, iterations: int, h: float = 0.5) -> 
     between two long rows of boundary nodes in contact (spacing h, augury cell h / 2 as in the
     ramp test, equal masses, frictionless), the upper row shifted by `offset` and sliding at
     unit speed over the lower; measured on the middle half of the rows."""
-    from mpmsim.augury import BSPLINE2, AuguryGrid, augury_correction
+    from mpmsim.contact.augury.transfers import BSPLINE2, AuguryGrid, augury_correction
 
     s = np.arange(-20, 21) * h
     k = len(s)

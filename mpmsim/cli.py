@@ -468,9 +468,9 @@ def _describe_fem(scene, state, u) -> None:
         held = int(np.sum(fem.held[fem.node_body == row].any(axis=1)))
         out.print(f"FEM body '{info.name}': {nodes} nodes, {cells} {kind}" + (f", {held} held nodes" if held else ""),
                   highlight=False)
-    role = "barrier contact points" if scene.deck.integrator == "implicit" else "augury particles"
+    role = "barrier contact points" if scene.settings.integrator == "implicit" else "augury particles"
     out.print(f"FEM boundary nodes ({role}): {len(fem.boundary)}", highlight=False)
-    a = scene.deck.contact.augury
+    a = scene.contact.augury
     if a is not None:
         out.print(f"augury contact: {a.transfer.upper()}, grid {a.cell_size:g} {u.length}, {a.kernel}, "
                   f"{a.iterations} iteration(s), tau = " + (f"{a.tau:g} {u.time}" if a.tau else "the time step"),

@@ -9,10 +9,17 @@ picks the directory when it is imported, before any kernel is defined:
 2. the package directory, when this process can write it (the usual editable install);
 3. otherwise the user's cache directory, $XDG_CACHE_HOME/mpmsim/numba (default
    ~/.cache/mpmsim/numba).
+
+A cached kernel's index names the types of its arguments by module. When modules of mpmsim
+move (an update of the package), the index of a kernel whose own file did not change names a
+module that no longer exists, and numba fails loading it (ModuleNotFoundError) instead of
+compiling again. So the cache root keeps a stamp of the package's module layout, and the
+cached kernels are dropped when the layout differs (`drop_if_moved`).
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
 from pathlib import Path
 
@@ -37,8 +44,10 @@ def configure() -> Path:
 
     where = choose()
     if where is None:
+        drop_if_moved(PACKAGE_DIR)
         return PACKAGE_DIR
     where.mkdir(parents=True, exist_ok=True)
+    drop_if_moved(where)
     numba.config.CACHE_DIR = str(where)
     os.environ.setdefault("NUMBA_CACHE_DIR", str(where))  # for worker processes (sweeps)
     return where
@@ -50,3 +59,31 @@ def is_empty() -> bool:
 
     root = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else PACKAGE_DIR
     return not root.exists() or not any(root.rglob("*.nbi"))
+
+
+STAMP = ".mpmsim-layout"
+
+
+def layout(package_dir: Path = PACKAGE_DIR) -> str:
+    """A digest of the package's module paths."""
+    names = sorted(str(p.relative_to(package_dir)) for p in package_dir.rglob("*.py"))
+    return hashlib.sha256("\n".join(names).encode()).hexdigest()[:16]
+
+
+def drop_if_moved(root: Path, package_dir: Path = PACKAGE_DIR) -> bool:
+    """Delete the cached kernels under `root` when the stamp there is not the package's current
+    module layout, then stamp it; True when kernels were dropped. Silent where root is not
+    writable (numba then reports its own error)."""
+    stamp = Path(root) / STAMP
+    now = layout(package_dir)
+    try:
+        if stamp.exists() and stamp.read_text() == now:
+            return False
+        dropped = False
+        for f in Path(root).rglob("*.nb[ic]"):
+            f.unlink(missing_ok=True)
+            dropped = True
+        stamp.write_text(now)
+        return dropped
+    except OSError:
+        return False

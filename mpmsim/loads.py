@@ -40,13 +40,12 @@ class Loads:
 
 
 def build_loads(scene, x: np.ndarray, vol: np.ndarray) -> Loads | None:
-    deck = scene.deck
-    if not deck.loads:
+    if not scene.settings.loads:
         return None
     dim = scene.dim
     size = 2.0 * np.asarray(scene.semi_size)[:dim]
     idx, force, ramp = [], [], []
-    for load in deck.loads:
+    for load in scene.settings.loads:
         lo, hi = np.asarray(load.region.min), np.asarray(load.region.max)
         inside = np.nonzero(np.all((x >= lo) & (x <= hi), axis=1))[0]  # not empty: checked by the scene
         if load.face is not None:

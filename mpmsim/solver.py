@@ -26,7 +26,7 @@ import numpy as np
 from .deck import LoadedDeck, as_loaded_deck
 from .deck.schema import wall_clock_seconds
 from .errors import InstabilityError
-from .output.checkpoint import CheckpointError, checkpoint_path, deck_digest, read_manifest, restore_checkpoint, \
+from .output.checkpoint import CheckpointError, checkpoint_path, read_manifest, restore_checkpoint, \
     write_checkpoint
 from .integrators import Integrator, make_integrator
 from .output.history import History
@@ -108,10 +108,10 @@ class Simulation:
         to continue (call `resume()`); otherwise an earlier run's series files and checkpoint of
         this deck are removed."""
         self.scene = scene
-        deck = scene.deck
-        self.end = deck.time.end
-        self.vtu_interval = deck.output.vtu_interval or self.end / 20
-        self.history_interval = deck.output.history_interval or self.end / 200
+        run = scene.settings
+        self.end = run.time.end
+        self.vtu_interval = run.output.vtu_interval or self.end / 20
+        self.history_interval = run.output.history_interval or self.end / 200
         self.state = State.from_scene(scene, threads)
         self.integrator = integrator if integrator is not None else make_integrator(scene)
         self.check = StabilityCheck(scene)
@@ -126,7 +126,7 @@ class Simulation:
         self.files: list[Path] = []
         self.first_step_seconds = 0.0  # wall time of the first step of run() (compiling)
         self.schedule: Schedule | None = None  # set by the first run() (or a restored checkpoint)
-        interval = deck.output.checkpoint_interval
+        interval = run.output.checkpoint_interval
         self.checkpoint_every = interval if not isinstance(interval, str) else math.inf  # simulated time
         self.checkpoint_wall = wall_clock_seconds(interval) if isinstance(interval, str) else None
         self.checkpoint_path = checkpoint_path(self.out_dir, stem) if self.out_dir is not None else None
@@ -137,17 +137,17 @@ class Simulation:
                 self.checkpoint_path.unlink(missing_ok=True)
 
     def check_budget(self, max_steps: float | None, max_frames: float | None) -> None:
-        deck = self.scene.deck
+        run = self.scene.settings
         problems = []
         if max_steps is not None:
-            dt = deck.time.dt or self.integrator.stable_dt(self.state)
+            dt = run.time.dt or self.integrator.stable_dt(self.state)
             steps = self.end / dt if dt > 0 else math.inf
             if not steps <= max_steps:
                 problems.append((("time", "end"), f"about {steps:.3g} steps (stable dt {dt:.3g} for time.end "
                                  f"{self.end:g}); more than the {max_steps:.3g} allowed: check the densities and "
                                  "moduli, or run with --max-steps N"))
         if max_frames is not None:
-            every = deck.output.checkpoint_interval
+            every = run.output.checkpoint_interval
             sim_every = [("checkpoint_interval", every)] if not isinstance(every, str) else []
             for key, interval in [("vtu_interval", self.vtu_interval), ("history_interval", self.history_interval)] \
                     + sim_every:
@@ -242,7 +242,7 @@ class Simulation:
         if self.checkpoint_path is None:
             return None
         t0 = wallclock.perf_counter()
-        meta = {"mpmsim": __version__, "deck": deck_digest(self.scene.deck), "t": self.state.t,
+        meta = {"mpmsim": __version__, "deck": self.scene.digest, "t": self.state.t,
                 "step": self.state.step, "threads": self.state.threads}
         write_checkpoint(self.checkpoint_path, self._checkpoint_root(), meta)
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
@@ -261,7 +261,7 @@ class Simulation:
         if manifest.get("mpmsim") != __version__:
             raise CheckpointError(f"{str(path)!r} was written by mpmsim {manifest.get('mpmsim')}, this is "
                                   f"{__version__}; rerun from the start")
-        if manifest.get("deck") != deck_digest(self.scene.deck):
+        if manifest.get("deck") != self.scene.digest:
             raise CheckpointError(f"{str(path)!r} was written for a different deck (or one changed since); "
                                   "rerun from the start, or restore the deck as it was")
         restore_checkpoint(path, self._checkpoint_root(), manifest)
@@ -286,7 +286,7 @@ class Simulation:
             from .deck.units import unit_system
             from .output.progress import progress_bar
 
-            with progress_bar(self.scene.loaded.stem, self.end, unit_system(self.scene.deck.units).time) as report:
+            with progress_bar(self.scene.loaded.stem, self.end, unit_system(self.scene.settings.units).time) as report:
                 return self.run(report, first_step, between_steps)
         progress = progress or None
         st, end = self.state, self.end

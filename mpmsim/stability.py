@@ -37,10 +37,10 @@ def total_sums(state, detail: bool = False):
 
 class StabilityCheck:
     def __init__(self, scene):
-        stab = scene.deck.stability
+        stab = scene.settings.stability
         self.tolerance = stab.energy_tolerance
         self.every = stab.check_every
-        self.units = unit_system(scene.deck.units)
+        self.units = unit_system(scene.settings.units)
 
     def where(self, state) -> str:
         """The failing step: its number (1-based) and its end time."""
@@ -100,7 +100,7 @@ def compaction_warnings(scene, x) -> list[str]:
         return []
     moves = f"rigid '{who}' travels {100 * worst:.0f}% of the material's extent"
     out = []
-    in_contact = len(mats.deformable) >= 2 and deck.contact.default.law != "none"
+    in_contact = len(mats.deformable) >= 2 and scene.contact.default.law != "none"
     if in_contact and len(mats.deformable) >= 3 and upd.scheme != "pic":
         out.append(f"{moves} with update.scheme {upd.scheme} and {len(mats.deformable)} deformable materials in "
                    "contact: where grains of three or more materials meet and the voids between them close, only "

@@ -4,7 +4,7 @@
   particles; `particles` and `rigid` name the two particle sets.
 - the background grid's workspace: field arrays (`fields`), the active node box (`box`) and
   each particle set's shape data (`sd`, `rigid_sd`);
-- the contact workspace (`contact`, mpmsim/contact/workspace.py) where materials meet;
+- the contact workspace (`contact`, mpmsim/contact/grid/workspace.py) where materials meet;
 - the clock (t, dt, step) and the run's energy accounts (work put in, reactions, the energy
   stored in interfaces), and the flags kernels raise when something goes bad.
 
@@ -21,7 +21,7 @@ import numpy as np
 from .bodies.fem import FemBodies
 from .bodies.particles import Particles
 from .bodies.rigid import RigidParticles
-from .contact.workspace import ContactWorkspace
+from .contact.grid.workspace import ContactWorkspace
 from .gridops import ActiveBox, n_threads
 from .loads import build_loads
 from .materials import MaterialTable
@@ -143,26 +143,22 @@ class State:
         state = cls.particle_state(scene, threads) if scene.has_particles else cls.without_particles(scene, threads)
         if scene.fem is not None:
             state.fem = FemBodies.from_seed(scene.fem, scene.materials, scene.thickness, scene.dim)
-            state.fem.check_every = scene.deck.stability.check_every
-            if scene.deck.contact.augury is not None:
-                state.fem.crossing_depth = scene.deck.contact.augury.overlap_tolerance
+            state.fem.check_every = scene.settings.stability.check_every
+            if scene.contact.augury is not None:
+                state.fem.crossing_depth = scene.contact.augury.overlap_tolerance
             state.bodies.append(state.fem)
             state.energy0 += 0.5 * float(state.fem.mass @ np.sum(state.fem.v**2, axis=1))
             c0 = np.sqrt(np.array([initial_modulus(c, r) for c, r in zip(scene.materials.type_code,
                                                                            scene.materials.props)])
                          / scene.materials.density)
-            node_mat = np.zeros(state.fem.n, dtype=np.int64)
-            node_mat[state.fem.cells.ravel()] = np.repeat(state.fem.cell_mat, state.fem.cells.shape[1])
-            state.energy_floor += 1e-12 * float(np.sum(state.fem.mass * c0[node_mat] ** 2))
+            state.energy_floor += 1e-12 * float(np.sum(state.fem.mass * c0[state.fem.node_mat] ** 2))
         return state
 
     @classmethod
     def without_particles(cls, scene: Scene, threads: int | None) -> "State":
         """A scene of FEM bodies only: no background grid, no particle workspace."""
-        dim, deck, mats = scene.dim, scene.deck, scene.materials
-        g = np.zeros(dim)
-        if deck.gravity is not None:
-            g[:] = deck.gravity
+        dim, mats = scene.dim, scene.materials
+        g = scene.settings.gravity.copy()
         threads = threads or n_threads()
         particles = Particles.from_seed(scene.deformable, mats.density, np.full(dim, 0.5), [], affine=False,
                                         energy=False)
@@ -177,27 +173,25 @@ class State:
     @classmethod
     def particle_state(cls, scene: Scene, threads: int | None) -> "State":
         dim = scene.dim
-        deck = scene.deck
+        run = scene.settings
         mats = scene.materials
-        scheme = deck.update.scheme
+        scheme = run.update.scheme
         particles = Particles.from_seed(scene.deformable, mats.density, scene.semi_size, scene.deformable_bodies,
                                         affine=scheme == "apic", energy=mats.tracks_energy)
-        rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim, deck.stability.rigid_penetration)
-        sf = shape_function(deck.shape_function)
+        rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim, run.stability.rigid_penetration)
+        sf = shape_function(run.shape_function)
         K = sf.nodes_per_particle(dim)
         if not threads:  # no count asked for: one thread for a small scene
             threads, _ = auto_threads(n_threads(), particles.n)
         use_threads(threads)  # kernels run from here on (shape functions below) in this form
         nr = len(mats.rigid)
-        g = np.zeros(dim)
-        if deck.gravity is not None:
-            g[:] = deck.gravity
+        g = run.gravity.copy()
         per = sf.per_axis
         offsets = np.array([(k % per, (k // per) % per, k // (per * per)) for k in range(K)], dtype=np.int64)
         nn = scene.grid.n_nodes
         contact = None
-        if scene.contact is not None:
-            contact = ContactWorkspace.create(scene.contact, particles.mat, rigid.mat, nn, K, dim)
+        if scene.contact.grid is not None:
+            contact = ContactWorkspace.create(scene.contact.grid, particles.mat, rigid.mat, nn, K, dim)
         state = cls(
             dim=dim, grid=scene.grid, materials=mats, shape=sf, particles=particles, rigid=rigid,
             bodies=[particles, rigid], sd=ShapeData.empty(particles.n, K, dim),
@@ -205,10 +199,10 @@ class State:
             fields=GridFields.allocate(nn, dim, nr, scheme in ("xpic", "fmpm")),
             box=ActiveBox(scene.grid.shape), gravity=g, threads=threads, nchunk=max(1, 4 * threads),
             entry_offsets=offsets, contact=contact, loads=build_loads(scene, particles.x, particles.vol),
-            damping=deck.damping.grid if deck.damping is not None else 0.0,
+            damping=run.damping,
         )
         state.reaction = np.zeros((6 + nr, dim))
-        if deck.output.energy_ledger:
+        if run.output.energy_ledger:
             state.ledger = np.zeros(4)  # tasks/ledger.py LOSSES
         state.particle_bounds = scene.grid.particle_bounds
         mass = particles.mass

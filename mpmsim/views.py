@@ -4,7 +4,7 @@ Each bundle is a `typing.NamedTuple` of numpy arrays (and a few numbers); numba 
 attribute access to a plain field load, so a kernel taking bundles runs exactly as one
 taking the arrays one by one. Task code builds the bundles from the state when it calls a
 kernel (a few microseconds). Contact bundles live with the contact workspace
-(mpmsim/contact/workspace.py).
+(mpmsim/contact/grid/workspace.py).
 """
 
 from __future__ import annotations

@@ -39,6 +39,7 @@ class BodyInfo:
     index: int
     name: str
     kind: str
+    material: str | None = None  # the deck body's material (None: an image body of several)
 
 
 @dataclass

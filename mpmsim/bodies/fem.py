@@ -1,6 +1,6 @@
 """FEM bodies: linear triangles (2D plane strain) and tetrahedra (3D) with lumped masses,
 advanced by velocity Verlet (mpmsim/tasks/fem.py), in contact through APIC augury transfers
-of their boundary nodes (mpmsim/augury.py).
+of their boundary nodes (mpmsim/contact/augury/transfers.py).
 
 All FEM bodies of a deck share one set of node and cell arrays with a body index. Boundary
 nodes carry the augury's affine part B (APIC) and its rate; its kinetic energy
@@ -41,6 +41,7 @@ class FemBodies(BodySet):
     cell_body: np.ndarray  # (m,) row in infos
     cell_mat: np.ndarray  # (m,) deformable material index
     node_body: np.ndarray  # (n,) row in infos
+    node_mat: np.ndarray  # (n,) deformable material index of each node (FemSeed.node_mat)
     Dm_inv: np.ndarray  # (m, dim, dim)
     vol0: np.ndarray  # (m,) reference volume (2D: area x thickness)
     held: np.ndarray  # (n, dim) bool
@@ -76,7 +77,8 @@ class FemBodies(BodySet):
         boundary = np.unique(seed.facets)
         nb = len(boundary)
         return cls(seed.points.copy(), seed.points.copy(), seed.velocity.copy(), np.zeros_like(seed.points),
-                   np.zeros_like(seed.points), mass, seed.cells, seed.cell_body, seed.cell_mat, seed.node_body, Dm_inv,
+                   np.zeros_like(seed.points), mass, seed.cells, seed.cell_body, seed.cell_mat, seed.node_body,
+                   seed.node_mat, Dm_inv,
                    vol0, seed.held, seed.held_velocity, seed.facets, boundary, np.zeros((nb, dim, dim)),
                    np.zeros((nb, dim, dim)), np.zeros((nb, 3, 3)), np.zeros(len(seed.infos)),
                    np.zeros_like(seed.points), list(seed.infos), float(scale))

@@ -7,6 +7,8 @@ file, the line, the key path (e.g. `materials.steel.nu`) and what is wrong.
 from __future__ import annotations
 
 import difflib
+import hashlib
+import json
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -252,3 +254,10 @@ def _problems_from_validation(exc: ValidationError, root) -> list[tuple[tuple, s
     for path, msgs in merged.items():
         problems.append((path, msgs[0] if len(msgs) == 1 else "does not match any allowed form: " + "; or ".join(msgs)))
     return problems
+
+
+def deck_digest(deck) -> str:
+    """sha256 of the validated deck (all values; not the output folder, which a restart may move)."""
+    data = deck.model_dump(mode="json")
+    data.get("output", {}).pop("directory", None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()

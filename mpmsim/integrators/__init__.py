@@ -41,4 +41,4 @@ def make_integrator(scene) -> Integrator:
     from .implicit import ImplicitStep
 
     kinds = {"explicit": ExplicitMPM, "implicit": ImplicitStep}
-    return kinds[scene.deck.integrator](scene)
+    return kinds[scene.settings.integrator](scene)

@@ -19,13 +19,13 @@ class ExplicitMPM(Integrator):
 
     def __init__(self, scene):
         super().__init__()
-        deck = scene.deck
+        time = scene.settings.time
         self.tasks, self.skipped = plan_tasks(scene)
         self.plan = [(t.name, t.why) for t in self.tasks]
         self.timers = {t.name: 0.0 for t in self.tasks}
-        self.cfl = deck.time.cfl if deck.time.cfl is not None else 0.5
-        self.fixed = deck.time.dt
-        self._rule = cfl_rule(deck.time.dt, self.cfl, float(scene.grid.h.min())) if scene.has_particles else None
+        self.cfl = time.cfl if time.cfl is not None else 0.5
+        self.fixed = time.dt
+        self._rule = cfl_rule(time.dt, self.cfl, float(scene.grid.h.min())) if scene.has_particles else None
 
     def stable_dt(self, state) -> float:
         """The deck's dt, or the smaller of the MPM CFL step and cfl x the smallest FEM

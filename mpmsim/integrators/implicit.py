@@ -63,12 +63,11 @@ from scipy.sparse.linalg import splu
 
 from numba import njit
 
-from ..barrier import (barrier_normal_force, box_pairs, correction_nodes, det_step_bound, point_boxes,
+from ..contact.barrier import (barrier_normal_force, box_pairs, correction_nodes, det_step_bound, point_boxes,
                        point_edge_barrier_pairs, point_edge_candidates, point_edge_ccd_pairs, point_edge_distance,
                        point_edge_friction, point_edge_friction_frame, point_node_candidates, simplex_boxes,
                        triangle_step_bound)
-from ..barrier.potential import point_node_barrier_pairs, vertex_edges
-from ..deck.schema import Implicit
+from ..contact.barrier.potential import point_node_barrier_pairs, vertex_edges
 from ..errors import InstabilityError
 from ..fem import elements
 from . import Integrator
@@ -150,7 +149,7 @@ def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
         inside = particles_inside(seed.x, fem.points, fem.cells)
         if len(inside):
             q, e = inside[0]
-            problems.append((("bodies",), f"{len(inside)} particle(s) of '{scene.deck.bodies[seed.body[q]].name}' start "
+            problems.append((("bodies",), f"{len(inside)} particle(s) of '{_body_name(scene, seed.body[q])}' start "
                              f"inside FEM body '{fem.infos[fem.cell_body[e]].name}' (first at "
                              f"{seed.x[q].round(6).tolist()}): the bodies overlap"))
     if seed is not None and len(seed.x):
@@ -169,13 +168,17 @@ def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
             d = point_edge_distance(y)
             if d <= dhat:
                 what = "a particle's corner" if corners else "a particle"
-                problems.append((("implicit", "dhat"), f"{what} of '{scene.deck.bodies[seed.body[owner[q]]].name}' at "
+                problems.append((("implicit", "dhat"), f"{what} of '{_body_name(scene, seed.body[owner[q]])}' at "
                                  f"{x[q].round(6).tolist()} starts {d:.4g} from the boundary of "
                                  f"'{fem.infos[fem.node_body[a]].name}', not farther than dhat = {dhat:g}: move "
                                  "the bodies apart or lower dhat"))
                 break
     if problems:
         raise_at(problems, scene.loaded)
+
+
+def _body_name(scene, body: int) -> str:
+    return next(b.name for b in scene.deformable_bodies if b.index == body)
 
 
 def particles_inside(x: np.ndarray, verts: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -257,7 +260,7 @@ def empty_fem(dim: int) -> SimpleNamespace:
                            held_velocity=z.copy(), cells=np.zeros((0, dim + 1), np.int64),
                            Dm_inv=np.zeros((0, dim, dim)), vol0=np.zeros(0), cell_mat=np.zeros(0, np.int64),
                            facets=np.zeros((0, dim), np.int64), boundary=np.zeros(0, np.int64),
-                           node_body=np.zeros(0, np.int64), infos=[], n=0)
+                           node_body=np.zeros(0, np.int64), node_mat=np.zeros(0, np.int64), infos=[], n=0)
 
 
 class Pairs(NamedTuple):
@@ -295,48 +298,36 @@ class ImplicitStep(Integrator):
 
     def __init__(self, scene):
         super().__init__()
-        deck = scene.deck
-        imp = deck.implicit if deck.implicit is not None else Implicit()
+        run = scene.settings
+        imp = run.implicit
+        barrier = scene.contact.barrier
         self.zeta, self.beta, self.gamma = SCHEMES[imp.scheme]
         self.tolerance = imp.newton_tolerance
         self.max_iterations = imp.max_newton_iterations
-        self.dhat = imp.dhat
-        mats = scene.materials
-        used = set(int(c) for c in scene.fem.cell_mat) if scene.fem is not None else set()
-        used |= {mats.deformable.index(b.material) for b in deck.bodies
-                 if b.discretization == "particles" and b.material in mats.deformable}
-        young = max(float(deck.materials[mats.deformable[m]].E) for m in used)
-        self.kappa = imp.kappa if imp.kappa is not None else 1e-3 * young
-        self.eps_v = imp.friction_velocity
-        self.friction_lags = imp.friction_lags
-        self.particle_contact = imp.particle_contact
-        c = deck.contact
-        self.mu = np.full((len(mats.deformable),) * 2, c.default.friction if c.default.law == "coulomb" else 0.0)
-        index = {name: k for k, name in enumerate(mats.deformable)}
-        for pair in c.pairs:
-            if all(m in index for m in pair.between):
-                a, b = (index[m] for m in pair.between)
-                self.mu[a, b] = self.mu[b, a] = pair.friction if pair.law == "coulomb" else 0.0
-        self.dt = deck.time.dt
+        self.dhat = barrier.dhat
+        self.kappa = barrier.kappa
+        self.eps_v = barrier.friction_velocity
+        self.friction_lags = barrier.friction_lags
+        self.particle_contact = barrier.particle_contact
+        self.mu = scene.contact.friction  # Coulomb friction between materials
+        self.dt = run.time.dt
         self.thickness = float(scene.thickness) if scene.dim == 2 else 1.0
-        self.gravity = np.zeros(scene.dim)
-        if deck.gravity:
-            self.gravity[:] = deck.gravity
+        self.gravity = run.gravity.copy()
         self.timers = {p: 0.0 for p in PARTS}
         self.stats: list[tuple[int, int, int, int]] = []  # per step: Newton iterations, halvings, CCD-limited, lags
         n_fem = len(scene.fem.infos) if scene.fem is not None else 0
-        self.grid = GridUnknowns(deck.update.scheme) if scene.has_particles else None
+        self.grid = GridUnknowns(run.update.scheme) if scene.has_particles else None
         bodies = n_fem + (1 if self.grid is not None else 0)
         self.contact = self.dhat is not None and n_fem >= 1 and bodies > 1 and scene.dim == 2
         if self.dhat is not None:
-            check_initial_gaps(scene, self.dhat, imp.particle_contact == "corners")
+            check_initial_gaps(scene, self.dhat, self.particle_contact == "corners")
         what = "FEM bodies" if self.grid is None else ("particle bodies" if not n_fem else "FEM and particle bodies")
         self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, sparse LU"),
                      ("barrier contact", f"log barrier on FEM boundary edges, dhat {self.dhat:g}, kappa {self.kappa:g}"
-                      + (f", particles at their {imp.particle_contact}" if self.grid is not None else "")
+                      + (f", particles at their {self.particle_contact}" if self.grid is not None else "")
                       if self.contact else "no contact")]
         if self.grid is not None:
-            self.plan.insert(0, ("grid unknowns", f"particles -> active grid nodes ({deck.update.scheme} transfers), "
+            self.plan.insert(0, ("grid unknowns", f"particles -> active grid nodes ({run.update.scheme} transfers), "
                                                   "weights frozen over the step"))
         self.started = False
         self.friction = None
@@ -355,9 +346,7 @@ class ImplicitStep(Integrator):
         self.n_fem_bodies = len(fem.infos)
         if self.contact:
             self.edge_body = fem.node_body[fem.facets[:, 0]]
-            node_mat = np.zeros(fem.n, dtype=np.int64)
-            node_mat[fem.cells.ravel()] = np.repeat(fem.cell_mat, fem.cells.shape[1])
-            self.node_mat = node_mat
+            self.node_mat = fem.node_mat
             # contact areas: boundary length share x thickness (2D)
             self.boundary_weight = boundary_weights(fem.X, fem.facets, fem.boundary) * self.thickness
             # the (deg - 1) correction at boundary vertices

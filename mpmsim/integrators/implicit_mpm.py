@@ -25,7 +25,7 @@ import itertools
 import numpy as np
 from numba import njit
 
-from ..augury import inertia_inverse, to_grid
+from ..contact.augury.transfers import inertia_inverse, to_grid
 from ..errors import InstabilityError
 from ..fem import elements
 from ..shapes import ShapeData

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..deck.loader import deck_digest  # noqa: F401  (the digest a checkpoint records)
 from .atomic import atomic_path
 
 FORMAT = "mpmsim-checkpoint"
@@ -43,13 +44,6 @@ class CheckpointError(Exception):
 
 def checkpoint_path(directory: Path, stem: str) -> Path:
     return Path(directory) / f"{stem}_checkpoint.npz"
-
-
-def deck_digest(deck) -> str:
-    """sha256 of the validated deck (all values; not the output folder, which a restart may move)."""
-    data = deck.model_dump(mode="json")
-    data.get("output", {}).pop("directory", None)
-    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
 
 def _is_own(obj) -> bool:

@@ -1,7 +1,9 @@
 """CSV history of global quantities: a header of plain column names, then one row per
 history time, each appended (one whole line, flushed) as it is recorded; units, the deck
 title, the resolved deck and the versions are in a JSON sidecar `<stem>_history.json`,
-written once at the start. `pandas.read_csv(path)` reads the CSV as it is.
+written once at the start. `pandas.read_csv(path)` reads the CSV as it is. Values are written
+at full double precision, each as the shortest string that reads back as the same float64
+(`csv_value`), so the file holds exactly the rows in memory.
 
 Every sum comes from the body sets (mpmsim/bodies: each kind sums its own arrays); the
 history adds them up and adds the run's accounts. Columns, in order:
@@ -67,10 +69,10 @@ class History:
 
     def __init__(self, scene, state, path: Path | None = None):
         self.path = Path(path) if path is not None else None
-        deck = scene.deck
-        self.deck = deck  # for the sidecar (a restart takes it from the deck again)
-        self.title = " ".join(str(deck.title).split())  # one line
-        u = unit_system(deck.units)
+        self.deck = scene.record  # the validated deck, for the sidecar (a restart takes it from the scene again)
+        run = scene.settings
+        self.title = " ".join(str(run.title).split())  # one line
+        u = unit_system(scene.settings.units)
         dim = state.dim
         axes = "xyz"[:dim]
         self.columns: list[tuple[str, str]] = [("time", u.time), ("step", "-"), ("dt", u.time), ("wall_s", "s")]
@@ -91,10 +93,10 @@ class History:
         self._noise = state.particles.n > 0
         if self._noise:
             self.columns += [("velocity_noise", "-")]
-        self._null_space = deck.output.null_space_noise and self._noise
+        self._null_space = run.output.null_space_noise and self._noise
         if self._null_space:
             self.columns += [("null_space_noise", "-")]
-        self._ledger = deck.output.energy_ledger
+        self._ledger = run.output.energy_ledger
         if self._ledger:
             self.columns += [(n, u.energy) for n in (*LOSSES, "energy_residual")]
         faces = state.grid.face_type[: 2 * dim] if state.grid is not None else np.zeros(2 * dim)
@@ -104,8 +106,8 @@ class History:
         for body in state.bodies:
             self.columns += [(plain(n), unit) for n, unit in body.history_columns(u, dim)]
         names = state.materials.deformable
-        self._material_ids = [names.index(m) for m in deck.output.material_stress]
-        for m in deck.output.material_stress:
+        self._material_ids = [names.index(m) for m in run.output.material_stress]
+        for m in run.output.material_stress:
             self.columns += [(f"{sname}_mat_{plain(m)}", u.stress) for sname in stress_cols]
         massive = [(b, info) for b in state.bodies if b.has_mass for info in b.bodies]
         self._per_body = len(massive) >= 2
@@ -117,9 +119,8 @@ class History:
                 self.columns += [(f"{n}_{name}", f"{momentum} {u.length}") for n in angular_names(dim)]
                 self.columns += [(f"c{a}_{name}", u.length) for a in axes]
         # per material: each massive body's row goes to its material's
-        body_mat = [deck.bodies[info.index].material if info.index < len(deck.bodies) else None
-                    for _, info in massive]  # (None: a body kind of no deck body)
-        self._materials = [m for m in deck.materials if m in body_mat]  # deck order
+        body_mat = [info.material for _, info in massive]  # (None: a body kind of no deck body)
+        self._materials = [m for m in state.materials.names if m in body_mat]  # deck order
         if len(self._materials) < 2:
             self._materials = []
         self._body_material = [self._materials.index(m) if m in self._materials else -1 for m in body_mat]
@@ -227,7 +228,7 @@ class History:
     def write_sidecar(self) -> None:
         from .runlog import versions
 
-        meta = {"title": self.title, "columns": dict(self.columns), "deck": self.deck.model_dump(mode="json"),
+        meta = {"title": self.title, "columns": dict(self.columns), "deck": self.deck,
                 **versions()}
         write_text(sidecar_path(self.path), json.dumps(meta, indent=1) + "\n")
 
@@ -246,15 +247,24 @@ def check_unique(names: list[str], bodies, loaded) -> None:
     raise_at([(path, f"gives history columns that another name gives too ({', '.join(twice)}); rename it")], loaded)
 
 
+def csv_value(v) -> str:
+    """One CSV field: an integer as it is (the step), any other value as the shortest string
+    that reads back as the same float64 (Python's float repr: round-trip exact, so sums
+    conserved to 1e-13 show as such in the file; 'nan', 'inf' and '-inf' as they are)."""
+    if isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)):
+        return str(int(v))
+    return repr(float(v))
+
+
 def csv_line(row) -> str:
-    return ",".join(f"{v:.10g}" for v in row) + "\n"
+    return ",".join(map(csv_value, row)) + "\n"
 
 
 def contact_pairs(scene, state) -> list[tuple[int, int]]:
     """Ordered pairs (a, b) of deformable contact groups with particles, a != b, when the
     explicit step's contact passes run (they record the pair forces)."""
     cs = state.contact
-    if cs is None or scene.deck.integrator != "explicit":
+    if cs is None or scene.settings.integrator != "explicit":
         return []
     present = sorted(set(np.unique(cs.group).tolist()))
     return [(a, b) for a in present for b in present if a != b]

@@ -12,15 +12,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..bodies import BodyInfo
-from ..contact.spec import ContactSpec, build_contact_spec
-from ..deck.loader import LoadedDeck, raise_at
+from ..deck.loader import LoadedDeck, deck_digest, raise_at
 from ..deck.schema import Image, RotationVelocity, SineVelocity
 from ..deck.semantics import body_name
 from ..fem.mesh import MeshError
-from ..materials import MaterialTable, build_material_table
+from ..materials import MaterialTable
+from .materials import build_material_table
 from .geometry import bbox, body_materials, inside
 from ..shapes import shape_function
+from .contact import ContactModel, build_contact_model
 from .fem import FemSeed, build_fem
+from .settings import RunSettings, run_settings
 from .grid import FACE_CODES, FACES, GridSpec, plan_grid
 from .memory import CANDIDATE_BYTES, NODE_BYTES, PARTICLE_BYTES, too_big
 
@@ -36,9 +38,9 @@ class ParticleSeed:
 
 @dataclass
 class Scene:
-    """The deck resolved once: grid, materials, the bodies with their initial particles, and
-    the contact groups and laws. Everything downstream (state, integrator, output) is built
-    from this; nothing reads the deck while a run steps."""
+    """The deck resolved once: grid, materials, the bodies with their initial particles (and
+    FEM meshes), the contact model and the run settings. Everything downstream (state,
+    integrator, output) is built from this; nothing below it reads the deck."""
 
     loaded: LoadedDeck
     grid: GridSpec
@@ -47,10 +49,13 @@ class Scene:
     rigid: ParticleSeed
     semi_size: np.ndarray  # (dim,) undeformed particle semi-lengths
     thickness: float
-    contact: ContactSpec | None  # None: a single velocity field, nothing in contact
+    contact: ContactModel  # laws per material pair and each contact family's settings
     deformable_bodies: list[BodyInfo]  # deck bodies holding deformable particles
     rigid_bodies: list[BodyInfo]  # deck bodies holding rigid particles
-    fem: FemSeed | None = None  # the FEM bodies' meshes (None: no FEM body)
+    fem: FemSeed | None  # the FEM bodies' meshes (None: no FEM body)
+    settings: RunSettings
+    digest: str  # sha256 of the validated deck (a checkpoint belongs to it)
+    record: dict  # the validated deck as JSON values (the history's sidecar keeps it)
 
     @property
     def has_particles(self) -> bool:
@@ -62,7 +67,7 @@ class Scene:
 
     @property
     def dim(self) -> int:
-        return self.loaded.deck.dim
+        return self.settings.dim
 
 
 def _cell_sizes(deck) -> np.ndarray:
@@ -91,14 +96,19 @@ def build_scene(loaded: LoadedDeck) -> Scene:
     if problems:
         raise_at(problems, loaded)
     particle_bodies = [(i, b) for i, b in enumerate(deck.bodies) if b.discretization == "particles"]
+    settings = run_settings(deck)
     if not particle_bodies:  # FEM bodies only: no background grid, no particles
         dim = deck.dim
-        return Scene(loaded, None, mats, empty_seed(dim), empty_seed(dim), None, deck.thickness, None, [], [], fem)
+        return Scene(loaded, None, mats, empty_seed(dim), empty_seed(dim), None, deck.thickness,
+                     build_contact_model(deck, mats, fem), [], [], fem, settings,
+                     deck_digest(deck), deck.model_dump(mode="json"))
     grid, deformable, rigid, semi = build_particles(loaded, mats, particle_bodies)
-    infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind)  # noqa: E731
-                                for i in np.unique(seed.body)]
-    return Scene(loaded, grid, mats, deformable, rigid, semi, deck.thickness, build_contact_spec(deck, mats),
-                 infos(deformable, "particles"), infos(rigid, "rigid particles"), fem)
+    infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind,  # noqa: E731
+                                         deck.bodies[i].material) for i in np.unique(seed.body)]
+    contact = build_contact_model(deck, mats, fem, np.unique(deformable.mat))
+    return Scene(loaded, grid, mats, deformable, rigid, semi, deck.thickness, contact,
+                 infos(deformable, "particles"), infos(rigid, "rigid particles"), fem, settings,
+                 deck_digest(deck), deck.model_dump(mode="json"))
 
 
 def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: list):

@@ -32,6 +32,14 @@ class FemSeed:
     def n_nodes(self) -> int:
         return len(self.points)
 
+    @property
+    def node_mat(self) -> np.ndarray:
+        """(n,) material of each node: that of the last cell listing it (a node joins cells
+        of one body, and a body has one material)."""
+        node_mat = np.zeros(len(self.points), dtype=np.int64)
+        node_mat[self.cells.ravel()] = np.repeat(self.cell_mat, self.cells.shape[1])
+        return node_mat
+
 
 def mesh_nodes_estimate(body, dim: int) -> float | None:
     """Nodes of a meshed shape, from its bounding box over element_size (None: a mesh file)."""
@@ -150,7 +158,7 @@ def build_fem(deck, base_dir, materials) -> tuple[FemSeed | None, list]:
     offset = 0
     cells, facets, node_body, cell_body, cell_mat, vel, held, value, pts, infos = ([] for _ in range(10))
     for row, (i, body, m, x, v, hd, hv) in enumerate(parts):
-        infos.append(BodyInfo(i, body_name(body, i), "fem"))
+        infos.append(BodyInfo(i, body_name(body, i), "fem", body.material))
         pts.append(x)
         cells.append(np.asarray(m.cells, np.int64) + offset)
         facets.append(np.asarray(m.facets, np.int64) + offset)

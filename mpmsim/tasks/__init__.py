@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..contact import ContactTasks, material_fields
+from ..contact.grid import ContactTasks, material_fields
 from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
 from .grid_update import grid_update
@@ -22,7 +22,8 @@ from .particle_update import move_rigid, particle_update
 from .setup import compute_shape_functions, prescribed_motion
 from .stress import stress_kernels, update_stress_first, update_stress_last
 from .xpic import xpic
-from .fem import AuguryContact, fem_tasks
+from ..contact.augury import AuguryContact
+from .fem import fem_tasks
 from ..shapes import shape_function
 
 
@@ -33,12 +34,6 @@ class Task:
     why: str
 
 
-def describe_separation(deck) -> str:
-    c = deck.contact
-    sep = c.separation or ("logistic_regression" if c.normal == "logistic_regression" else "displacement")
-    return f"{sep} separation" + (f" (cutoff {c.cutoff:g})" if sep == "cutoff" else "")
-
-
 def build_task_list(scene) -> list[Task]:
     return plan_tasks(scene)[0]
 
@@ -46,11 +41,11 @@ def build_task_list(scene) -> list[Task]:
 def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     """(the step's tasks, [(task left out, why it is not needed)]): the prescribed motions,
     the MPM step when the scene has particle bodies, the FEM step when it has FEM bodies."""
-    deck = scene.deck
+    dt = scene.settings.time.dt
     tasks = [Task("time step", prescribed_motion(scene.materials.motions),
-                  f"fixed dt = {deck.time.dt:g}" if deck.time.dt else "CFL rule on current wave speeds, every step")]
+                  f"fixed dt = {dt:g}" if dt else "CFL rule on current wave speeds, every step")]
     skipped: list[tuple[str, str]] = []
-    augury = AuguryContact(scene) if scene.fem is not None and deck.contact.augury is not None else None
+    augury = AuguryContact(scene) if scene.contact.augury is not None else None
     if scene.has_particles:
         if augury is not None:
             tasks.append(Task("augury carry", augury.carry,
@@ -67,19 +62,19 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
 
 def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     """The MPM part of the step (after the time step)."""
-    deck = scene.deck
+    run = scene.settings
     skipped: list[tuple[str, str]] = []
-    upd = deck.update
+    upd = run.update
     n_rigid = len(scene.materials.rigid)
     faces = [f for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * scene.dim]
-             if getattr(deck.grid.boundaries, f) != "free"]
+             if getattr(run.boundaries, f) != "free"]
     tasks = [
         Task("shape functions", compute_shape_functions,
-             f"{deck.shape_function} weights and the active node box"),
+             f"{run.shape_function} weights and the active node box"),
     ]
-    contact = scene.contact
+    contact = scene.contact.grid
     if contact is not None:
-        ct = ContactTasks(contact, scene.grid, shape_function(deck.shape_function).grid_kind >= 2, scene.thickness,
+        ct = ContactTasks(contact, scene.grid, shape_function(run.shape_function).grid_kind >= 2, scene.thickness,
                           pass_1_moves_particles=upd.scheme in ("pic", "apic", "fmpm")
                           or (upd.scheme == "xpic" and contact.xpic_term))
         tasks.append(Task("material fields", material_fields,
@@ -91,12 +86,12 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
                       "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")))
     if contact is not None:
         tasks.append(Task("contact geometry", ct.geometry,
-                          f"{deck.contact.normal} normals, {describe_separation(deck)}, contact areas"))
+                          f"{contact.normal_name} normals, {contact.describe_separation()}, contact areas"))
     if contact is not None and contact.passes == 2:
         tasks.append(Task("contact pass 1", ct.pass_1, "contact laws on the extrapolated momenta"))
     elif contact is not None:
         skipped.append(("contact pass 1", "contact.passes: 1"))
-    energy = "; internal energy" + (", artificial viscosity" if deck.artificial_viscosity else "") \
+    energy = "; internal energy" + (", artificial viscosity" if run.artificial_viscosity else "") \
         if scene.materials.tracks_energy else ""
     fraction = 0.5 if upd.stress == "usavg" else 1.0
     stress = stress_kernels(scene.materials, scene.dim)  # one per material model in the scene
@@ -106,15 +101,15 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
                           + energy))
     else:
         skipped.append(("update stress first", f"stress update {upd.stress}"))
-    extra = [what for what, on in (("gravity", deck.gravity and any(deck.gravity)),
-                                   (f"{len(deck.loads)} traction load(s)", deck.loads),
-                                   ("grid damping", deck.damping and deck.damping.grid > 0)) if on]
+    extra = [what for what, on in (("gravity", run.has_gravity),
+                                   (f"{len(run.loads)} traction load(s)", run.loads),
+                                   ("grid damping", run.damping > 0)) if on]
     tasks.append(Task("forces", forces, "internal forces" + "".join(f", {e}" for e in extra)))
-    bc_rigid = [r for r in scene.materials.rigid if getattr(deck.materials[r], "mode", "bc") == "bc"]
+    bc_rigid = [r for r, acts in zip(scene.materials.rigid, scene.materials.rigid_bc) if acts]
     bc = ", ".join(faces + [f"rigid '{r}'" for r in bc_rigid]) or "none"
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
     ledger = None
-    if deck.output.energy_ledger:
+    if run.output.energy_ledger:
         ledger = EnergyLedger(upd.stress, upd.reextrapolate, contact is not None and contact.passes == 2)
         tasks.append(Task("energy ledger: update", ledger.updated,
                           "output.energy_ledger: keep the update's velocities; transfer and pass 1 losses"))

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..bc import NO_BC, ghost_mirror, node_bc, rigid_holds
-from ..contact.workspace import no_contact
+from ..contact.grid.workspace import no_contact
 from ..gridops import node_ijk
 from ..parallel import chunk_kernel
 from ..views import RigidHold

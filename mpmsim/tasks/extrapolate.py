@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np  # noqa: F401  (numba kernels use np)
 from numba import njit, prange
 
-from ..contact import extrapolate_contact
+from ..contact.grid import extrapolate_contact
 from ..gridops import chunk_range, slab, zero_fields
 from ..parallel import chunk_kernel
 from .boundary import find_ghosts, has_walls

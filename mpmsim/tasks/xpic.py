@@ -42,10 +42,10 @@ import numpy as np
 from numba import prange
 
 from ..bc import NO_BC, add_reaction, node_bc
-from ..contact.bond import point_bond
-from ..contact.passes import NO_BEFORE, increment_contact, pair_changes
-from ..contact.spec import SEP_VELOCITY
-from ..contact.workspace import no_contact
+from ..contact.grid.bond import point_bond
+from ..contact.grid.passes import NO_BEFORE, increment_contact, pair_changes
+from ..contact.grid.spec import SEP_VELOCITY
+from ..contact.grid.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
 from ..parallel import chunk_kernel
 from ..views import RigidHold

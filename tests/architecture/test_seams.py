@@ -189,7 +189,7 @@ def _imports(path: Path) -> set[str]:
 
 
 @pytest.mark.parametrize("module", ["state.py", "bodies/__init__.py", "bodies/particles.py", "bodies/rigid.py",
-                                    "contact/workspace.py", "scene/build.py", "views.py"])
+                                    "contact/grid/workspace.py", "scene/build.py", "views.py"])
 def test_data_modules_import_nothing_from_the_step(module):
     """State, bodies, workspace and scene are data: they import neither tasks nor integrators,
     nor the run loop or output."""
@@ -199,18 +199,70 @@ def test_data_modules_import_nothing_from_the_step(module):
 
 
 class Sealed:
-    """Stands in for the deck once a run is set up: any read fails the test."""
+    """Stands in for the deck once the scene is built: any read fails the test."""
 
     def __getattr__(self, name):
-        raise AssertionError(f"the deck was read while stepping (deck.{name})")
+        raise AssertionError(f"the deck was read after the scene was built (deck.{name})")
 
 
-@pytest.mark.parametrize("deck", ["two_blocks", "stretch", "nickel_shock_split", "two_layer"])
-def test_no_task_reads_the_deck_while_stepping(deck):
+ALL_DECKS = sorted(p.stem for p in (ROOT / "inputs").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("deck", ALL_DECKS)
+def test_nothing_reads_the_deck_after_the_scene_is_built(deck, tmp_path):
+    """Every deck in inputs/ (particle, FEM and implicit ones): the state, the integrator, the
+    stability check and the output are built from the scene, and three steps with their
+    history rows, a VTU frame and a checkpoint run with the deck sealed."""
     data = yaml.safe_load((ROOT / "inputs" / f"{deck}.yaml").read_text())
-    sim = Simulation(build_scene(deck_from(data, ROOT / "inputs", deck)), threads=1)
-    sim.scene.loaded.deck = Sealed()
+    scene = build_scene(deck_from(data, ROOT / "inputs", deck))
+    scene.loaded.deck = Sealed()
+    sim = Simulation(scene, out_dir=tmp_path, threads=1)
     for _ in range(3):
         sim.step()
-    sim.recorder.record(sim.state)
+        sim.recorder.record(sim.state)
+    sim._write_frame()
+    sim.write_checkpoint()
     assert sim.state.step == 3
+
+
+def test_the_sealed_deck_fails_a_read():
+    """The test above can fail: a read of the sealed deck raises."""
+    data = yaml.safe_load((ROOT / "inputs" / "two_blocks.yaml").read_text())
+    scene = build_scene(deck_from(data, ROOT / "inputs", "two_blocks"))
+    scene.loaded.deck = Sealed()
+    with pytest.raises(AssertionError, match="deck.time"):
+        scene.loaded.deck.time
+
+
+BELOW_THE_SCENE = ["state.py", "loads.py", "tasks", "integrators", "contact", "augury.py", "barrier", "fem",
+                   "materials", "bodies"]
+
+
+def test_no_module_below_the_scene_names_the_deck():
+    """grep: the modules below the scene take the resolved scene (settings, contact model,
+    materials), never `deck.`; the deck's contact block is resolved in one place."""
+    import re
+
+    found = []
+    for part in BELOW_THE_SCENE:
+        path = PACKAGE / part
+        for f in ([path] if path.is_file() else sorted(path.rglob("*.py"))):
+            for k, line in enumerate(f.read_text().splitlines(), 1):
+                if re.search(r"(?<![.\w])deck\.\w", line.split("#")[0]):
+                    found.append(f"{f.relative_to(PACKAGE)}:{k}: {line.strip()}")
+    assert not found, "\n".join(found)
+    readers = sorted(str(f.relative_to(PACKAGE)) for f in PACKAGE.rglob("*.py")
+                     if re.search(r"deck\.contact\b", f.read_text()) and f.parent.name != "deck")
+    assert readers == ["scene/contact.py"], readers
+
+
+def test_friction_and_node_materials_are_built_once():
+    """The Coulomb friction table comes from the contact model and the FEM node materials
+    from the scene's FEM seed: no module builds either again."""
+    import re
+
+    builders = {"friction": r"np\.full\(\(len\([\w.]*deformable\),\) \* 2",
+                "node material": r"\[\w+\.cells\.ravel\(\)\] = np\.repeat"}
+    for what, pattern in builders.items():
+        where = sorted(str(f.relative_to(PACKAGE)) for f in PACKAGE.rglob("*.py") if re.search(pattern, f.read_text()))
+        assert len(where) == 1, f"{what} table built in {where}"

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpmsim.barrier import (box_pairs, correction_nodes, point_edge_candidates, point_edge_distance,
+from mpmsim.contact.barrier import (box_pairs, correction_nodes, point_edge_candidates, point_edge_distance,
                             point_node_candidates)
 
 pytestmark = pytest.mark.implicit

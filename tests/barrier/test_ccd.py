@@ -16,7 +16,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from mpmsim.barrier import point_edge_ccd, point_edge_ccd_pairs, point_edge_distance, point_point_ccd
+from mpmsim.contact.barrier import point_edge_ccd, point_edge_ccd_pairs, point_edge_distance, point_point_ccd
 
 from .ccd_cases import Trajectory, contacts, first_time_below, make_cases
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpmsim.barrier import (PE_P_E, PE_P_E0, PE_P_E1, point_edge_closest_param, point_edge_distance,
+from mpmsim.contact.barrier import (PE_P_E, PE_P_E0, PE_P_E1, point_edge_closest_param, point_edge_distance,
                             point_edge_distance2, point_edge_distance2_hessian, point_edge_distance_gradient,
                             point_edge_distance_hessian, point_edge_distance_type, point_edge_friction_frame,
                             point_edge_tangent, point_line_signed_distance_hessian, point_point_distance,

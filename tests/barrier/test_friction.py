@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpmsim.barrier import (friction_f0, friction_f1, friction_f1_over_y, friction_f2, friction_f2_y_minus_f1_over_y3,
+from mpmsim.contact.barrier import (friction_f0, friction_f1, friction_f1_over_y, friction_f2, friction_f2_y_minus_f1_over_y3,
                             lagged_friction, point_edge_friction, point_edge_friction_operator,
                             point_point_friction_operator)
 

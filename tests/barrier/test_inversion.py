@@ -10,7 +10,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from mpmsim.barrier import (det_step_bound, det_step_bound_2x2, det_step_bound_3x3, first_nonpositive_in_unit,
+from mpmsim.contact.barrier import (det_step_bound, det_step_bound_2x2, det_step_bound_3x3, first_nonpositive_in_unit,
                             triangle_step_bound)
 
 pytestmark = pytest.mark.implicit

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpmsim.barrier import (PE_P_E, PE_P_E0, PE_P_E1, barrier, barrier_first_derivative, barrier_normal_force,
+from mpmsim.contact.barrier import (PE_P_E, PE_P_E0, PE_P_E1, barrier, barrier_first_derivative, barrier_normal_force,
                             barrier_second_derivative, point_edge_barrier, point_edge_barrier_pairs,
                             point_edge_distance, point_edge_distance_type, point_point_barrier, project_psd)
 
@@ -211,7 +211,7 @@ def _polyline_corner(angle_deg):
 def _corrected(points, verts, edges):
     """(energy, gradient over (p, v0, v1, v2), PSD-projected Hessian of the sum) of the two
     point-edge terms plus the vertex correction, assembled as the implicit step does."""
-    from mpmsim.barrier.potential import point_node_barrier_pairs, vertex_edges
+    from mpmsim.contact.barrier.potential import point_node_barrier_pairs, vertex_edges
 
     w = np.ones(1)
     pe = np.array([[0, 0], [0, 1]])

@@ -1,4 +1,4 @@
-"""The augury transfers (mpmsim/augury.py): kernels, exactness for affine fields, momentum
+"""The augury transfers (mpmsim/contact/augury/transfers.py): kernels, exactness for affine fields, momentum
 conservation of the correction, and the paper's two-particle problem (Section 3.1) produced by
 the transfer code itself."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpmsim.augury import (BSPLINE2, FOUR_NODE, FRICTION, LINEAR, AuguryGrid, apply_h, augury_correction,
+from mpmsim.contact.augury.transfers import (BSPLINE2, FOUR_NODE, FRICTION, LINEAR, AuguryGrid, apply_h, augury_correction,
                            grid_entries, kernel_weights)
 
 pytestmark = pytest.mark.fem

@@ -115,7 +115,7 @@ def test_rigid_contact_work_balances_the_energy(platen_runs):
 def test_h_perp_is_the_cell_size_across_the_contact_plane():
     """[Imperfect interfaces] Eq. (22), method 1: sqrt(nx^2 dx^2 + ny^2 dy^2) in 2D; in 3D
     dx dy dz / (h1 h2), h1, h2 the distances to the cell ellipsoid along two tangents."""
-    from mpmsim.contact.geometry import h_perp
+    from mpmsim.contact.grid.geometry import h_perp
 
     h2 = np.array([1.0, 2.0, 0.0])
     for angle in np.linspace(0.0, np.pi, 7):
@@ -160,7 +160,7 @@ def test_contact_areas_add_up_to_the_interface(y, normal):
 
 def law_impulse(law, dp, dotn_sign=-1, mu=0.0, mu_static=-1.0, in_contact=True):
     """Impulse applied for a stick impulse dp with normal (0, 1)."""
-    from mpmsim.contact.laws import apply_law
+    from mpmsim.contact.grid.laws import apply_law
 
     n = np.array([0.0, 1.0, 0.0])
     dp = np.array([dp[0], dp[1], 0.0])
@@ -170,7 +170,7 @@ def law_impulse(law, dp, dotn_sign=-1, mu=0.0, mu_static=-1.0, in_contact=True):
 
 
 def test_contact_laws_impulses_in_impulses_out():
-    from mpmsim.contact.spec import COULOMB, FRICTIONLESS, STICK
+    from mpmsim.contact.grid.spec import COULOMB, FRICTIONLESS, STICK
 
     dp = (3.0, -2.0)  # approaching (dp . n < 0) with a tangential stick impulse of 3
     assert law_impulse(STICK, dp, in_contact=False)[1].tolist() == [3.0, -2.0]  # bonded: always

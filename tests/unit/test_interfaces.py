@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpmsim.contact.laws import direction_force, implicit_spring, oscillator
-from mpmsim.contact.spec import BACKWARD_EULER, FORCE_LIMIT, OSCILLATOR, TRAPEZOIDAL
+from mpmsim.contact.grid.laws import direction_force, implicit_spring, oscillator
+from mpmsim.contact.grid.spec import BACKWARD_EULER, FORCE_LIMIT, OSCILLATOR, TRAPEZOIDAL
 from mpmsim.sweep.metrics import csa_bulk_modulus
 
 from ..conftest import ROOT
@@ -117,8 +117,8 @@ def test_point_bond_zeroes_the_interpolated_jump_and_conserves_momentum():
     relative normal velocity is zero, the tangential velocities are untouched, and the
     momentum of each node (both materials) is unchanged; with unequal jumps the pair keeps
     their difference (the in-cell strain jump the node-wise bond would remove)."""
-    from mpmsim.contact.bond import point_bond
-    from mpmsim.contact.workspace import Bonds
+    from mpmsim.contact.grid.bond import point_bond
+    from mpmsim.contact.grid.workspace import Bonds
 
     nn = 1  # one grid node before the slots; slots 0..5 are fields 1..6
     mass = np.array([1.0, 2.0, 1.0, 3.0, 1.5, 2.0, 0.5])

@@ -252,6 +252,28 @@ def test_kernels_are_cached_in_the_users_cache_when_the_package_is_read_only(tmp
     assert choose(home, tmp_path, writable=lambda p: True) is None
 
 
+def test_cached_kernels_are_dropped_when_the_package_modules_move(tmp_path):
+    """A kernel cached by an earlier layout of the package names modules in its index that may
+    no longer exist (numba then fails to load it instead of compiling again): the cache root
+    carries a stamp of the module layout, and a root stamped otherwise loses its kernels once."""
+    from mpmsim.kernel_cache import STAMP, drop_if_moved, layout
+
+    pkg = tmp_path / "pkg"
+    (pkg / "contact").mkdir(parents=True)
+    (pkg / "contact" / "workspace.py").write_text("")
+    root = tmp_path / "cache"
+    (root / "sub").mkdir(parents=True)
+    old = [root / "sub" / "k-1.py311.nbi", root / "sub" / "k-1.py311.1.nbc"]
+    for f in old:
+        f.write_bytes(b"stale")
+    (root / STAMP).write_text(layout(pkg))
+    assert not drop_if_moved(root, pkg) and all(f.exists() for f in old)  # same layout: kept
+    (pkg / "contact" / "workspace.py").rename(pkg / "contact" / "fields.py")  # a module moved
+    assert drop_if_moved(root, pkg) and not any(f.exists() for f in old)
+    assert (root / STAMP).read_text() == layout(pkg)
+    assert not drop_if_moved(root, pkg)
+
+
 def test_a_read_only_install_imports_with_the_cache_in_the_users_directory(tmp_path):
     """End to end: a copy of the package that the importing user cannot write (read-only files
     and folders; as root, os.access is made to answer as for an ordinary user), imported by a fresh

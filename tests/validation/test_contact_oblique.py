@@ -25,8 +25,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpmsim.contact.laws import apply_law
-from mpmsim.contact.spec import COULOMB
+from mpmsim.contact.grid.laws import apply_law
+from mpmsim.contact.grid.spec import COULOMB
 from mpmsim.deck.overrides import with_overrides
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation

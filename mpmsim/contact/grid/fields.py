@@ -15,9 +15,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..gridops import node_ijk, slab
-from ..materials.kernels import inv3
-from ..parallel import chunk_kernel
+from ...gridops import node_ijk, slab
+from ...materials.kernels import inv3
+from ...parallel import chunk_kernel
 
 ONE = np.uint64(1)
 

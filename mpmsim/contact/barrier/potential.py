@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from .distance import _pe_dispatch, _pp_blocks
-from ..fem.elements import project_psd
+from ...fem.elements import project_psd
 
 
 @njit(cache=True)

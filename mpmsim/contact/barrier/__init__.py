@@ -33,7 +33,7 @@ from .inversion import (DET_FRACTION, det_step_bound, det_step_bound_2x2, det_st
                         triangle_step_bound)
 from .potential import (barrier, barrier_first_derivative, barrier_normal_force, barrier_second_derivative,
                         point_edge_barrier, point_edge_barrier_pairs, point_point_barrier)
-from ..fem.elements import project_psd
+from ...fem.elements import project_psd
 
 __all__ = [
     "CCD_ETA", "DET_FRACTION", "PE_P_E", "PE_P_E0", "PE_P_E1",

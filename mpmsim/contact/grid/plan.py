@@ -27,8 +27,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from ..gridops import chunk_range, node_ijk
-from ..parallel import chunk_kernel, specialize
+from ...gridops import chunk_range, node_ijk
+from ...parallel import chunk_kernel, specialize
 from .geometry import (cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal,
                        regression_scratch)
 from .spec import (AVERAGE_GRADIENT, FIRST_ORDER, FORCE_LIMIT, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT,
@@ -43,7 +43,7 @@ BOND_PHI2 = 1.0
 
 
 class GeometryInputs(NamedTuple):
-    """Everything the geometry reads (bundles of mpmsim/contact/workspace.py and spec.py),
+    """Everything the geometry reads (bundles of mpmsim/contact/grid/workspace.py and spec.py),
     assembled inside each parallel chunk (numba's parallel loops take flat bundles only)."""
 
     nodes: object  # ContactNodes

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .materials.kernels import inv3
+from ...materials.kernels import inv3
 
 LINEAR, BSPLINE2, FOUR_NODE = 0, 1, 2
 KERNELS = {"linear": LINEAR, "bspline2": BSPLINE2, "four_node": FOUR_NODE}

@@ -37,8 +37,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..bc import NO_BC, node_bc
-from ..gridops import node_ijk
+from ...bc import NO_BC, node_bc
+from ...gridops import node_ijk
 from .spec import INTERFACE
 
 NORMAL_BONDED, TANGENT_BONDED, NORMAL_BY_POINTS = 1, 2, 4

@@ -42,9 +42,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from ..bc import NO_BC, node_bc
-from ..gridops import chunk_range, node_ijk
-from ..parallel import chunk_kernel
+from ...bc import NO_BC, node_bc
+from ...gridops import chunk_range, node_ijk
+from ...parallel import chunk_kernel
 from .laws import apply_law, interface_impulse
 from .spec import INTERFACE
 

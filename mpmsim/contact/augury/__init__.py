@@ -1,0 +1,168 @@
+"""APIC augury contact (the APIC augury paper; docs/fem-contact.md): FEM boundary nodes and the
+surface particles of particle bodies meet through grid transfers on a background grid of
+their own. `transfers.py` holds the transfers (grid entries, transfer H, the undesired part,
+the correction); this module the task of the explicit step that gathers the augury
+particles, applies the correction and scatters it back. Its settings and each material's
+friction come from the scene's contact model (`ContactModel.augury`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ...fem.mesh import node_normal_kernel
+from .transfers import correction, grid_entries
+
+
+@njit(cache=True)
+def surface_particles(x, mass, body, grid, threshold):
+    """(indices, outward normals) of the particles on their body's surface, seen on the augury
+    grid: with m_i the body's own mass on node i, the first moment Σ_i N_ip m_i (x_i - x_p) is
+    D_p ∇m, which points into the body and vanishes inside it. A particle is on the surface when
+    that moment exceeds `threshold` x (Σ_i N_ip m_i) x h_c; its normal is minus the moment,
+    normalized."""
+    ent = grid_entries(x, grid)
+    n, K = ent.node.shape
+    dim = x.shape[1]
+    nb = body.max() + 1 if n else 0
+    gm = np.zeros((nb, ent.n_nodes))
+    for p in range(n):
+        for e in range(K):
+            gm[body[p], ent.node[p, e]] += ent.weight[p, e] * mass[p]
+    keep = np.zeros(n, dtype=np.bool_)
+    normals = np.zeros((n, dim))
+    mom = np.zeros(dim)
+    for p in range(n):
+        total = 0.0
+        mom[:] = 0.0
+        for e in range(K):
+            wm = ent.weight[p, e] * gm[body[p], ent.node[p, e]]
+            total += wm
+            for d in range(dim):
+                mom[d] += wm * ent.r[p, e, d]
+        size = np.sqrt(np.sum(mom * mom))
+        if size > threshold * total * grid.h:
+            keep[p] = True
+            for d in range(dim):
+                normals[p, d] = -mom[d] / size
+    idx = np.flatnonzero(keep)
+    return idx, normals[idx]
+
+
+@njit(cache=True)
+def gather_boundary(x, v, a, mass, facets, boundary, tau):
+    """Positions, masses, predicted velocities v + tau a and outward normals of the FEM
+    boundary nodes."""
+    normals = np.zeros_like(x)
+    node_normal_kernel(x, facets, normals)
+    nb = boundary.size
+    dim = x.shape[1]
+    xb = np.empty((nb, dim))
+    vbar = np.empty((nb, dim))
+    mb = np.empty(nb)
+    nrm = np.empty((nb, dim))
+    for q in range(nb):
+        i = boundary[q]
+        mb[q] = mass[i]
+        for d in range(dim):
+            xb[q, d] = x[i, d]
+            vbar[q, d] = v[i, d] + tau * a[i, d]
+            nrm[q, d] = normals[i, d]
+    return xb, mb, vbar, nrm
+
+
+@njit(cache=True)
+def scatter_boundary(acc, boundary, held, a, a_contact):
+    """Â of the boundary nodes into a (and a_contact); held components keep their motion."""
+    a_contact[:] = 0.0
+    dim = a.shape[1]
+    for q in range(boundary.size):
+        i = boundary[q]
+        for d in range(dim):
+            if not held[i, d]:
+                a_contact[i, d] = acc[q, d]
+                a[i, d] += acc[q, d]
+
+
+@njit(cache=True)
+def boundary_contact(x, v, a, mass, held, facets, boundary, B, mu, grid, iterations, tau, rule, a_contact, Bdot,
+                     Dinv):
+    """The augury correction of the boundary nodes (FEM bodies only): predicted
+    V̄ = (v + tau a, B), Â added to a (held components: none) and kept in a_contact,
+    Ḃ = Â_B, D^-1 of the transfer kept."""
+    xb, mb, vbar, nrm = gather_boundary(x, v, a, mass, facets, boundary, tau)
+    ent = grid_entries(xb, grid)
+    acc, acc_B = correction(ent, mb, vbar, B if grid.apic else np.zeros_like(B), nrm, mu, grid, iterations, tau, rule)
+    scatter_boundary(acc, boundary, held, a, a_contact)
+    Bdot[:] = acc_B
+    Dinv[:] = ent.Di
+
+
+SURFACE_THRESHOLD = 0.05  # surface particles: |first moment| > 0.05 (local mass) h_c (surface_particles)
+
+
+class AuguryContact:
+    """The augury contact task: the correction Â of the FEM boundary nodes' accelerations and,
+    when the scene has particle bodies, of their surface particles' velocities (particles take
+    part as augury particles; their current velocity is their prediction). A particle's change
+    over a step, dt Â (and dt Â_B to B for APIC particles with APIC transfers), is given as the
+    FEM nodes get theirs, half at the end of this step and half at the start of the next
+    (`carry`, before the particles' momenta go to the grid): at every output time both sides have
+    received the same half, so the total momentum is exact then too. The settings and each
+    augury particle's friction come from the scene's contact model."""
+
+    def __init__(self, scene):
+        self.spec = scene.contact.augury
+        self.mu = self.spec.mu_of_material[scene.fem.node_mat[np.unique(scene.fem.facets)]]  # (nb,) per boundary node
+        self.particles = scene.has_particles
+        self.pending = None  # (particle indices, Â, Â_B) whose second half the next step gives
+
+    def carry(self, state) -> None:
+        """The second half of the previous step's particle corrections."""
+        if self.pending is not None:
+            idx, acc, acc_B = self.pending
+            P = state.particles
+            half = 0.5 * state.dt  # this step's dt, as the FEM nodes' first half kick uses
+            P.v[idx] += half * acc
+            if acc_B is not None:
+                P.B[idx] += half * acc_B
+            self.pending = None
+
+    def __call__(self, state) -> None:
+        fem = state.fem
+        P = state.particles if self.particles else None
+        spec = self.spec
+        tau = spec.tau if spec.tau is not None else state.dt
+        if P is None or P.n == 0:
+            boundary_contact(fem.x, fem.v, fem.a, fem.mass, fem.held, fem.facets, fem.boundary, fem.B, self.mu,
+                             spec.grid, spec.iterations, tau, spec.rule, fem.a_contact, fem.Bdot, fem.Dinv)
+            return
+        self.with_particles(state, fem, P, spec, tau)
+
+    def with_particles(self, state, fem, P, spec, tau) -> None:
+        grid = spec.grid
+        idx, pn = surface_particles(P.x, P.mass, P.local_body, grid, SURFACE_THRESHOLD)
+        xb, mb, vbar, nrm = gather_boundary(fem.x, fem.v, fem.a, fem.mass, fem.facets, fem.boundary, tau)
+        nb, dim = xb.shape
+        apic_particles = grid.apic and len(P.B) == P.n
+        B = np.zeros((nb + idx.size, dim, dim))
+        if grid.apic:
+            B[:nb] = fem.B
+            if apic_particles:
+                B[nb:] = P.B[idx]
+        x = np.concatenate([xb, P.x[idx]])
+        ent = grid_entries(x, grid)
+        acc, acc_B = correction(ent, np.concatenate([mb, P.mass[idx]]), np.concatenate([vbar, P.v[idx]]), B,
+                                np.concatenate([nrm, pn]), np.concatenate([self.mu, spec.mu_of_material[P.mat[idx]]]),
+                                grid, spec.iterations, tau, spec.rule)
+        scatter_boundary(acc[:nb], fem.boundary, fem.held, fem.a, fem.a_contact)
+        fem.Bdot[:] = acc_B[:nb]
+        fem.Dinv[:] = ent.Di[:nb]
+        half = 0.5 * state.dt
+        acc_p = acc[nb:]
+        acc_pB = acc_B[nb:] if apic_particles else None
+        P.v[idx] += half * acc_p
+        if acc_pB is not None:
+            P.B[idx] += half * acc_pB
+        self.pending = (idx, acc_p, acc_pB)

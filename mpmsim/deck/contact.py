@@ -1,0 +1,79 @@
+"""Rules of the deck's contact block that the deck's semantics check and the scene resolves:
+which deformable materials form one group (joined by law `none`), and the checks of the
+pairs and the normal settings."""
+
+from __future__ import annotations
+
+from .schema import Deck, Rigid
+
+MAX_GROUPS = 64  # node group sets are 64-bit masks
+
+
+def _find(parent, a):
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+def material_groups(deck: Deck, deformable: list[str]) -> list[int]:
+    """Group index per deformable material: union of the pairs whose law is `none`."""
+    c = deck.contact
+    parent = list(range(len(deformable)))
+    if c.default.law == "none":
+        parent = [0] * len(deformable)
+    for pair in c.pairs:
+        a, b = pair.between
+        if pair.law == "none" and a in deformable and b in deformable:
+            ra, rb = _find(parent, deformable.index(a)), _find(parent, deformable.index(b))
+            parent[ra] = rb
+    roots = [_find(parent, i) for i in range(len(deformable))]
+    order = sorted(set(roots), key=roots.index)
+    return [order.index(r) for r in roots]
+
+
+def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
+    """Deck problems in the contact block (called by the deck semantics)."""
+    problems = []
+    c = deck.contact
+    for i, pair in enumerate(c.pairs):
+        for j, m in enumerate(pair.between):
+            if m not in deck.materials:
+                problems.append((("contact", "pairs", i, "between", j), f"no material named '{m}'"))
+        if len(set(pair.between)) == 1:
+            problems.append((("contact", "pairs", i, "between"), "a pair needs two different materials"))
+    for path, law in [(("contact", "default"), c.default)] + [(("contact", "pairs", i), p) for i, p in enumerate(c.pairs)]:
+        if law.static_friction is not None and law.static_friction < law.friction:
+            problems.append(((*path, "static_friction"), f"static friction {law.static_friction} is below the "
+                                                         f"kinetic friction {law.friction}"))
+    if problems:
+        return problems
+    if c.normal == "specified":
+        if c.normal_center is not None:
+            if len(c.normal_center) != deck.dim:
+                problems.append((("contact", "normal_center"), f"needs {deck.dim} components"))
+        elif c.normal_vector is None:
+            problems.append((("contact", "normal_vector"), "normal: specified needs normal_vector or normal_center"))
+        elif len(c.normal_vector) != deck.dim or not any(c.normal_vector):
+            problems.append((("contact", "normal_vector"), f"needs {deck.dim} components, not all zero"))
+    # materials merged by `none` must not disagree about a third material's law
+    groups = material_groups(deck, deformable)
+    n_rigid_contact = sum(1 for m in deck.materials.values() if isinstance(m, Rigid) and m.mode == "contact")
+    if (max(groups) + 1 if groups else 0) + n_rigid_contact > MAX_GROUPS:
+        problems.append((("materials",), f"at most {MAX_GROUPS} contact groups (materials not joined by law none)"))
+    seen: dict[tuple, tuple] = {}
+    group_of = dict(zip(deformable, groups))
+    for i, pair in enumerate(c.pairs):
+        a, b = pair.between
+        if pair.law == "none" or a not in group_of or b not in group_of:
+            continue
+        key = tuple(sorted((group_of[a], group_of[b])))
+        val = (pair.law, pair.friction, pair.static_friction, pair.Dn, pair.Dnc, pair.Dt)
+        if key[0] == key[1]:
+            problems.append((("contact", "pairs", i), f"'{a}' and '{b}' are one body (joined by law none); "
+                                                      "they cannot also have a contact law"))
+        elif key in seen and seen[key][1] != val:
+            problems.append((("contact", "pairs", i), f"conflicts with pairs {seen[key][0]}: materials joined by "
+                                                      "law none must share one law with each other material"))
+        seen.setdefault(key, (i, val))
+    return problems

@@ -1,0 +1,208 @@
+"""The deck's `contact:` block (and the barrier settings of `implicit:`) resolved once: the
+`ContactModel` every contact family reads.
+
+- one law per material pair (`law`, `friction`): contact.default, overridden by the
+  contact.pairs listing the pair (the last one wins);
+- `friction`: the Coulomb friction between deformable materials (0 where the law is not
+  coulomb), the table the FEM contact families read;
+- each family's own settings, None where the scene does not use it: `grid` (the
+  multi-velocity grid methods, mpmsim/contact/grid/spec.py), `augury` (APIC augury contact of FEM
+  bodies), `barrier` (the implicit step's barrier contact).
+
+This module and mpmsim/deck/contact.py (the deck's checks) are the only readers of the deck's
+contact block; the families below the scene read the model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contact.augury.transfers import FRICTION, KERNELS, STICK_SEPARATE, AuguryGrid
+from ..contact.grid.spec import (INTEGRATION_CODES, LAW_CODES, NORMAL_CODES, PERFECT, SEPARATION_CODES, ContactSpec)
+from ..deck.contact import material_groups
+from ..deck.schema import Implicit, Rigid
+
+
+@dataclass(frozen=True)
+class PairLaw:
+    """The law between two materials."""
+
+    law: str  # stick, frictionless, coulomb, none, interface
+    friction: float  # kinetic friction (coulomb)
+    static_friction: float  # -1 when not given
+    stiffness: tuple  # interface [Dn tension, Dn compression, Dt], PERFECT = -1
+
+    @property
+    def code(self) -> int:
+        return LAW_CODES[self.law]
+
+    @property
+    def coulomb(self) -> float:
+        """The friction a frictional-contact family applies: `friction` under coulomb, else 0."""
+        return self.friction if self.law == "coulomb" else 0.0
+
+
+@dataclass(frozen=True)
+class AugurySettings:
+    """APIC augury contact (contact.augury), with its friction resolved per material."""
+
+    grid: AuguryGrid
+    iterations: int
+    tau: float | None  # None: the time step
+    mu_of_material: np.ndarray  # (n_deformable,) friction of an augury particle of each material
+    rule: int  # augury.FRICTION or STICK_SEPARATE
+    transfer: str
+    kernel: str
+    overlap_tolerance: float
+
+    @property
+    def cell_size(self) -> float:
+        return self.grid.h
+
+    def describe(self) -> str:
+        return (f"{self.transfer.upper()} augury, {self.iterations} iteration(s), {self.kernel} grid of "
+                f"{self.cell_size:g}")
+
+
+@dataclass(frozen=True)
+class BarrierSettings:
+    """Barrier contact of the implicit step (implicit.dhat, kappa, friction settings)."""
+
+    dhat: float | None  # None: no contact
+    kappa: float  # the deck's, or 1e-3 x the largest E of the bodies' materials
+    friction_velocity: float
+    friction_lags: int
+    particle_contact: str  # centres or corners
+
+
+@dataclass
+class ContactModel:
+    default: PairLaw
+    pairs: list  # [(material a, material b, PairLaw)] in deck order
+    friction: np.ndarray  # (n_deformable, n_deformable) Coulomb friction between deformable materials
+    grid: ContactSpec | None  # the grid methods' groups, tables and settings; None: one velocity field
+    augury: AugurySettings | None = None
+    barrier: BarrierSettings | None = None
+
+    def law(self, a: str, b: str) -> PairLaw:
+        """The law between materials a and b."""
+        found = self.default
+        for m, n, law in self.pairs:
+            if {m, n} == {a, b}:
+                found = law
+        return found
+
+
+def pair_law(law) -> PairLaw:
+    code = lambda v: PERFECT if v == "perfect" else float(v)  # noqa: E731
+    dn = code(law.Dn)
+    return PairLaw(law.law, float(law.friction), -1.0 if law.static_friction is None else float(law.static_friction),
+                   (dn, dn if law.Dnc is None else code(law.Dnc), code(law.Dt)))
+
+
+def build_contact_model(deck, materials, fem=None, particle_mats=()) -> ContactModel:
+    """The model of a deck whose materials are resolved (`materials`); `fem`: the FEM bodies'
+    seed, `particle_mats`: the deformable materials particles carry (the augury's particles)."""
+    c = deck.contact
+    default = pair_law(c.default)
+    pairs = [(p.between[0], p.between[1], pair_law(p)) for p in c.pairs]
+    deformable = materials.deformable
+    index = {name: k for k, name in enumerate(deformable)}
+    friction = np.full((len(deformable),) * 2, default.coulomb)
+    for a, b, law in pairs:
+        if a in index and b in index:
+            friction[index[a], index[b]] = friction[index[b], index[a]] = law.coulomb
+    model = ContactModel(default, pairs, friction, grid_spec(deck, materials, default, pairs))
+    if fem is not None and c.augury is not None:
+        model.augury = augury_settings(c.augury, model, materials, fem, particle_mats)
+    if deck.integrator == "implicit":
+        model.barrier = barrier_settings(deck, materials, fem)
+    return model
+
+
+def augury_settings(a, model: ContactModel, materials, fem, particle_mats) -> AugurySettings:
+    """Each augury particle (FEM boundary node, surface particle) takes the law between its
+    material and the other participating material when exactly two take part, else
+    contact.default."""
+    rule = STICK_SEPARATE if model.default.law == "stick" else FRICTION
+    used = sorted(set(int(m) for m in fem.cell_mat) | set(int(m) for m in particle_mats))
+    mu_of = np.full(len(materials.deformable), model.default.coulomb)
+    if len(used) == 2:
+        names = [materials.deformable[m] for m in used]
+        for m, n, law in model.pairs:
+            if {m, n} == set(names):
+                mu_of[used] = law.coulomb
+                if law.law == "stick":
+                    rule = STICK_SEPARATE
+    grid = AuguryGrid(float(a.cell_size), KERNELS[a.kernel], a.transfer == "apic")
+    return AugurySettings(grid, int(a.iterations), a.tau, mu_of, rule, a.transfer, a.kernel,
+                          float(a.overlap_tolerance))
+
+
+def barrier_settings(deck, materials, fem) -> BarrierSettings:
+    imp = deck.implicit if deck.implicit is not None else Implicit()
+    used = set(int(m) for m in fem.cell_mat) if fem is not None else set()
+    used |= {materials.deformable.index(b.material) for b in deck.bodies
+             if b.discretization == "particles" and b.material in materials.deformable}
+    young = max(float(deck.materials[materials.deformable[m]].E) for m in used)
+    kappa = imp.kappa if imp.kappa is not None else 1e-3 * young
+    return BarrierSettings(imp.dhat, kappa, imp.friction_velocity, imp.friction_lags, imp.particle_contact)
+
+
+def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | None:
+    """The grid methods' groups and tables; None when the scene has a single velocity field
+    (nothing to contact)."""
+    c = deck.contact
+    groups = material_groups(deck, materials.deformable)
+    n_def = max(groups) + 1 if groups else 0
+    rigid_group = np.full(len(materials.rigid), -1, dtype=np.int64)
+    names = ["+".join(m for m, g in zip(materials.deformable, groups) if g == k) for k in range(n_def)]
+    for r, name in enumerate(materials.rigid):
+        m = deck.materials[name]
+        if isinstance(m, Rigid) and m.mode == "contact":
+            rigid_group[r] = n_def + int((rigid_group >= 0).sum())
+            names.append(name)
+    n_groups = len(names)
+    # materials only FEM bodies use meet through the augury contact, not the grid's fields
+    fem_only = ({b.material for b in deck.bodies if b.discretization == "fem"}
+                - {b.material for b in deck.bodies if b.discretization != "fem"})
+    on_grid = {g for m, g in zip(materials.deformable, groups) if m not in fem_only} | \
+        {int(g) for g in rigid_group if g >= 0}
+    if n_groups < 2 or len(on_grid) < 2:
+        return None
+    rigid_of_group = np.full(n_groups, -1, dtype=np.int64)
+    for r, g in enumerate(rigid_group):
+        if g >= 0:
+            rigid_of_group[g] = r
+    group_of = {m: g for m, g in zip(materials.deformable, groups)}
+    group_of.update({m: int(g) for m, g in zip(materials.rigid, rigid_group) if g >= 0})
+    law = np.full((n_groups, n_groups), default.code, dtype=np.int64)
+    mu = np.full((n_groups, n_groups), default.friction)
+    mus = np.full((n_groups, n_groups), default.static_friction)
+    stiff = np.zeros((n_groups, n_groups, 3))
+    stiff[:, :] = default.stiffness
+    for a_name, b_name, pl in pairs:
+        a, b = group_of[a_name], group_of[b_name]
+        for i, j in ((a, b), (b, a)):
+            law[i, j] = pl.code
+            mu[i, j] = pl.friction
+            mus[i, j] = pl.static_friction
+            stiff[i, j] = pl.stiffness
+    sep = c.separation or ("logistic_regression" if c.normal == "logistic_regression" else "displacement")
+    nv = np.zeros(3)
+    if c.normal_vector is not None and any(c.normal_vector):
+        nv[: len(c.normal_vector)] = c.normal_vector
+        nv /= np.abs(nv).max()  # first to order one: the norm of (1e-300, 0) would underflow
+        nv /= np.linalg.norm(nv)
+    centre = np.zeros(3)
+    if c.normal_center is not None:
+        centre[: len(c.normal_center)] = c.normal_center
+    return ContactSpec(n_groups, n_def, np.array(groups, dtype=np.int64), rigid_group, rigid_of_group, law, mu, mus,
+                       stiff, NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff,
+                       c.touch_tolerance, c.fit_exponent, c.passes, c.pass_3 == "recheck", c.xpic_contact_term,
+                       c.warm_start, c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
+                       INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
+                       c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface",
+                       sep)
