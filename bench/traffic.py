@@ -447,7 +447,7 @@ def flop_rate(repeats: int = 5) -> float:
 
 def stress_flops(K: int, dim: int) -> dict[str, int]:
     """Floating-point operations of one particle's neo-Hookean stress update (2D plane strain
-    on 3x3 algebra), counted from tasks/stress.py and materials/kernels.neo_hookean_stress; a
+    on 3x3 algebra), counted from tasks/stress.py and materials/neo_hookean.neo_hookean_stress_2d; a
     multiply, add, compare or abs is one, a divide, sqrt or cbrt is listed apart (each costs
     several multiplies' time)."""
     return {
@@ -464,27 +464,19 @@ def stress_flops(K: int, dim: int) -> dict[str, int]:
 
 
 @njit(cache=True, inline="always")
-def no_model(K, G, F3, s):
-    """A stand-in for the neo-Hookean model costing next to nothing (stress from F11 only)."""
+def no_model(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+    """A stand-in for the neo-Hookean model costing next to nothing (stress from F11 only), in
+    the models' stress signature (mpmsim/materials/model.py)."""
     for a in range(6):
-        s[a] = K * F3[0, 0]
-    return K + G
-
-
-@njit(cache=True, inline="always")
-def no_model_2d(K, G, J, f00, f01, f10, f11, s):
-    """The plane-strain stand-in (the kernel calls neo_hookean_stress_2d in 2D)."""
-    for a in range(6):
-        s[a] = K * f00
-    return K + G
+        s[a] = pr[0] * f00
+    return pr[0] + pr[1]
 
 
 def without_model():
     """The neo-Hookean stress kernel with the model replaced by `no_model` (the rest as is):
     its in-cache time against the real kernel's is the model's cost."""
     kernel = update_stress_kernel(NEO_HOOKEAN, False, 2)
-    return njit(cache=True, error_model="numpy")(specialize(kernel.py_func, "no_model_3d_2d", neo_hookean_stress=no_model,
-                                                                      neo_hookean_stress_2d=no_model_2d))
+    return njit(cache=True, error_model="numpy")(specialize(kernel.py_func, "no_model_2d", STRESS=no_model))
 
 
 def replays(sim) -> dict:

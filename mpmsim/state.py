@@ -25,7 +25,6 @@ from .contact.grid.workspace import ContactWorkspace
 from .gridops import ActiveBox, n_threads
 from .loads import build_loads
 from .materials import MaterialTable
-from .materials.kernels import initial_modulus
 from .parallel import auto_threads, use_threads
 from .scene import Scene
 from .scene.grid import GridSpec
@@ -148,9 +147,7 @@ class State:
                 state.fem.crossing_depth = scene.contact.augury.overlap_tolerance
             state.bodies.append(state.fem)
             state.energy0 += 0.5 * float(state.fem.mass @ np.sum(state.fem.v**2, axis=1))
-            c0 = np.sqrt(np.array([initial_modulus(c, r) for c, r in zip(scene.materials.type_code,
-                                                                           scene.materials.props)])
-                         / scene.materials.density)
+            c0 = np.sqrt(scene.materials.wave_moduli() / scene.materials.density)
             state.energy_floor += 1e-12 * float(np.sum(state.fem.mass * c0[state.fem.node_mat] ** 2))
         return state
 
@@ -207,8 +204,7 @@ class State:
         state.particle_bounds = scene.grid.particle_bounds
         mass = particles.mass
         state.energy0 = 0.5 * float(np.sum(mass[:, None] * particles.v**2))
-        modulus = np.array([initial_modulus(c, row) for c, row in zip(mats.type_code, mats.props)])
-        c0 = np.sqrt(modulus / mats.density)
+        c0 = np.sqrt(mats.wave_moduli() / mats.density)
         state.energy_floor = 1e-12 * float(np.sum(mass * c0[particles.mat] ** 2))
         speed = c0[particles.mat] + np.sqrt(np.sum(particles.v**2, axis=1))
         state.wave_max = float(speed.max())

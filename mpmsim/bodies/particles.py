@@ -9,14 +9,16 @@ of their own (`rigid.py`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 from numba import prange
 
 from ..faults import MESSAGES
 from ..gridops import chunk_range
-from ..materials.kernels import det3, energy_density
-from ..parallel import chunk_kernel
+from ..materials.dispatch import energy_dispatch
+from ..materials.kernels import det3
+from ..parallel import ChunkKernel, chunk_kernel, specialize
 from ..views import ParticleView
 from . import ANGULAR, FIRST_MOMENT, KINETIC, MASS, MOMENTUM, NSUMS, STRAIN, BodyInfo, BodySet, Sums
 
@@ -89,7 +91,8 @@ class Particles(BodySet):
         out = np.zeros((state.nchunk, NSUMS))
         per_body = detail and nb > 1
         density = np.zeros(self.n if per_body else 0)
-        particle_sums(self.view(), m.view(), state.nchunk, out, density)
+        kernel = particle_sums(tuple(int(c) for c in np.unique(m.type_code)))
+        kernel(self.view(), m.view(), state.nchunk, out, density)
         total = out.sum(axis=0)
         if not detail:
             return Sums(total, np.zeros((0, NSUMS)))
@@ -180,8 +183,17 @@ def angular_density(x, v, B):
     return L
 
 
-@chunk_kernel
-def particle_sums(P, M, nchunk, out, density):
+ENERGY = None  # the scene's energy dispatcher (materials.dispatch), bound by `particle_sums`
+
+
+@cache
+def particle_sums(codes: tuple) -> ChunkKernel:
+    """The sums kernel for a scene whose deformable materials have these model codes."""
+    tag, energy = energy_dispatch(codes)
+    return chunk_kernel(specialize(particle_sums_kernel, tag, ENERGY=energy))
+
+
+def particle_sums_kernel(P, M, nchunk, out, density):
     """Per chunk, the first entries of the `bodies.Sums` layout (stress integral, volume,
     kinetic, strain, momentum, internal energy) over particles P (views.ParticleView) of
     materials M; each particle's strain energy into `density` when it has room."""
@@ -208,7 +220,7 @@ def particle_sums(P, M, nchunk, out, density):
                     F3[a, b] = F[p, a, b] if (a < dim and b < dim) else (1.0 if a == b else 0.0)
             J = det3(F3)
             mt = mat[p]
-            e = vp * energy_density(code[mt], props[mt], F3, stress[p], J)
+            e = vp * ENERGY(code[mt], props[mt], F3, stress[p], J)
             acc[8] += e
             if keep:
                 density[p] = e

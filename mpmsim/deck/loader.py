@@ -177,24 +177,34 @@ def _line_of(root, path) -> int | None:
 
 
 def _all_models() -> list[type[BaseModel]]:
-    return [c for c in vars(schema).values()
-            if isinstance(c, type) and issubclass(c, BaseModel) and c is not BaseModel]
+    """The deck's models: those of the schema module and every registered material model's."""
+    from ..materials.model import schemas
+
+    own = [c for c in vars(schema).values() if isinstance(c, type) and issubclass(c, BaseModel) and c is not BaseModel]
+    return own + [c for c in schemas() if c not in own]
 
 
-_TAGS = {"linear_elastic", "neo_hookean", "mie_gruneisen", "rigid", *schema.SHAPES_2D, *schema.SHAPES_3D, "box", "mesh"}
-_BRANCHES = {c.__name__ for c in _all_models()} | {"list[float]", "list[int]", "float", "int"}
-_FIELD_NAMES = sorted({name for c in _all_models() for name in c.model_fields})
+def _names() -> tuple[set, set, list]:
+    """(discriminator tags, union-branch names, every key of any model): read when a deck is
+    wrong, so material models registered since import count."""
+    from ..materials.model import MODELS
+
+    models = _all_models()
+    tags = {"rigid", *MODELS, *schema.SHAPES_2D, *schema.SHAPES_3D, "box", "mesh"}
+    branches = {c.__name__ for c in models} | {"list[float]", "list[int]", "float", "int"}
+    return tags, branches, sorted({name for c in models for name in c.model_fields})
 
 
 def _clean_loc(loc, data) -> tuple:
     """Drop the discriminator tags and union-branch names pydantic puts into error paths."""
+    known, branches, _ = _names()
     out = []
     node = data
     for i, key in enumerate(loc):
         is_last = i == len(loc) - 1
-        if isinstance(key, str) and not is_last and (key in _BRANCHES or "[" in key):
+        if isinstance(key, str) and not is_last and (key in branches or "[" in key):
             continue
-        if isinstance(key, str) and not is_last and key in _TAGS and not (isinstance(node, dict) and key in node):
+        if isinstance(key, str) and not is_last and key in known and not (isinstance(node, dict) and key in node):
             continue
         out.append(key)
         if isinstance(node, dict):
@@ -218,13 +228,14 @@ def _model_of_tag(tag: str) -> type[BaseModel] | None:
 
 def _message(err) -> str:
     kind, msg, loc = err["type"], err["msg"], err["loc"]
+    known, _, field_names = _names()
     if kind == "extra_forbidden":
         key = str(loc[-1]) if loc else "?"
-        tags = [k for k in loc[:-1] if isinstance(k, str) and k in _TAGS]
+        tags = [k for k in loc[:-1] if isinstance(k, str) and k in known]
         model = _model_of_tag(tags[-1]) if tags else None
-        names = sorted(model.model_fields) if model is not None else _FIELD_NAMES
+        names = sorted(model.model_fields) if model is not None else field_names
         close = difflib.get_close_matches(key, [n for n in names if n != key], n=1, cutoff=0.75)
-        if model is not None and key in _FIELD_NAMES and not close:  # a key of another kind
+        if model is not None and key in field_names and not close:  # a key of another kind
             return f"unknown key '{key}' for '{tags[-1]}' (its keys: {', '.join(names)})"
         hint = f" (did you mean '{close[0]}'?)" if close else ""
         return f"unknown key '{key}'{hint}"

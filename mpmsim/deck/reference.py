@@ -16,12 +16,17 @@ from . import schema
 from .units import UNIT_SYSTEMS
 
 
+def _own(ann) -> bool:
+    """Not a model of a user's module (a registered material model is documented there)."""
+    return not (inspect.isclass(ann) and issubclass(ann, BaseModel)) or ann.__module__.startswith("mpmsim")
+
+
 def _type_name(ann) -> str:
     origin = typing.get_origin(ann)
     if origin is typing.Annotated:
         return _type_name(typing.get_args(ann)[0])
     if origin in (typing.Union, types.UnionType):
-        return " or ".join(_type_name(a) for a in typing.get_args(ann) if a is not type(None))
+        return " or ".join(_type_name(a) for a in typing.get_args(ann) if a is not type(None) and _own(a))
     if origin is typing.Literal:
         return " \\| ".join(f"`{a}`" for a in typing.get_args(ann))
     if origin is list:
@@ -47,7 +52,7 @@ def _default(field) -> str:
 def _models_in(ann, seen: list) -> None:
     for arg in typing.get_args(ann) or ():
         _models_in(arg, seen)
-    if inspect.isclass(ann) and issubclass(ann, BaseModel) and ann not in seen:
+    if inspect.isclass(ann) and issubclass(ann, BaseModel) and ann not in seen and _own(ann):
         seen.append(ann)
         for f in ann.model_fields.values():
             _models_in(f.annotation, seen)

@@ -11,99 +11,9 @@ from typing import Annotated, Literal, Union
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
 
-Vector = list[float]
+from ..schema_base import MAX_MAGNITUDE, Strict, Vector  # noqa: F401  (Vector, Strict: the models' bases)
+
 Face = Literal["free", "fixed", "roller", "slip"]
-
-
-MAX_MAGNITUDE = 1e30  # no physical input in any unit system comes near; squares of it still fit a float
-
-
-def _too_large(v) -> float | None:
-    if isinstance(v, float) and abs(v) > MAX_MAGNITUDE:
-        return v
-    if isinstance(v, (list, tuple)):
-        for item in v:
-            bad = _too_large(item)
-            if bad is not None:
-                return bad
-    return None
-
-
-class Strict(BaseModel):
-    # unknown keys are errors; NaN and +-inf are refused in every number (they would crash later)
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-
-    @field_validator("*", mode="after")
-    @classmethod
-    def _plausible_magnitude(cls, v):
-        bad = _too_large(v)
-        if bad is not None:
-            raise ValueError(f"{bad:g} is beyond +-{MAX_MAGNITUDE:g}, which no physical input reaches")
-        return v
-
-
-# --------------------------------------------------------------------------- materials
-class LinearElastic(Strict):
-    """Isotropic linear elastic, integrated as hypoelastic with the Hughes–Winget rotation
-    (objective for large rotations, linear in strain increments)."""
-
-    type: Literal["linear_elastic"]
-    E: float = Field(gt=0, description="Young's modulus (stress unit).")
-    nu: float = Field(gt=-1.0, lt=0.5, description="Poisson's ratio, -1 < nu < 0.5.")
-    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
-
-
-class NeoHookean(Strict):
-    """Compressible neo-Hookean solid, LR paper Eq. (18):
-    W = G/2 (I1/J^(2/3) - 3) + K/2 ((J^2 - 1)/2 - ln J)."""
-
-    type: Literal["neo_hookean"]
-    K: float = Field(gt=0, description="Bulk modulus (stress unit).")
-    G: float = Field(ge=0, description="Shear modulus (stress unit); 0 gives a fluid-like solid.")
-    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
-
-
-class CompressibleNeoHookean(Strict):
-    """Compressible neo-Hookean solid of the FEM contact papers:
-    psi = mu/2 (tr F^T F - d) - mu ln J + lambda/2 (ln J)^2, with Lame constants from E and nu
-    (FEM bodies)."""
-
-    type: Literal["compressible_neo_hookean"]
-    E: float = Field(gt=0, description="Young's modulus (stress unit).")
-    nu: float = Field(gt=-1.0, lt=0.5, description="Poisson's ratio, -1 < nu < 0.5.")
-    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
-
-
-class TransverselyIsotropic(Strict):
-    """Transversely isotropic linear elastic (wood, fibre composites): axial properties along
-    `axis`, isotropic in the plane normal to it; hypoelastic with the Hughes–Winget stress
-    rotation. The axis stays fixed in space (small rotations), as in the 2013 paper's specimens."""
-
-    type: Literal["transversely_isotropic"]
-    EA: float = Field(gt=0, description="Axial Young's modulus.")
-    ET: float = Field(gt=0, description="Transverse Young's modulus.")
-    GA: float = Field(gt=0, description="Axial shear modulus.")
-    nuA: float = Field(description="Axial Poisson's ratio (transverse strain / axial strain under axial load).")
-    nuT: float = Field(gt=-1.0, lt=1.0, description="Transverse Poisson's ratio (in the isotropic plane).")
-    axis: Vector = Field(description="Axial direction (normalised).")
-    density: float = Field(gt=0, description="Mass density (density unit of the deck's units).")
-
-
-class MieGruneisen(Strict):
-    """Mie–Grüneisen solid for shocks, LR paper Eq. (51): in compression (eta = 1 - J > 0)
-    p = K eta (1 - gamma0 eta/2) / (1 - S1 eta)^2 + rho0 gamma0 U, in tension p = K eta + rho0 gamma0 U,
-    with U the internal energy per unit mass tracked on each particle; the deviatoric stress is
-    the neo-Hookean shear term of Eq. (18). Its Hugoniot is the linear Us = C0 + S1 up,
-    C0 = sqrt(K/rho0) (docs/shock.md)."""
-
-    type: Literal["mie_gruneisen"]
-    K: float = Field(gt=0, description="Bulk modulus rho0 C0^2 (stress unit).")
-    G: float = Field(default=0.0, ge=0, description="Shear modulus of the neo-Hookean shear term (stress unit); "
-                     "0: pressure only.")
-    gamma0: float = Field(ge=0, description="Grüneisen parameter gamma0 (gamma rho = gamma0 rho0).")
-    S1: float = Field(ge=0, description="Slope S1 of the linear shock-speed / particle-speed Hugoniot. The "
-                      "pressure diverges at eta = 1/S1; a compression that reaches it stops the run.")
-    density: float = Field(gt=0, description="Reference mass density rho0 (density unit of the deck's units).")
 
 
 class VelocityTable(Strict):
@@ -132,9 +42,14 @@ class Rigid(Strict):
     )
 
 
-Material = Annotated[Union[LinearElastic, NeoHookean, CompressibleNeoHookean, MieGruneisen, TransverselyIsotropic,
-                           Rigid],
-                     Field(discriminator="type")]
+def material_union():
+    """Every registered material model's deck entry (mpmsim/materials/model.py), and rigid."""
+    from ..materials.model import schemas
+
+    return Annotated[Union[tuple(schemas()) + (Rigid,)], Field(discriminator="type")]
+
+
+Material = Annotated[Union[Rigid], Field(discriminator="type")]  # (completed by rebuild_materials)
 
 
 # --------------------------------------------------------------------------- contact
@@ -766,3 +681,16 @@ class Deck(Strict):
     @property
     def dim(self) -> int:
         return 3 if self.analysis == "3d" else 2
+
+
+def rebuild_materials() -> None:
+    """Let the deck's `materials:` take every registered model (called when one registers)."""
+    global Material
+    Material = material_union()
+    Deck.model_fields["materials"].annotation = dict[str, Material]
+    Deck.model_rebuild(force=True)
+
+
+from .. import materials as _materials  # noqa: E402,F401  (registers the built-in models)
+
+rebuild_materials()

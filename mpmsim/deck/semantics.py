@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .schema import (SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity, SineVelocity, TransverselyIsotropic,
+from ..materials.model import MODELS
+from .schema import (SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity, SineVelocity,
                      VelocityTable)
 from .units import unit_system
 
@@ -113,17 +114,14 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     # materials
     units = unit_system(deck.units)
     for name, mat in deck.materials.items():
-        if isinstance(mat, TransverselyIsotropic):
+        if hasattr(mat, "axis"):
             vec(["materials", name, "axis"], mat.axis)
             if len(mat.axis) == dim and not any(mat.axis):
                 add(["materials", name, "axis"], "the axis must not be the zero vector")
-            elif len(mat.axis) == dim:
-                from ..materials import transversely_isotropic_compliance  # (materials import the schema)
-
-                S = transversely_isotropic_compliance(mat.EA, mat.ET, mat.GA, mat.nuA, mat.nuT, mat.axis)
-                if np.linalg.eigvalsh(0.5 * (S + S.T)).min() <= 0.0:
-                    add(["materials", name, "nuA"], "these constants give no positive strain energy "
-                        "(need nuA^2 < EA/ET (1 - nuT)/2 and |nuT| < 1)")
+        model = MODELS.get(mat.type)
+        if model is not None and model.check is not None:
+            for key, message in model.check(mat, dim):
+                add(["materials", name, *key], message)
         density = getattr(mat, "density", None)
         if density is not None and density > units.max_density:
             add(["materials", name, "density"],
@@ -228,7 +226,9 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     return problems
 
 
-FEM_MATERIALS = ("linear_elastic", "compressible_neo_hookean")
+def fem_materials() -> tuple[str, ...]:
+    """The material models with FEM forms (MaterialModel.fem)."""
+    return tuple(n for n, m in MODELS.items() if m.fem)
 
 
 def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple, str]]:
@@ -246,12 +246,12 @@ def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple,
                     add(path + [key], "applies to FEM bodies (discretization: fem)")
             mat = deck.materials.get(body.material)
             if deck.integrator == "implicit":
-                if mat is not None and mat.type not in FEM_MATERIALS:
-                    add(path + ["material"], f"implicit particle bodies use {' or '.join(FEM_MATERIALS)}, "
+                if mat is not None and mat.type not in fem_materials():
+                    add(path + ["material"], f"implicit particle bodies use {' or '.join(fem_materials())}, "
                                              f"not {mat.type}")
-            elif mat is not None and mat.type == "compressible_neo_hookean":
-                add(path + ["material"], "compressible_neo_hookean is for FEM bodies and implicit particle bodies; "
-                                         "explicit particles use neo_hookean")
+            elif mat is not None and mat.type in MODELS and MODELS[mat.type].stress(dim) is None:
+                add(path + ["material"], f"{mat.type} has no explicit MPM update: it is for FEM bodies and implicit "
+                                         "particle bodies; explicit particles use another model (neo_hookean)")
             continue
         if body.shape not in FEM_SHAPES:
             add(path + ["shape"], f"an FEM body is one of {', '.join(sorted(FEM_SHAPES))}, not '{body.shape}'")
@@ -260,8 +260,8 @@ def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple,
         elif body.shape != "mesh" and (body.shape == "box") != (dim == 3):
             add(path + ["shape"], f"an FEM '{body.shape}' is {'3D' if body.shape == 'box' else '2D'} only")
         mat = deck.materials.get(body.material)
-        if mat is not None and mat.type not in FEM_MATERIALS:
-            add(path + ["material"], f"an FEM body's material is {' or '.join(FEM_MATERIALS)}, not {mat.type}")
+        if mat is not None and mat.type not in fem_materials():
+            add(path + ["material"], f"an FEM body's material is {' or '.join(fem_materials())}, not {mat.type}")
         for j, t in enumerate(body.transform):
             if (t.rotate is None) == (t.translate is None):
                 add(path + ["transform", j], "give either rotate or translate")

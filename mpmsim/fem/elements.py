@@ -40,7 +40,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..materials import COMPRESSIBLE_NH, LINEAR_ELASTIC
+from ..materials import compressible_neo_hookean as cnh, linear_elastic as linear
+from ..materials.kernels import det_minus_one, det_small, inv_small
+from ..materials.model import COMPRESSIBLE_NH, LINEAR_ELASTIC
 from ..materials.kernels import det3, inv3
 
 __all__ = [
@@ -79,134 +81,43 @@ PARALLEL_MIN = 2048  # elements; below this a kernel runs serially (no thread la
 
 
 # ----------------------------------------------------------------------------- small algebra
-@njit(cache=True, inline="always")
-def det_small(F):
-    """Determinant of a 2x2 or 3x3 matrix."""
-    if F.shape[0] == 2:
-        return F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
-    return det3(F)
-
-
-@njit(cache=True, inline="always")
-def inv_small(F, out):
-    """out = F^-1 (2x2 or 3x3); returns det F."""
-    J = det_small(F)
-    if F.shape[0] == 2:
-        out[0, 0] = F[1, 1] / J
-        out[0, 1] = -F[0, 1] / J
-        out[1, 0] = -F[1, 0] / J
-        out[1, 1] = F[0, 0] / J
-        return J
-    inv3(F, out)
-    return J
-
-
-@njit(cache=True, inline="always")
-def det_minus_one(F):
-    """J - 1 from the invariants of H = F - I (no cancellation near F = I):
-    det(I + H) - 1 = tr H + (sum of principal 2x2 minors of H) + det H (the last two: 3D)."""
-    if F.shape[0] == 2:
-        h00 = F[0, 0] - 1.0
-        h11 = F[1, 1] - 1.0
-        return h00 + h11 + (h00 * h11 - F[0, 1] * F[1, 0])
-    h00 = F[0, 0] - 1.0
-    h11 = F[1, 1] - 1.0
-    h22 = F[2, 2] - 1.0
-    h01, h02, h10, h12, h20, h21 = F[0, 1], F[0, 2], F[1, 0], F[1, 2], F[2, 0], F[2, 1]
-    minors = (h00 * h11 - h01 * h10) + (h00 * h22 - h02 * h20) + (h11 * h22 - h12 * h21)
-    detH = (h00 * (h11 * h22 - h12 * h21) - h01 * (h10 * h22 - h12 * h20) + h02 * (h10 * h21 - h11 * h20))
-    return h00 + h11 + h22 + minors + detH
-
-
 # ----------------------------------------------------------------------------- materials
+# ----------------------------------------------------------------------------- materials
+# The FEM forms live in the material models' modules (mpmsim/materials); these dispatch on the
+# type codes of the models that have them (MaterialModel.fem). Any other code gives NaN: the
+# deck's checks refuse such materials on FEM bodies, and a NaN stops a run that got one.
 @njit(cache=True, inline="always")
 def energy_density(code, props, F):
-    """psi(F) per reference volume (props: the material's row [lambda, mu, ...]).
-    Neo-Hookean returns inf for J <= 0 (a line search then rejects the step)."""
-    lam = props[0]
-    mu = props[1]
-    d = F.shape[0]
+    """psi(F) per reference volume (props: the material's row). Neo-Hookean returns inf for
+    J <= 0 (a line search then rejects the step)."""
     if code == COMPRESSIBLE_NH:
-        j1 = det_minus_one(F)
-        if not (j1 > -1.0):
-            return np.inf
-        lnJ = np.log1p(j1)
-        # tr F^T F - d = |F - I|^2 + 2 tr(F - I): no cancellation of the O(1) parts
-        s = 0.0
-        tr = 0.0
-        for a in range(d):
-            tr += F[a, a] - 1.0
-            for b in range(d):
-                h = F[a, b] - (1.0 if a == b else 0.0)
-                s += h * h
-        return 0.5 * mu * (s + 2.0 * tr) - mu * lnJ + 0.5 * lam * lnJ * lnJ
-    ee = 0.0
-    tr = 0.0
-    for a in range(d):
-        tr += F[a, a] - 1.0
-        for b in range(d):
-            e = 0.5 * (F[a, b] + F[b, a]) - (1.0 if a == b else 0.0)
-            ee += e * e
-    return mu * ee + 0.5 * lam * tr * tr
+        return cnh.fem_energy(props, F)
+    if code == LINEAR_ELASTIC:
+        return linear.fem_energy(props, F)
+    return np.nan
 
 
 @njit(cache=True, inline="always")
 def first_piola(code, props, F, P, Finv):
-    """P = dpsi/dF into P (d, d); Finv (d, d) is scratch (F^-1 for neo-Hookean). Returns J
-    (neo-Hookean P is NaN for J <= 0)."""
-    lam = props[0]
-    mu = props[1]
-    d = F.shape[0]
+    """P = dpsi/dF into P (d, d); Finv (d, d) is scratch. Returns J (neo-Hookean P is NaN for
+    J <= 0)."""
     if code == COMPRESSIBLE_NH:
-        J = inv_small(F, Finv)
-        lnJ = np.log1p(det_minus_one(F)) if J > 0.0 else np.nan
-        for a in range(d):
-            for b in range(d):
-                P[a, b] = mu * (F[a, b] - Finv[b, a]) + lam * lnJ * Finv[b, a]
-        return J
-    tr = 0.0
-    for a in range(d):
-        tr += F[a, a] - 1.0
-    for a in range(d):
-        for b in range(d):
-            P[a, b] = mu * (F[a, b] + F[b, a]) - (2.0 * mu - lam * tr if a == b else 0.0)
-    return det_small(F)
+        return cnh.fem_piola(props, F, P, Finv)
+    if code == LINEAR_ELASTIC:
+        return linear.fem_piola(props, F, P, Finv)
+    P[:, :] = np.nan
+    return np.nan
 
 
 @njit(cache=True, inline="always")
 def stress_tangent(code, props, F, C, Finv):
-    """C[a*d + b, c*d + e] = dP_ab/dF_ce into C (d*d, d*d); Finv (d, d) scratch. Returns J.
-    Neo-Hookean: mu d_ac d_be + (mu - lambda ln J) Finv_ea Finv_bc + lambda Finv_ba Finv_ec;
-    linear: mu (d_ac d_be + d_ae d_bc) + lambda d_ab d_ce."""
-    lam = props[0]
-    mu = props[1]
-    d = F.shape[0]
+    """C[a*d + b, c*d + e] = dP_ab/dF_ce into C (d*d, d*d); Finv (d, d) scratch. Returns J."""
     if code == COMPRESSIBLE_NH:
-        J = inv_small(F, Finv)
-        lnJ = np.log1p(det_minus_one(F)) if J > 0.0 else np.nan
-        k = mu - lam * lnJ
-        for a in range(d):
-            for b in range(d):
-                for c in range(d):
-                    for e in range(d):
-                        v = k * Finv[e, a] * Finv[b, c] + lam * Finv[b, a] * Finv[e, c]
-                        if a == c and b == e:
-                            v += mu
-                        C[a * d + b, c * d + e] = v
-        return J
-    for a in range(d):
-        for b in range(d):
-            for c in range(d):
-                for e in range(d):
-                    v = 0.0
-                    if a == c and b == e:
-                        v += mu
-                    if a == e and b == c:
-                        v += mu
-                    if a == b and c == e:
-                        v += lam
-                    C[a * d + b, c * d + e] = v
-    return det_small(F)
+        return cnh.fem_tangent(props, F, C, Finv)
+    if code == LINEAR_ELASTIC:
+        return linear.fem_tangent(props, F, C, Finv)
+    C[:, :] = np.nan
+    return np.nan
 
 
 @njit(cache=True, inline="always")
@@ -227,9 +138,11 @@ def cauchy_from_piola(code, props, F, P, J, out):
             out[k] = s / J
     if d == 2:
         if code == COMPRESSIBLE_NH:
-            out[2] = props[0] * np.log(J) / J
+            out[2] = cnh.fem_cauchy_zz(props, F, J)
+        elif code == LINEAR_ELASTIC:
+            out[2] = linear.fem_cauchy_zz(props, F, J)
         else:
-            out[2] = props[0] * (F[0, 0] + F[1, 1] - 2.0) / J
+            out[2] = np.nan
 
 
 # ----------------------------------------------------------------------------- element helpers

@@ -1,9 +1,11 @@
-"""Materials: the table of (type code, property row) the kernels take (mpmsim/scene/materials.py
-resolves it from the deck).
+"""Materials: one module per material model (linear_elastic, neo_hookean,
+compressible_neo_hookean, mie_gruneisen, transversely_isotropic), each registering a
+`MaterialModel` (model.py: its deck schema, property row, MPM stress update, energy, wave and
+bulk moduli, FEM forms); and the table of (type code, property row) the kernels take
+(`MaterialTable`; mpmsim/scene/materials.py resolves it from the deck).
 
 Deformable materials are numbered 0..n-1 in deck order; rigid materials are numbered
-separately 0..r-1 (they live in their own particle set). The constitutive kernels
-dispatch on the integer type code; the property row layout per type is fixed here.
+separately 0..r-1 (they live in their own particle set).
 """
 
 from __future__ import annotations
@@ -13,51 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..views import MaterialView
-
-LINEAR_ELASTIC = 0
-NEO_HOOKEAN = 1
-MIE_GRUNEISEN = 2
-ANISOTROPIC = 3
-COMPRESSIBLE_NH = 4  # FEM bodies only (mpmsim/fem)
-TYPE_NAMES = {LINEAR_ELASTIC: "linear_elastic", NEO_HOOKEAN: "neo_hookean", MIE_GRUNEISEN: "mie_gruneisen",
-              ANISOTROPIC: "transversely_isotropic", COMPRESSIBLE_NH: "compressible_neo_hookean"}
-
-# property row: linear_elastic and compressible_neo_hookean [lambda, mu, E, nu, ...]; neo_hookean [K, G, ...];
-# mie_gruneisen [K, G, gamma0, S1, ...];
-# anisotropic [C (6x6, row major), S = C^-1 (6x6)] in Voigt xx yy zz xy yz xz, engineering shear
-NPROP = 72
-VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
-
-
-def transversely_isotropic_compliance(EA, ET, GA, nuA, nuT, axis) -> np.ndarray:
-    """6x6 compliance (strain = S stress, engineering shear) in global axes, for axial
-    properties along `axis` and isotropy normal to it."""
-    a = np.zeros(3)
-    a[: len(axis)] = axis
-    a /= np.linalg.norm(a)
-    # material frame: 1 = axis; compliance as a 4th-order tensor there
-    GT = ET / (2.0 * (1.0 + nuT))
-    Sm = np.zeros((3, 3, 3, 3))
-    normal = np.array([[1 / EA, -nuA / EA, -nuA / EA], [-nuA / EA, 1 / ET, -nuT / ET], [-nuA / EA, -nuT / ET, 1 / ET]])
-    for i in range(3):
-        for j in range(3):
-            Sm[i, i, j, j] = normal[i, j]
-    for (i, j), G in (((0, 1), GA), ((0, 2), GA), ((1, 2), GT)):
-        for k, l in ((i, j), (j, i)):
-            for m, n in ((i, j), (j, i)):
-                Sm[k, l, m, n] = 1.0 / (4.0 * G)
-    # rotation R: rows are the material axes in global coordinates
-    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    t1 = np.cross(helper, a)
-    t1 /= np.linalg.norm(t1)
-    R = np.array([a, t1, np.cross(a, t1)])
-    Sg = np.einsum("ai,bj,ck,dl,abcd->ijkl", R, R, R, R, Sm)
-    S = np.zeros((6, 6))
-    for I, (i, j) in enumerate(VOIGT_PAIRS):
-        for J, (k, l) in enumerate(VOIGT_PAIRS):
-            S[I, J] = Sg[i, j, k, l] * (2.0 if I >= 3 else 1.0) * (2.0 if J >= 3 else 1.0)
-    return S
-
+from . import linear_elastic, neo_hookean, compressible_neo_hookean, mie_gruneisen, transversely_isotropic  # noqa: F401,I001
+from .model import (ANISOTROPIC, COMPRESSIBLE_NH, LINEAR_ELASTIC, MIE_GRUNEISEN, MODELS, NEO_HOOKEAN, NPROP,  # noqa: F401
+                    MaterialModel, model_of, register)
+from .transversely_isotropic import transversely_isotropic_compliance  # noqa: F401
 
 @dataclass
 class RigidMotion:
@@ -90,6 +51,10 @@ class MaterialTable:
     av: np.ndarray = None  # (n_deformable, 2) artificial viscosity [A1, A2], zeros where off
     energy: np.ndarray = None  # (n_deformable,) bool: particles carry internal energy U and pressure
     rigid_bc: list = field(default_factory=list)  # (n_rigid,) bool: the rigid material sets velocity conditions
+
+    def wave_moduli(self) -> np.ndarray:
+        """(n_deformable,) rho c^2 of each deformable material at rest (its model's)."""
+        return np.array([model_of(c).wave_modulus(row) for c, row in zip(self.type_code, self.props)])
 
     def view(self) -> MaterialView:
         """The deformable materials as the kernels take them."""

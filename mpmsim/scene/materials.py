@@ -1,13 +1,12 @@
-"""The deck's materials resolved into the table the kernels take (mpmsim/materials)."""
+"""The deck's materials resolved into the table the kernels take: each deformable material's
+model code and property row from its registered model (mpmsim/materials/model.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..deck.schema import (CompressibleNeoHookean, Deck, LinearElastic, MieGruneisen, NeoHookean, Rigid,
-                           TransverselyIsotropic, VelocityTable)
-from ..materials import (ANISOTROPIC, COMPRESSIBLE_NH, LINEAR_ELASTIC, MIE_GRUNEISEN, NEO_HOOKEAN, NPROP,
-                         MaterialTable, RigidMotion, transversely_isotropic_compliance)
+from ..deck.schema import Deck, Rigid, VelocityTable
+from ..materials import MODELS, NPROP, MaterialTable, RigidMotion
 
 
 def build_material_table(deck: Deck) -> MaterialTable:
@@ -20,26 +19,9 @@ def build_material_table(deck: Deck) -> MaterialTable:
     density = np.zeros(len(deformable))
     for k, n in enumerate(deformable):
         m = deck.materials[n]
+        model = MODELS[m.type]
         density[k] = m.density
-        if isinstance(m, LinearElastic):
-            lam = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu))
-            mu = m.E / (2 * (1 + m.nu))
-            codes[k], props[k, :4] = LINEAR_ELASTIC, (lam, mu, m.E, m.nu)
-        elif isinstance(m, CompressibleNeoHookean):
-            lam = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu))
-            mu = m.E / (2 * (1 + m.nu))
-            codes[k], props[k, :4] = COMPRESSIBLE_NH, (lam, mu, m.E, m.nu)
-        elif isinstance(m, NeoHookean):
-            codes[k], props[k, :2] = NEO_HOOKEAN, (m.K, m.G)
-        elif isinstance(m, TransverselyIsotropic):
-            S = transversely_isotropic_compliance(m.EA, m.ET, m.GA, m.nuA, m.nuT, m.axis)
-            codes[k] = ANISOTROPIC
-            props[k, :36] = np.linalg.inv(S).ravel()
-            props[k, 36:] = S.ravel()
-        elif isinstance(m, MieGruneisen):
-            codes[k], props[k, :4] = MIE_GRUNEISEN, (m.K, m.G, m.gamma0, m.S1)
-        else:  # pragma: no cover
-            raise TypeError(type(m))
+        codes[k], props[k] = model.code, model.row(m)
     motions, constrain = [], np.zeros((len(rigid), dim), dtype=np.bool_)
     for k, n in enumerate(rigid):
         m = deck.materials[n]
@@ -61,6 +43,7 @@ def build_material_table(deck: Deck) -> MaterialTable:
         for k, n in enumerate(deformable):
             if spec.materials is None or n in spec.materials:
                 av[k] = (spec.A1, spec.A2)
-    energy = (codes == MIE_GRUNEISEN) | (av.sum(axis=1) > 0.0)
+    own_eos = np.array([MODELS[deck.materials[n].type].internal_energy for n in deformable], dtype=bool)
+    energy = own_eos | (av.sum(axis=1) > 0.0)
     rigid_bc = [deck.materials[n].mode == "bc" for n in rigid]
     return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain, av, energy, rigid_bc)

@@ -18,178 +18,180 @@ from numba import prange
 
 from ..faults import BAD_EOS, BAD_INVERTED, BAD_NAN
 from ..gridops import chunk_range
-from ..materials import ANISOTROPIC, MIE_GRUNEISEN, NEO_HOOKEAN
-from ..materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, anisotropic_stress,
-                                 bulk_wave_modulus, det3, hypoelastic_stress, mie_gruneisen_stress, neo_hookean_stress,
-                                 neo_hookean_stress_2d)
-from ..parallel import chunk_kernel
+from ..materials.kernels import EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, det3
+from ..materials.model import model_of
+from ..parallel import chunk_kernel, specialize
 from ..views import Faults
 from .boundary import set_grid_velocity
+
+
+# the constants of one compiled stress kernel, bound per model by `update_stress_kernel`
+MODEL_CODE, DIM, TRACKED, READS_L_2D, READS_F3_2D, OWN_EOS = -1, 2, False, True, True, False
+STRESS = BULK = None
+
+
+def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
+    """Velocity gradient from the grid velocity gvel (entries: shapes.ShapeData whose nodes
+    are the particles' fields), F and volume, then the stress of each particle whose material
+    (M: views.MaterialView) is of this model; per chunk the largest wave speed + |v| and the
+    first bad particle."""
+    nodes, G = entries.nodes, entries.G
+    pvel, F, stress, vol, vol0, mat, U, pressure, qv = P.v, P.F, P.stress, P.vol, P.vol0, P.mat, P.U, P.pressure, P.q
+    code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
+    chunk_bad, chunk_code, chunk_value = faults.bad, faults.code, faults.value
+    n, K = nodes.shape
+    dim = DIM
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        work = np.zeros((6, 3, 3))  # velocity gradient, F, and the constitutive update's scratch
+        L, F3, W, A, Ai, Q = work[0], work[1], work[2], work[3], work[4], work[5]
+        eos = np.zeros(EOS_N)
+        wave = 0.0
+        bad = -1
+        bad_code = 0
+        bad_value = 0.0
+        for p in range(start, stop):
+            mt = mat[p]
+            if code[mt] != MODEL_CODE:
+                continue
+            # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
+            n00 = n01 = n10 = n11 = 0.0  # 2D: the new F's in-plane entries
+            if DIM == 2:
+                # in 2D the sums run in scalar locals: a compiled plain loop must assume the
+                # scratch rows may overlap the arrays it reads, and reloads them (1.5x slower)
+                l00 = 0.0
+                l01 = 0.0
+                l10 = 0.0
+                l11 = 0.0
+                for k in range(K):
+                    i = nodes[p, k]
+                    v0, v1 = gvel[i, 0], gvel[i, 1]
+                    g0, g1 = G[p, k, 0], G[p, k, 1]
+                    l00 += v0 * g0
+                    l01 += v0 * g1
+                    l10 += v1 * g0
+                    l11 += v1 * g1
+                if READS_L_2D or TRACKED:  # (the 2D neo-Hookean path reads neither)
+                    L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
+                f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
+                n00 = f00 + dt * l00 * f00 + dt * l01 * f10
+                n01 = f01 + dt * l00 * f01 + dt * l01 * f11
+                n10 = f10 + dt * l10 * f00 + dt * l11 * f10
+                n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+                if READS_F3_2D:
+                    F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
+                    F3[0, 2] = 0.0
+                    F3[1, 2] = 0.0
+                    F3[2, 0] = 0.0
+                    F3[2, 1] = 0.0
+                    F3[2, 2] = 1.0
+            else:
+                for a in range(dim):
+                    for b in range(dim):
+                        L[a, b] = 0.0
+                for k in range(K):
+                    i = nodes[p, k]
+                    for a in range(dim):
+                        va = gvel[i, a]
+                        for b in range(dim):
+                            L[a, b] += va * G[p, k, b]
+                for a in range(3):
+                    for b in range(3):
+                        s = F[p, a, b]
+                        for m in range(dim):
+                            s += dt * L[a, m] * F[p, m, b]
+                        F3[a, b] = s
+            # det3 of the padded F; in 2D its out-of-plane terms are exact zeros, which change
+            # nothing where J > 0 (elsewhere the particle is reported inverted either way)
+            J = n00 * n11 - n01 * n10 if DIM == 2 else det3(F3)
+            if not (J > 0.0):
+                if bad < 0:
+                    bad, bad_code, bad_value = p, BAD_INVERTED, J
+                continue
+            if DIM == 2:
+                F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1] = n00, n01, n10, n11
+            else:
+                for a in range(dim):
+                    for b in range(dim):
+                        F[p, a, b] = F3[a, b]
+            track = TRACKED and energy[mt]
+            J0 = vol[p] / vol0[p] if track else 1.0  # (read only with internal energy)
+            vol[p] = vol0[p] * J
+            q = 0.0
+            if track:
+                # Eq. (52): q only in compression, C the current bulk wave speed
+                trD = 0.0
+                for a in range(dim):
+                    trD += L[a, a]
+                if trD < 0.0 and av[mt, 0] + av[mt, 1] > 0.0:
+                    C = np.sqrt(max(BULK(props[mt], J, pressure[p]), 0.0) * J / density[mt])
+                    dxd = -dx * trD
+                    q = density[mt] / J * dxd * (av[mt, 0] * C + av[mt, 1] * dxd)
+                for a in range(3):  # take out the last q: a hypoelastic stress is incremental
+                    stress[p, a] += qv[p]
+                eos[EOS_U] = U[p]
+                eos[EOS_P] = pressure[p]
+                eos[EOS_Q] = q
+                eos[EOS_J0] = J0
+                eos[EOS_RHO0] = density[mt]
+                eos[EOS_DEN] = 1.0
+            # the stress of this model (STRESS, bound per model: mpmsim/materials/model.py)
+            pr, sp = props[mt], stress[p]
+            modulus = STRESS(pr, L, dt, F3, J, n00, n01, n10, n11, sp, W, A, Ai, Q, eos)
+            if track:
+                q = eos[EOS_Q]
+                if OWN_EOS:
+                    U[p] = eos[EOS_U]
+                    pressure[p] = eos[EOS_P]
+                    if not (eos[EOS_DEN] > 0.0) and bad < 0:
+                        bad, bad_code, bad_value = p, BAD_EOS, eos[EOS_DEN]
+                else:  # elastic energy is strain energy; U holds only the viscous dissipation
+                    U[p] += q * (J0 - J) / density[mt]
+                    pressure[p] = -(stress[p, 0] + stress[p, 1] + stress[p, 2]) / 3.0
+                for a in range(3):
+                    stress[p, a] -= q
+                qv[p] = q
+            speed2 = 0.0
+            for a in range(dim):
+                speed2 += pvel[p, a] * pvel[p, a]
+            cp = np.sqrt(modulus * J / density[mt]) + np.sqrt(speed2)
+            if cp > wave:
+                wave = cp
+            finite = True
+            for a in range(6):
+                if not np.isfinite(stress[p, a]):
+                    finite = False
+            if not finite and bad < 0:
+                bad, bad_code, bad_value = p, BAD_NAN, 0.0
+        chunk_wave[c] = wave
+        chunk_bad[c] = bad
+        chunk_code[c] = bad_code
+        chunk_value[c] = bad_value
 
 
 @cache
 def update_stress_kernel(model: int, tracked: bool, dim: int):
     """The stress update of the particles of one material model (type code `model`), compiled
-    for that model alone. `model`, `tracked` (some material of the model carries internal
-    energy) and `dim` are constants of the kernel: numba drops the branches of the other models, so a
-    scene compiles only the models it uses. (Plain ints and bools: they key numba's cache.)"""
-
-    @chunk_kernel
-    def kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
-        """Velocity gradient from the grid velocity gvel (entries: shapes.ShapeData whose nodes
-        are the particles' fields), F and volume, then the stress of each particle whose material
-        (M: views.MaterialView) is of this model; per chunk the largest wave speed + |v| and the
-        first bad particle."""
-        nodes, G = entries.nodes, entries.G
-        pvel, F, stress, vol, vol0, mat, U, pressure, qv = P.v, P.F, P.stress, P.vol, P.vol0, P.mat, P.U, P.pressure, P.q
-        code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
-        chunk_bad, chunk_code, chunk_value = faults.bad, faults.code, faults.value
-        n, K = nodes.shape
-        for c in prange(nchunk):
-            start, stop = chunk_range(c, nchunk, n)
-            work = np.zeros((6, 3, 3))  # velocity gradient, F, and the constitutive update's scratch
-            L, F3, W, A, Ai, Q = work[0], work[1], work[2], work[3], work[4], work[5]
-            eos = np.zeros(EOS_N)
-            wave = 0.0
-            bad = -1
-            bad_code = 0
-            bad_value = 0.0
-            for p in range(start, stop):
-                mt = mat[p]
-                if code[mt] != model:
-                    continue
-                # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
-                n00 = n01 = n10 = n11 = 0.0  # 2D: the new F's in-plane entries
-                if dim == 2:
-                    # in 2D the sums run in scalar locals: a compiled plain loop must assume the
-                    # scratch rows may overlap the arrays it reads, and reloads them (1.5x slower)
-                    l00 = 0.0
-                    l01 = 0.0
-                    l10 = 0.0
-                    l11 = 0.0
-                    for k in range(K):
-                        i = nodes[p, k]
-                        v0, v1 = gvel[i, 0], gvel[i, 1]
-                        g0, g1 = G[p, k, 0], G[p, k, 1]
-                        l00 += v0 * g0
-                        l01 += v0 * g1
-                        l10 += v1 * g0
-                        l11 += v1 * g1
-                    if model != NEO_HOOKEAN or tracked:  # (the 2D neo-Hookean path reads neither)
-                        L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
-                    f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
-                    n00 = f00 + dt * l00 * f00 + dt * l01 * f10
-                    n01 = f01 + dt * l00 * f01 + dt * l01 * f11
-                    n10 = f10 + dt * l10 * f00 + dt * l11 * f10
-                    n11 = f11 + dt * l10 * f01 + dt * l11 * f11
-                    if model != NEO_HOOKEAN:
-                        F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
-                        F3[0, 2] = 0.0
-                        F3[1, 2] = 0.0
-                        F3[2, 0] = 0.0
-                        F3[2, 1] = 0.0
-                        F3[2, 2] = 1.0
-                else:
-                    for a in range(dim):
-                        for b in range(dim):
-                            L[a, b] = 0.0
-                    for k in range(K):
-                        i = nodes[p, k]
-                        for a in range(dim):
-                            va = gvel[i, a]
-                            for b in range(dim):
-                                L[a, b] += va * G[p, k, b]
-                    for a in range(3):
-                        for b in range(3):
-                            s = F[p, a, b]
-                            for m in range(dim):
-                                s += dt * L[a, m] * F[p, m, b]
-                            F3[a, b] = s
-                # det3 of the padded F; in 2D its out-of-plane terms are exact zeros, which change
-                # nothing where J > 0 (elsewhere the particle is reported inverted either way)
-                J = n00 * n11 - n01 * n10 if dim == 2 else det3(F3)
-                if not (J > 0.0):
-                    if bad < 0:
-                        bad, bad_code, bad_value = p, BAD_INVERTED, J
-                    continue
-                if dim == 2:
-                    F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1] = n00, n01, n10, n11
-                else:
-                    for a in range(dim):
-                        for b in range(dim):
-                            F[p, a, b] = F3[a, b]
-                track = tracked and energy[mt]
-                J0 = vol[p] / vol0[p] if track else 1.0  # (read only with internal energy)
-                vol[p] = vol0[p] * J
-                q = 0.0
-                if track:
-                    # Eq. (52): q only in compression, C the current bulk wave speed
-                    trD = 0.0
-                    for a in range(dim):
-                        trD += L[a, a]
-                    if trD < 0.0 and av[mt, 0] + av[mt, 1] > 0.0:
-                        C = np.sqrt(max(bulk_wave_modulus(model, props[mt], J, pressure[p]), 0.0) * J / density[mt])
-                        dxd = -dx * trD
-                        q = density[mt] / J * dxd * (av[mt, 0] * C + av[mt, 1] * dxd)
-                    for a in range(3):  # take out the last q: a hypoelastic stress is incremental
-                        stress[p, a] += qv[p]
-                    eos[EOS_U] = U[p]
-                    eos[EOS_P] = pressure[p]
-                    eos[EOS_Q] = q
-                    eos[EOS_J0] = J0
-                    eos[EOS_RHO0] = density[mt]
-                    eos[EOS_DEN] = 1.0
-                # the stress of this model (`model` is a constant: numba keeps one branch, before
-                # it inlines the model's function, so no other model is ever compiled here)
-                pr, sp = props[mt], stress[p]
-                if model == NEO_HOOKEAN and dim == 2:
-                    modulus = neo_hookean_stress_2d(pr[0], pr[1], J, n00, n01, n10, n11, sp)
-                elif model == NEO_HOOKEAN:
-                    modulus = neo_hookean_stress(pr[0], pr[1], F3, sp)
-                elif model == MIE_GRUNEISEN:
-                    modulus = mie_gruneisen_stress(pr[0], pr[1], pr[2], pr[3], F3, sp, eos)
-                elif model == ANISOTROPIC:
-                    modulus = anisotropic_stress(pr, L, dt, sp, W, A, Ai, Q)
-                else:
-                    modulus = hypoelastic_stress(pr[0], pr[1], L, dt, sp, W, A, Ai, Q)
-                if track:
-                    q = eos[EOS_Q]
-                    if model == MIE_GRUNEISEN:
-                        U[p] = eos[EOS_U]
-                        pressure[p] = eos[EOS_P]
-                        if not (eos[EOS_DEN] > 0.0) and bad < 0:
-                            bad, bad_code, bad_value = p, BAD_EOS, eos[EOS_DEN]
-                    else:  # elastic energy is strain energy; U holds only the viscous dissipation
-                        U[p] += q * (J0 - J) / density[mt]
-                        pressure[p] = -(stress[p, 0] + stress[p, 1] + stress[p, 2]) / 3.0
-                    for a in range(3):
-                        stress[p, a] -= q
-                    qv[p] = q
-                speed2 = 0.0
-                for a in range(dim):
-                    speed2 += pvel[p, a] * pvel[p, a]
-                cp = np.sqrt(modulus * J / density[mt]) + np.sqrt(speed2)
-                if cp > wave:
-                    wave = cp
-                finite = True
-                for a in range(6):
-                    if not np.isfinite(stress[p, a]):
-                        finite = False
-                if not finite and bad < 0:
-                    bad, bad_code, bad_value = p, BAD_NAN, 0.0
-            chunk_wave[c] = wave
-            chunk_bad[c] = bad
-            chunk_code[c] = bad_code
-            chunk_value[c] = bad_value
-
-    return kernel
+    for that model alone: its stress and bulk-modulus functions and flags
+    (mpmsim/materials/model.py), `tracked` (some material of the model carries internal energy)
+    and `dim` are bound as constants of the kernel, so a scene compiles only the models it
+    uses. (Plain ints and bools: they key numba's cache; the model's tag names the copy.)"""
+    m = model_of(model)
+    if m.stress(dim) is None:
+        raise ValueError(f"material model {m.name} has no explicit MPM stress update")
+    tag = f"{m.tag}_{int(tracked)}_{dim}d"
+    return chunk_kernel(specialize(stress_kernel, tag, MODEL_CODE=m.code, DIM=dim, TRACKED=tracked,
+                                   READS_L_2D=m.reads_L_2d, READS_F3_2D=m.reads_F3_2d, OWN_EOS=m.internal_energy,
+                                   STRESS=m.stress(dim), BULK=m.bulk_modulus))
 
 
 def stress_kernels(materials, dim: int) -> list:
     """The stress kernels of a material table: one per material model its deformable
-    materials use."""
+    materials use (models without an explicit update are those of FEM bodies only: the
+    deck's checks keep them off explicit particles)."""
     codes = np.asarray(materials.type_code)
-    return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any()), int(dim)) for m in np.unique(codes)]
+    return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any()), int(dim)) for m in np.unique(codes)
+            if model_of(int(m)).stress(dim) is not None]
 
 
 def _update_stress(state, dt, gvel, kernels) -> None:

@@ -8,8 +8,9 @@ import yaml
 
 from mpmsim.deck.overrides import with_overrides
 from mpmsim.errors import InstabilityError
-from mpmsim.materials.kernels import (EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U, mie_gruneisen_stress,
-                                      neo_hookean_stress)
+from mpmsim.materials.kernels import EOS_DEN, EOS_J0, EOS_N, EOS_P, EOS_Q, EOS_RHO0, EOS_U
+from mpmsim.materials.mie_gruneisen import mie_gruneisen_stress
+from mpmsim.materials.neo_hookean import neo_hookean_stress
 from mpmsim.output.vtu import MAIN_PART, part_meshes
 from mpmsim.shock import hugoniot
 

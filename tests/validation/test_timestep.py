@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mpmsim.errors import InstabilityError
-from mpmsim.materials.kernels import neo_hookean_stress
+from mpmsim.materials.neo_hookean import neo_hookean_stress
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation
 
