@@ -76,7 +76,17 @@ class ContactLaw(Strict):
     `interface` (imperfect interface: tractions Dn [u_n] and Dt [u_t] in tension and
     compression alike; docs/interfaces.md)."""
 
-    law: Literal["stick", "frictionless", "coulomb", "none", "interface"]
+    law: str = Field(description="stick, frictionless, coulomb, none, interface, or a law registered with "
+                     "mpmsim.contact.grid.laws.register_law.")
+
+    @field_validator("law")
+    @classmethod
+    def _known_law(cls, v):
+        from ..contact.grid.spec import LAW_CODES
+
+        if v not in LAW_CODES:
+            raise ValueError(f"unknown law '{v}': one of {', '.join(LAW_CODES)}")
+        return v
     friction: float = Field(default=0.0, ge=0.0, description="Kinetic friction coefficient (coulomb).")
     static_friction: float | None = Field(default=None, ge=0.0, description="Static coefficient (coulomb).")
     Dn: Stiffness = Field(

@@ -41,9 +41,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials import compressible_neo_hookean as cnh, linear_elastic as linear
-from ..materials.kernels import det_minus_one, det_small, inv_small
+from ..materials.kernels import det3, det_minus_one, det_small, inv3, inv_small
 from ..materials.model import COMPRESSIBLE_NH, LINEAR_ELASTIC
-from ..materials.kernels import det3, inv3
+from ..parallel import specialize
 
 __all__ = [
     "COMPRESSIBLE_NH",
@@ -390,6 +390,34 @@ def reference_geometry(points, cells):
     return Dm_inv, vol0
 
 
+CHUNK = None  # the chunk function of one `over_elements` copy
+
+
+def elements_in_chunks(m, *args):
+    """CHUNK(*args, start, stop) over the m elements in chunks (in parallel on large meshes);
+    the first element it reports bad (-1: none)."""
+    nchunk = n_chunks(m)
+    if nchunk == 1:
+        return CHUNK(*args, 0, m)
+    bad = np.full(nchunk, -1, dtype=np.int64)
+    for c in prange(nchunk):
+        start, stop = chunk_bounds(c, nchunk, m)
+        bad[c] = CHUNK(*args, start, stop)
+    return first_bad(bad)
+
+
+def over_elements(chunk, name: str):
+    """A parallel kernel running `chunk` over the elements (elements_in_chunks)."""
+    return njit(parallel=True, cache=True)(specialize(elements_in_chunks, name, CHUNK=chunk))
+
+
+_element_energies = over_elements(_energies_chunk, "element_energies")
+_element_forces = over_elements(_forces_chunk, "element_forces")
+_element_hessians = over_elements(_hessians_chunk, "element_hessians")
+_cauchy_stresses = over_elements(_cauchy_chunk, "cauchy_stresses")
+_element_time_steps = over_elements(_time_steps_chunk, "element_time_steps")
+
+
 @njit(parallel=True, cache=True)
 def deformation_gradients(x, cells, Dm_inv, F):
     """F[e] = D_s D_m^-1 for every element (F: (m, d, d), overwritten)."""
@@ -403,19 +431,11 @@ def deformation_gradients(x, cells, Dm_inv, F):
         _gradients_chunk(x, cells, Dm_inv, F, start, stop)
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def element_energies(x, cells, Dm_inv, vol0, cell_mat, code, props, out):
     """out[e] = vol0_e psi(F_e) (inf for an inverted neo-Hookean element). Returns the first
     element with J <= 0 (-1: none)."""
-    m = cells.shape[0]
-    nchunk = n_chunks(m)
-    if nchunk == 1:
-        return _energies_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, out, 0, m)
-    bad = np.full(nchunk, -1, dtype=np.int64)
-    for c in prange(nchunk):
-        start, stop = chunk_bounds(c, nchunk, m)
-        bad[c] = _energies_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, out, start, stop)
-    return first_bad(bad)
+    return _element_energies(cells.shape[0], x, cells, Dm_inv, vol0, cell_mat, code, props, out)
 
 
 @njit(cache=True)
@@ -429,19 +449,11 @@ def strain_energy(x, cells, Dm_inv, vol0, cell_mat, code, props):
     return total
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def element_forces(x, cells, Dm_inv, vol0, cell_mat, code, props, fe):
     """fe[e, n, a] = -d(vol0_e psi(F_e))/dx_{n,a} = -vol0 sum_b P_ab g_{n,b} (fe: (m, d+1, d)).
     Returns the first element with J <= 0 (-1: none; neo-Hookean forces there are NaN)."""
-    m = cells.shape[0]
-    nchunk = n_chunks(m)
-    if nchunk == 1:
-        return _forces_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, fe, 0, m)
-    bad = np.full(nchunk, -1, dtype=np.int64)
-    for c in prange(nchunk):
-        start, stop = chunk_bounds(c, nchunk, m)
-        bad[c] = _forces_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, fe, start, stop)
-    return first_bad(bad)
+    return _element_forces(cells.shape[0], x, cells, Dm_inv, vol0, cell_mat, code, props, fe)
 
 
 @njit(cache=True)
@@ -462,39 +474,23 @@ def internal_forces(x, cells, Dm_inv, vol0, cell_mat, code, props, f):
     return bad
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def element_hessians(x, cells, Dm_inv, vol0, cell_mat, code, props, project, out):
     """Local Hessians out[e] = d^2(vol0_e psi(F_e))/dx^2, ((d+1) d, (d+1) d), node-major DOFs
     (local node n, component a -> n*d + a): vol0 sum_{b,e'} g_{n,b} C[a*d+b, c*d+e'] g_{m,e'}.
     With project=True each is projected to PSD (project_psd), as projected Newton needs.
     Returns the first element with J <= 0 (-1: none)."""
-    m = cells.shape[0]
-    nchunk = n_chunks(m)
-    if nchunk == 1:
-        return _hessians_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, project, out, 0, m)
-    bad = np.full(nchunk, -1, dtype=np.int64)
-    for c in prange(nchunk):
-        start, stop = chunk_bounds(c, nchunk, m)
-        bad[c] = _hessians_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, project, out, start, stop)
-    return first_bad(bad)
+    return _element_hessians(cells.shape[0], x, cells, Dm_inv, vol0, cell_mat, code, props, project, out)
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def cauchy_stresses(x, cells, Dm_inv, cell_mat, code, props, out):
     """Cauchy stress of every element, Voigt [xx, yy, zz, xy, yz, xz] (out: (m, 6)); see
     cauchy_from_piola. Returns the first element with J <= 0 (-1: none)."""
-    m = cells.shape[0]
-    nchunk = n_chunks(m)
-    if nchunk == 1:
-        return _cauchy_chunk(x, cells, Dm_inv, cell_mat, code, props, out, 0, m)
-    bad = np.full(nchunk, -1, dtype=np.int64)
-    for c in prange(nchunk):
-        start, stop = chunk_bounds(c, nchunk, m)
-        bad[c] = _cauchy_chunk(x, cells, Dm_inv, cell_mat, code, props, out, start, stop)
-    return first_bad(bad)
+    return _cauchy_stresses(cells.shape[0], x, cells, Dm_inv, cell_mat, code, props, out)
 
 
-@njit(parallel=True, cache=True)
+@njit(cache=True)
 def element_time_steps(x, cells, cell_mat, props, density, out):
     """out[e] = l_e / c_e at positions x: c_e = sqrt((lambda + 2 mu) / rho) the small-strain
     dilatational wave speed, and the element length
@@ -511,15 +507,7 @@ def element_time_steps(x, cells, cell_mat, props, density, out):
     F = I). On the generated meshes it is 0.6-0.75 of the exact limit. Large neo-Hookean
     compression stiffens the tangent: the caller keeps a safety factor.
     Returns the first element with det D_s <= 0 (-1: none)."""
-    m = cells.shape[0]
-    nchunk = n_chunks(m)
-    if nchunk == 1:
-        return _time_steps_chunk(x, cells, cell_mat, props, density, out, 0, m)
-    bad = np.full(nchunk, -1, dtype=np.int64)
-    for c in prange(nchunk):
-        start, stop = chunk_bounds(c, nchunk, m)
-        bad[c] = _time_steps_chunk(x, cells, cell_mat, props, density, out, start, stop)
-    return first_bad(bad)
+    return _element_time_steps(cells.shape[0], x, cells, cell_mat, props, density, out)
 
 
 @njit(cache=True)

@@ -58,10 +58,8 @@ def inverse_and_log_det(F, Finv):
 @njit(cache=True, inline="always")
 def fem_piola(props, F, P, Finv):
     """P = mu (F - F^-T) + lambda ln J F^-T into P; Finv scratch; returns J (P NaN for J <= 0)."""
-    lam = props[0]
-    mu = props[1]
-    d = F.shape[0]
     J, lnJ = inverse_and_log_det(F, Finv)
+    lam, mu, d = props[0], props[1], F.shape[0]
     for a in range(d):
         for b in range(d):
             P[a, b] = mu * (F[a, b] - Finv[b, a]) + lam * lnJ * Finv[b, a]
@@ -71,10 +69,8 @@ def fem_piola(props, F, P, Finv):
 @njit(cache=True, inline="always")
 def fem_tangent(props, F, C, Finv):
     """dP/dF = mu d_ac d_be + (mu - lambda ln J) Finv_ea Finv_bc + lambda Finv_ba Finv_ec; returns J."""
-    lam = props[0]
-    mu = props[1]
-    d = F.shape[0]
     J, lnJ = inverse_and_log_det(F, Finv)
+    lam, mu, d = props[0], props[1], F.shape[0]
     k = mu - lam * lnJ
     for a in range(d):
         for b in range(d):

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contact.augury.transfers import FRICTION, KERNELS, STICK_SEPARATE, AuguryGrid
-from ..contact.grid.spec import (INTEGRATION_CODES, LAW_CODES, NORMAL_CODES, PERFECT, SEPARATION_CODES, ContactSpec)
+from ..contact.grid.spec import (FIRST_PLUGIN_LAW, INTEGRATION_CODES, LAW_CODES, NORMAL_CODES, PERFECT,
+                                 SEPARATION_CODES, ContactSpec)
 from ..deck.contact import material_groups
 from ..deck.schema import Implicit, Rigid
 
@@ -205,4 +206,4 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
                        c.warm_start, c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
                        INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
                        c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface",
-                       sep)
+                       sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)))

@@ -36,6 +36,7 @@ re-imposed.
 
 from __future__ import annotations
 
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -43,11 +44,12 @@ from numba import prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.grid.bond import point_bond
-from ..contact.grid.passes import NO_BEFORE, increment_contact, pair_changes
+from ..contact.grid.laws import plugin_dispatch
+from ..contact.grid.passes import NO_BEFORE, increment_contact, law_kernels, pair_changes
 from ..contact.grid.spec import SEP_VELOCITY
 from ..contact.grid.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
-from ..parallel import chunk_kernel
+from ..parallel import chunk_kernel, specialize
 from ..views import RigidHold
 from .boundary import has_walls, mirror_ghosts
 
@@ -196,11 +198,21 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
                 vstar[fld, d] += dv[fld, d]
 
 
+@cache
+def series_kernel(plugin_laws: tuple):
+    """xpic_series with the scene's plugin contact laws in its increments (law_kernels)."""
+    if not plugin_laws:
+        return xpic_series
+    tag, _ = plugin_dispatch(plugin_laws)
+    return chunk_kernel(specialize(xpic_series.py_func, tag, increment_contact=law_kernels(plugin_laws).increment_contact))
+
+
 def xpic(scheme: str, order: int, spec):
     """XPIC(order) (scheme xpic) or FMPM(order) (scheme fmpm); spec: the scene's contact spec
     or None."""
     fmpm = scheme == "fmpm"
     reimpose = spec is not None and not fmpm and spec.passes == 2
+    series = series_kernel(spec.plugin_laws if spec is not None else ())
     sep_velocity = spec is not None and spec.separation == SEP_VELOCITY
 
     def run(state) -> None:
@@ -228,7 +240,7 @@ def xpic(scheme: str, order: int, spec):
         opts = FilterOptions(order, fmpm, shift, shift is not _NO_SHIFT[dim], has_walls(state),
                              sep_velocity, touch)
         slot_gain = SlotGain(np.zeros((tracked, dim)), np.zeros((tracked, dim)))
-        xpic_series(box.scatter(state.field_index, sd.S), state.particles.mass, box.active(), g.view, held, ff, opts,
+        series(box.scatter(state.field_index, sd.S), state.particles.mass, box.active(), g.view, held, ff, opts,
                     cnodes, geo, dec, bonds, f.ghost_src, nc, sums, slot_gain)
         if tracked:  # the increments' contact reaches the particles: part of the contact forces
             add_pair_impulse(state, slot_gain.gain)

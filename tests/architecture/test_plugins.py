@@ -11,6 +11,7 @@ import pytest
 from numba import njit
 from pydantic import Field
 
+from mpmsim.contact.grid.laws import register_law
 from mpmsim.deck.overrides import with_overrides
 from mpmsim.errors import DeckError
 from mpmsim.materials import NPROP, MaterialModel, register
@@ -115,3 +116,59 @@ def test_the_deck_names_the_registered_models_and_checks_the_toys_keys():
     from mpmsim.deck.reference import render
 
     assert "toy_hooke" not in render()  # the reference documents mpmsim's own models
+
+
+# --------------------------------------------------------------------------- a contact law
+@njit(cache=True, inline="always")
+def toy_frictionless(mu, mu_static, dp, n, dotn, dim, out):
+    """Frictionless contact written here: the normal part of the stick impulse."""
+    for d in range(dim):
+        out[d] = dotn * n[d]
+    return True
+
+
+@njit(cache=True, inline="always")
+def toy_sticky(mu, mu_static, dp, n, dotn, dim, out):
+    """In contact, the whole stick impulse (no slip), whatever mu."""
+    for d in range(dim):
+        out[d] = dp[d]
+    return True
+
+
+TOY_LAWS = [register_law("toy_frictionless", toy_frictionless), register_law("toy_sticky", toy_sticky)]
+SLIDE = {
+    "title": "a block sliding into a block", "units": "mm-g-ms",
+    "grid": {"cell_size": 1.0},
+    "materials": {"a": {"type": "neo_hookean", "K": 100.0, "G": 40.0, "density": 0.001},
+                  "b": {"type": "neo_hookean", "K": 100.0, "G": 40.0, "density": 0.001}},
+    "bodies": [{"shape": "rectangle", "min": [0, 0], "max": [6, 3], "material": "a", "velocity": [0.0, 0.0]},
+               {"shape": "rectangle", "min": [1, 3], "max": [5, 5], "material": "b", "velocity": [0.4, -0.2]}],
+    "contact": {"default": {"law": "frictionless"}},
+    "time": {"end": 0.05},
+    "update": {"stress": "usavg"},
+    "stability": {"energy_tolerance": 1.0},  # (the impact's energy drift is not what this tests)
+}
+
+
+@pytest.mark.parametrize("update", [{}, {"update": {"scheme": "xpic", "order": 3, "stress": "usavg"}}],
+                         ids=["flip", "xpic3"])
+def test_a_contact_law_of_ones_own_runs_through_a_deck(update):
+    """A frictionless law written here gives the built-in frictionless results to the last bit
+    (passes 1-3 and XPIC's increments run it); a sticky toy law is compiled in too: the top
+    block's sliding is stopped where the frictionless one keeps it."""
+    base = with_overrides(SLIDE, update)
+    ref = run(base, 40)
+    toy = run(with_overrides(base, {"contact.default": {"law": "toy_frictionless"}}), 40)
+    assert toy.scene.contact.grid.plugin_laws == (TOY_LAWS[0].code,)
+    for k in ("x", "v", "stress"):
+        assert np.array_equal(getattr(toy.state.particles, k), getattr(ref.state.particles, k)), k
+    sticky = run(with_overrides(base, {"contact.default": {"law": "toy_sticky"}}), 40)
+    top = ref.state.particles.mat == 1
+    vx_ref, vx_sticky = ref.state.particles.v[top, 0].mean(), sticky.state.particles.v[top, 0].mean()
+    assert vx_sticky < 0.9 * vx_ref
+
+
+def test_an_unknown_law_names_the_registered_ones():
+    bad = with_overrides(SLIDE, {"contact.default": {"law": "toy_slippery"}})
+    with pytest.raises(DeckError, match="toy_sticky"):
+        build_scene(deck_from(bad))

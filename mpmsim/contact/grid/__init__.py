@@ -17,8 +17,7 @@ from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras)
 from .passes import (NO_BEFORE, PASS_1, PASS_3, PASS_3_RECHECK, Pass2Settings, Pass2Sums, contact_pass_2,
-                     exchange_pass,
-                     pair_changes, settle_pairs)
+                     law_kernels, pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
 from .spec import SEP_LR, SEP_VELOCITY
 from .workspace import ContactWorkspace
@@ -110,7 +109,7 @@ class ContactTasks:
         # recheck (the reference code's passes)
         self.advance = not (spec.recheck and int(self.method.separation) == SEP_LR)
         self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
-        self.pass_2_kernel = contact_pass_2(bool(spec.has_interface))
+        self.pass_2_kernel = contact_pass_2(bool(spec.has_interface), spec.plugin_laws)
 
     def geometry(self, state) -> None:
         """Plan the contact nodes: normals, separations, areas (and the consistent bond)."""
@@ -125,8 +124,9 @@ class ContactTasks:
     def pass_1(self, state) -> None:
         """The laws on the extrapolated momenta (part of the extrapolation)."""
         cs, f, nn = state.contact, state.fields, state.grid.n_nodes
-        exchange_pass(PASS_1, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.contact2, self.sep_velocity, self.touch,
-                      state.nchunk, cs.dp1)
+        exchange = law_kernels(self.spec.plugin_laws).exchange_pass
+        exchange(PASS_1, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.contact2, self.sep_velocity, self.touch,
+                 state.nchunk, cs.dp1)
         if cs.n_con:
             ns = cs.n_slots
             before = f.mom[nn:nn + ns].copy()
@@ -161,6 +161,7 @@ class ContactTasks:
         cs, f, nn = state.contact, state.fields, state.grid.n_nodes
         if self.recheck:
             self.geometry(state)
-        exchange_pass(PASS_3_RECHECK if self.recheck else PASS_3, cs.nodes(nn), f.mass, f.mom, cs.targets(),
-                      cs.contact2, self.sep_velocity, self.touch, state.nchunk, cs.dp1)
+        exchange = law_kernels(self.spec.plugin_laws).exchange_pass
+        exchange(PASS_3_RECHECK if self.recheck else PASS_3, cs.nodes(nn), f.mass, f.mom, cs.targets(),
+                 cs.contact2, self.sep_velocity, self.touch, state.nchunk, cs.dp1)
         point_bond(cs.bonds(), nn, f.mass, f.mom, True, _NO_ACC, 0.0, cs.normal, state.dim)

@@ -20,10 +20,76 @@ Coulomb friction, so it is not an input here; the interface force (pass 2) uses 
 
 from __future__ import annotations
 
+import hashlib
+import inspect
+from dataclasses import dataclass
+from functools import cache
+
 import numpy as np
 from numba import njit
 
-from .spec import BACKWARD_EULER, COULOMB, FIRST_ORDER, FORCE_LIMIT, FRICTIONLESS, INTERFACE, STICK, TRAPEZOIDAL
+from ...parallel import specialize
+from .spec import (BACKWARD_EULER, COULOMB, FIRST_ORDER, FIRST_PLUGIN_LAW, FORCE_LIMIT, FRICTIONLESS, INTERFACE,
+                   LAW_CODES, STICK, TRAPEZOIDAL)
+
+
+@dataclass(frozen=True)
+class LawPlugin:
+    """A contact law defined outside this module: `impulse(mu, mu_static, dp, n, dotn, dim, out)`
+    (compiled) writes the impulse applied to material a where the surfaces are in contact and
+    returns True if anything is applied (the arguments as `apply_law`'s; mu and mu_static are
+    the deck entry's `friction` and `static_friction`, -1 when not given)."""
+
+    name: str
+    impulse: object
+    code: int
+    tag: str
+
+
+LAWS: dict[str, LawPlugin] = {}
+
+
+def register_law(name: str, impulse) -> LawPlugin:
+    """Make `name` a contact law of the grid methods (decks accept it in contact.default and
+    contact.pairs); registering a name again replaces its impulse."""
+    old = LAWS.get(name)
+    code = old.code if old is not None else FIRST_PLUGIN_LAW + len(LAWS)
+    src = inspect.getsourcefile(getattr(impulse, "py_func", impulse)) or ""
+    digest = hashlib.sha1(open(src, "rb").read()).hexdigest()[:8] if src else "0"
+    law = LawPlugin(name, impulse, code, f"{name}_{digest}")
+    LAWS[name] = law
+    LAW_CODES[name] = code
+    return law
+
+
+@njit(cache=True, inline="always")
+def _no_law(law, mu, mu_static, dp, n, dotn, dim, out):
+    for d in range(dim):
+        out[d] = 0.0
+    return False
+
+
+CODE, IMPULSE, REST = -1, None, _no_law
+PLUGIN_LAW = _no_law  # the scene's plugin laws (`plugin_dispatch`), bound in a copy of apply_law
+
+
+def law_link(law, mu, mu_static, dp, n, dotn, dim, out):
+    """One plugin law of a chain: this link's, or the rest of the chain's."""
+    if law == CODE:
+        return IMPULSE(mu, mu_static, dp, n, dotn, dim, out)
+    return REST(law, mu, mu_static, dp, n, dotn, dim, out)
+
+
+@cache
+def plugin_dispatch(codes: tuple):
+    """(tag, apply_law with the plugin laws of these codes compiled in)."""
+    by_code = {law.code: law for law in LAWS.values()}
+    tag, rest = "", _no_law
+    for code in reversed(codes):
+        law = by_code[code]
+        tag = f"{law.tag}_{tag}" if tag else law.tag
+        rest = njit(cache=True, inline="always")(specialize(law_link, tag, CODE=code, IMPULSE=law.impulse, REST=rest))
+    return tag, njit(cache=True, inline="always")(specialize(apply_law.py_func, tag, PLUGIN_LAW=rest))
 
 
 @njit(cache=True, inline="always")
@@ -47,6 +113,8 @@ def apply_law(law, mu, mu_static, bonded, dp, n, dotn, in_contact, dim, out):
         for d in range(dim):
             out[d] = dotn * n[d]
         return True
+    if law >= FIRST_PLUGIN_LAW:  # a law registered outside this module (register_law)
+        return PLUGIN_LAW(law, mu, mu_static, dp, n, dotn, dim, out)
     # Coulomb: tangential part of the stick impulse, capped by friction
     s_stick = 0.0
     for d in range(dim):
@@ -196,4 +264,4 @@ def interface_impulse(stiff, bonded, dp, df, n, delta_n, open_t, area, mred, dt,
     return energy + e
 
 
-__all__ = ["apply_law", "interface_impulse", "oscillator", "STICK", "FRICTIONLESS", "COULOMB", "INTERFACE"]
+__all__ = ["apply_law", "interface_impulse", "oscillator", "register_law", "plugin_dispatch", "STICK", "FRICTIONLESS", "COULOMB", "INTERFACE"]

@@ -44,8 +44,8 @@ from numba import njit, prange
 
 from ...bc import NO_BC, node_bc
 from ...gridops import chunk_range, node_ijk
-from ...parallel import chunk_kernel
-from .laws import apply_law, interface_impulse
+from ...parallel import chunk_kernel, specialize
+from .laws import apply_law, interface_impulse, plugin_dispatch
 from .spec import INTERFACE
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
@@ -206,9 +206,10 @@ class Pass2Settings(NamedTuple):
 
 
 @cache
-def contact_pass_2(has_interface: bool):
+def contact_pass_2(has_interface: bool, plugin_laws: tuple = ()):
     """Pass 2's kernel, with or without the interface law (a constant of the kernel: scenes
-    without interfaces do not compile their force integrators)."""
+    without interfaces do not compile their force integrators), and with the scene's plugin
+    laws (`law_kernels`)."""
 
     @chunk_kernel
     def kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, nchunk, sums):
@@ -304,6 +305,9 @@ def contact_pass_2(has_interface: bool):
                 add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol,
                                  constrain, rig_vel, mass, dpb, vnew, acc, dt, dim)
 
+    if plugin_laws:
+        tag, law = plugin_dispatch(plugin_laws)
+        return chunk_kernel(specialize(kernel.py_func, tag, apply_law=law))
     return kernel
 
 
@@ -422,3 +426,24 @@ def settle_pairs(step, force, impulse, dt):
                 force[i, j, d] = step[i, j, d] / dt
                 impulse[i, j, d] += step[i, j, d]
                 step[i, j, d] = 0.0
+
+
+class LawKernels(NamedTuple):
+    """The kernels that apply the contact laws, for the scene's plugin laws."""
+
+    exchange_pass: object
+    increment_contact: object
+    plugin_laws: tuple
+
+
+@cache
+def law_kernels(plugin_laws: tuple) -> LawKernels:
+    """Passes 1 and 3 and XPIC's increments with the laws registered outside mpmsim that the
+    scene uses compiled in (apply_law and each inlining caller bound in a copy; none: the
+    module's own kernels). Pass 2: contact_pass_2(has_interface, plugin_laws)."""
+    if not plugin_laws:
+        return LawKernels(exchange_pass, increment_contact, ())
+    tag, law = plugin_dispatch(plugin_laws)
+    momenta = njit(cache=True, inline="always")(specialize(exchange_momenta.py_func, tag, apply_law=law))
+    return LawKernels(chunk_kernel(specialize(exchange_pass.py_func, tag, exchange_momenta=momenta)),
+                      njit(cache=True)(specialize(increment_contact.py_func, tag, apply_law=law)), plugin_laws)

@@ -15,6 +15,8 @@ import numpy as np
 
 STICK, FRICTIONLESS, COULOMB, INTERFACE = 0, 1, 2, 3
 LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK, "interface": INTERFACE}
+BUILT_IN_LAWS = tuple(LAW_CODES)
+FIRST_PLUGIN_LAW = 16  # codes of laws registered outside mpmsim (contact/grid/laws.register_law)
 PERFECT = -1.0  # interface stiffness code for a perfect direction
 OSCILLATOR, FORCE_LIMIT, FIRST_ORDER, TRAPEZOIDAL, BACKWARD_EULER = 0, 1, 2, 3, 4
 INTEGRATION_CODES = {"oscillator": OSCILLATOR, "force_limit": FORCE_LIMIT, "first_order": FIRST_ORDER,
@@ -102,6 +104,7 @@ class ContactSpec:
     consistent_bond: bool  # bonded normals held where the interface crosses grid edges (contact.bond)
     opening_at_interface: bool  # interface openings carried to the interface point (else: at the node)
     separation_name: str  # the separation method's deck name
+    plugin_laws: tuple = ()  # codes of laws registered outside mpmsim that the law table uses
 
     @property
     def normal_name(self) -> str:
