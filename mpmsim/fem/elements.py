@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..materials import compressible_neo_hookean as cnh, linear_elastic as linear
-from ..materials.kernels import det3, det_minus_one, det_small, inv3, inv_small
+from ..materials.kernels import det_minus_one, det_small, inv_small  # noqa: F401  (det_small: part of this API)
 from ..materials.model import COMPRESSIBLE_NH, LINEAR_ELASTIC
 from ..parallel import specialize
 

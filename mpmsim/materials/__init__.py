@@ -15,10 +15,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..views import MaterialView
-from . import linear_elastic, neo_hookean, compressible_neo_hookean, mie_gruneisen, transversely_isotropic  # noqa: F401,I001
-from .model import (ANISOTROPIC, COMPRESSIBLE_NH, LINEAR_ELASTIC, MIE_GRUNEISEN, MODELS, NEO_HOOKEAN, NPROP,  # noqa: F401
-                    MaterialModel, model_of, register)
+# the built-in models, in the order the deck reference lists them
+from . import linear_elastic, neo_hookean, compressible_neo_hookean  # noqa: F401,I001
+from . import mie_gruneisen, transversely_isotropic  # noqa: F401,I001
+from .model import (ANISOTROPIC, COMPRESSIBLE_NH, LINEAR_ELASTIC, MIE_GRUNEISEN, MODELS,  # noqa: F401
+                    NEO_HOOKEAN, NPROP, MaterialModel, model_of, register)
 from .transversely_isotropic import transversely_isotropic_compliance  # noqa: F401
+
 
 @dataclass
 class RigidMotion:

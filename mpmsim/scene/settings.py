@@ -39,7 +39,8 @@ def run_settings(deck) -> RunSettings:
     g = np.zeros(deck.dim)
     if deck.gravity is not None:
         g[:] = deck.gravity
-    return RunSettings(deck.title, deck.dim, deck.integrator, deck.units, deck.shape_function, deck.update, deck.time, deck.output, deck.stability,
+    return RunSettings(deck.title, deck.dim, deck.integrator, deck.units, deck.shape_function, deck.update, deck.time,
+                       deck.output, deck.stability,
                        deck.implicit if deck.implicit is not None else Implicit(),
                        deck.grid.boundaries if deck.grid is not None else None, g,
                        deck.damping.grid if deck.damping is not None else 0.0, list(deck.loads),

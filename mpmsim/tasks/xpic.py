@@ -204,7 +204,8 @@ def series_kernel(plugin_laws: tuple):
     if not plugin_laws:
         return xpic_series
     tag, _ = plugin_dispatch(plugin_laws)
-    return chunk_kernel(specialize(xpic_series.py_func, tag, increment_contact=law_kernels(plugin_laws).increment_contact))
+    increment = law_kernels(plugin_laws).increment_contact
+    return chunk_kernel(specialize(xpic_series.py_func, tag, increment_contact=increment))
 
 
 def xpic(scheme: str, order: int, spec):

@@ -264,4 +264,5 @@ def interface_impulse(stiff, bonded, dp, df, n, delta_n, open_t, area, mred, dt,
     return energy + e
 
 
-__all__ = ["apply_law", "interface_impulse", "oscillator", "register_law", "plugin_dispatch", "STICK", "FRICTIONLESS", "COULOMB", "INTERFACE"]
+__all__ = ["apply_law", "interface_impulse", "oscillator", "register_law", "plugin_dispatch", "STICK", "FRICTIONLESS",
+           "COULOMB", "INTERFACE"]
