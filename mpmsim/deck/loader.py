@@ -249,6 +249,8 @@ def _message(err) -> str:
         return f"'{tag}' is not one of {expected}{hint}"
     if kind == "union_tag_not_found":
         return f"needs a '{err.get('ctx', {}).get('discriminator', 'type').strip(chr(39))}' key"
+    if kind == "value_error" and msg.startswith("Value error, "):  # a validator's own words
+        return msg[len("Value error, "):]
     return msg[0].lower() + msg[1:] if msg else kind
 
 

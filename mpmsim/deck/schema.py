@@ -7,6 +7,8 @@ than one field, or the analysis dimension, live in `mpmsim.deck.semantics`.
 
 from __future__ import annotations
 
+import difflib
+
 from typing import Annotated, Literal, Union
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -85,7 +87,9 @@ class ContactLaw(Strict):
         from ..contact.grid.spec import LAW_CODES
 
         if v not in LAW_CODES:
-            raise ValueError(f"unknown law '{v}': one of {', '.join(LAW_CODES)}")
+            close = difflib.get_close_matches(v, list(LAW_CODES), n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise ValueError(f"unknown law '{v}'{hint}: one of {', '.join(LAW_CODES)}")
         return v
     friction: float = Field(default=0.0, ge=0.0, description="Kinetic friction coefficient (coulomb).")
     static_friction: float | None = Field(default=None, ge=0.0, description="Static coefficient (coulomb).")

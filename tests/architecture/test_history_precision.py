@@ -8,29 +8,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mpmsim.deck.overrides import with_overrides
 from mpmsim.output.history import csv_line, read_history
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation
 
 from ..conftest import deck_from
+from .test_seams import BLOCKS as SEAM_BLOCKS
 
 pytestmark = pytest.mark.architecture
 
-# two blocks of different materials on a fixed floor, a rigid platen coming down: per-body,
-# per-material, reaction and contact columns, a row every step
-BLOCKS = {
-    "title": "two blocks and a platen", "units": "mm-g-ms",
-    "grid": {"cell_size": 1.0, "boundaries": {"ymin": "fixed"}},
-    "materials": {"soft": {"type": "neo_hookean", "K": 100.0, "G": 30.0, "density": 0.001},
-                  "hard": {"type": "linear_elastic", "E": 500.0, "nu": 0.3, "density": 0.002},
-                  "platen": {"type": "rigid", "velocity": [0.0, -1.0]}},
-    "bodies": [{"shape": "rectangle", "min": [0, 0], "max": [4, 3], "material": "soft", "name": "base",
-                "velocity": [0.5, 0.0]},
-               {"shape": "rectangle", "min": [0, 3], "max": [4, 5], "material": "hard", "velocity": [0.0, 0.25]},
-               {"shape": "rectangle", "min": [0, 5], "max": [4, 6], "material": "platen"}],
-    "time": {"end": 0.05},
-    "output": {"vtu_interval": 1.0, "history_interval": 1e-9},
-}
+# the seam tests' two blocks and a platen (per-body, per-material, reaction and contact
+# columns), with a history row every step
+BLOCKS = with_overrides(SEAM_BLOCKS, {"output": {"vtu_interval": 1.0, "history_interval": 1e-9}})
 
 # values that 10 significant digits (the old format) do not keep, and edge cases of the repr
 AWKWARD = [0.1 + 0.2, 1e-300, 5e-324, -2.2250738585072014e-308, 1.7976931348623157e308, 2.0 / 3.0, np.pi,
