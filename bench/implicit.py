@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from mpmsim.deck import load_deck_text  # noqa: E402
-from mpmsim.integrators.implicit import particles_inside  # noqa: E402
+from mpmsim.contact.barrier.energy import particles_inside  # noqa: E402
 from mpmsim.scene import build_scene  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
 

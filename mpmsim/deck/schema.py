@@ -298,28 +298,34 @@ class BodyBase(Strict):
         "an eighth of a sphere).")
 
 
-class Rectangle(BodyBase):
+class Corners(BodyBase):
+    """An axis-aligned rectangle (2D) or box (3D) by its corners."""
+
+    min: Vector = Field(description="Lower corner [x, y] ([x, y, z] in 3D).")
+    max: Vector = Field(description="Upper corner [x, y] ([x, y, z] in 3D).")
+
+
+class Rectangle(Corners):
     shape: Literal["rectangle"]
-    min: Vector = Field(description="Lower corner [x, y].")
-    max: Vector = Field(description="Upper corner [x, y].")
 
 
-class Box(BodyBase):
+class Box(Corners):
     shape: Literal["box"]
-    min: Vector = Field(description="Lower corner [x, y, z] (3D).")
-    max: Vector = Field(description="Upper corner [x, y, z] (3D).")
 
 
-class Circle(BodyBase):
+class Round(BodyBase):
+    """A circle (2D) or sphere (3D) by its centre and radius."""
+
+    center: Vector = Field(description="Centre [x, y] ([x, y, z] in 3D).")
+    radius: float = Field(gt=0)
+
+
+class Circle(Round):
     shape: Literal["circle"]
-    center: Vector
-    radius: float = Field(gt=0)
 
 
-class Sphere(BodyBase):
+class Sphere(Round):
     shape: Literal["sphere"]
-    center: Vector = Field(description="Centre [x, y, z] (3D).")
-    radius: float = Field(gt=0)
 
 
 class Ellipse(BodyBase):

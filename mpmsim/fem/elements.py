@@ -14,8 +14,8 @@ Energy Psi = sum_e vol0_e psi(F_e) (the BFEMP paper's Psi_FEM); forces f = -dPsi
   f_{n,a} = -vol0 sum_b P_ab g_{n,b}.
 
 Materials: integer code + property row, the layout of mpmsim.materials (row [lambda, mu, E,
-nu, ...]; code COMPRESSIBLE_NH or LINEAR_ELASTIC; every code other than COMPRESSIBLE_NH is
-treated as linear elastic, the deck check admits only those two for FEM bodies):
+nu, ...]; the models with FEM forms, COMPRESSIBLE_NH and LINEAR_ELASTIC; any other code gives
+NaN, and the deck check admits only those two for FEM bodies):
   compressible neo-Hookean  psi = mu/2 (tr F^T F - d) - mu ln J + lambda/2 (ln J)^2,
                             P = mu (F - F^-T) + lambda ln J F^-T  (psi = inf for J <= 0);
   linear elastic            eps = sym(F) - I, psi = mu eps:eps + lambda/2 (tr eps)^2,
@@ -80,8 +80,6 @@ MAX_CHUNKS = 256
 PARALLEL_MIN = 2048  # elements; below this a kernel runs serially (no thread launch)
 
 
-# ----------------------------------------------------------------------------- small algebra
-# ----------------------------------------------------------------------------- materials
 # ----------------------------------------------------------------------------- materials
 # The FEM forms live in the material models' modules (mpmsim/materials); these dispatch on the
 # type codes of the models that have them (MaterialModel.fem). Any other code gives NaN: the
@@ -98,26 +96,28 @@ def energy_density(code, props, F):
 
 
 @njit(cache=True, inline="always")
+def _fem_form(code, props, F, out, Finv, neo_hookean, linear_elastic):
+    """One FEM form (P or its tangent, by the model functions passed) into out; NaN for a
+    model without FEM forms."""
+    if code == COMPRESSIBLE_NH:
+        return neo_hookean(props, F, out, Finv)
+    if code == LINEAR_ELASTIC:
+        return linear_elastic(props, F, out, Finv)
+    out[:, :] = np.nan
+    return np.nan
+
+
+@njit(cache=True, inline="always")
 def first_piola(code, props, F, P, Finv):
     """P = dpsi/dF into P (d, d); Finv (d, d) is scratch. Returns J (neo-Hookean P is NaN for
     J <= 0)."""
-    if code == COMPRESSIBLE_NH:
-        return cnh.fem_piola(props, F, P, Finv)
-    if code == LINEAR_ELASTIC:
-        return linear.fem_piola(props, F, P, Finv)
-    P[:, :] = np.nan
-    return np.nan
+    return _fem_form(code, props, F, P, Finv, cnh.fem_piola, linear.fem_piola)
 
 
 @njit(cache=True, inline="always")
 def stress_tangent(code, props, F, C, Finv):
     """C[a*d + b, c*d + e] = dP_ab/dF_ce into C (d*d, d*d); Finv (d, d) scratch. Returns J."""
-    if code == COMPRESSIBLE_NH:
-        return cnh.fem_tangent(props, F, C, Finv)
-    if code == LINEAR_ELASTIC:
-        return linear.fem_tangent(props, F, C, Finv)
-    C[:, :] = np.nan
-    return np.nan
+    return _fem_form(code, props, F, C, Finv, cnh.fem_tangent, linear.fem_tangent)
 
 
 @njit(cache=True, inline="always")
@@ -257,24 +257,6 @@ def _energies_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, out, start, s
 
 
 @njit(cache=True)
-def _forces_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, fe, start, stop):
-    d = x.shape[1]
-    work = np.empty((3, d, d))
-    F, P, Finv = work[0], work[1], work[2]
-    g = np.empty((d + 1, d))
-    bad = -1
-    for e in range(start, stop):
-        element_F(x, cells, Dm_inv, e, F)
-        shape_gradients(Dm_inv, e, g)
-        mt = cell_mat[e]
-        J = first_piola(code[mt], props[mt], F, P, Finv)
-        if not (J > 0.0) and bad < 0:
-            bad = e
-        local_forces(P, g, vol0[e], fe[e])
-    return bad
-
-
-@njit(cache=True)
 def project_psd(H):
     """Clamp the negative eigenvalues of the symmetric matrix H to zero, in place
     (H <- V diag(max(w, 0)) V^T, the nearest PSD matrix in the Frobenius norm). A matrix with
@@ -297,12 +279,14 @@ def project_psd(H):
     return wmin
 
 
-@njit(cache=True)
-def _hessians_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, project, out, start, stop):
+@njit(cache=True, inline="always")
+def _local_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, hessian, project, out, start, stop):
+    """Each element's nodal forces (out (m, d + 1, d)) or, with `hessian`, its energy's Hessian
+    (out (m, (d+1) d, (d+1) d), PSD-projected with `project`)."""
     d = x.shape[1]
     k = (d + 1) * d
-    work = np.empty((2, d, d))
-    F, Finv = work[0], work[1]
+    work = np.empty((3, d, d))
+    F, P, Finv = work[0], work[1], work[2]
     C = np.empty((d * d, d * d))
     T = np.empty((d * d, k))
     g = np.empty((d + 1, d))
@@ -311,13 +295,27 @@ def _hessians_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, project, out,
         element_F(x, cells, Dm_inv, e, F)
         shape_gradients(Dm_inv, e, g)
         mt = cell_mat[e]
-        J = stress_tangent(code[mt], props[mt], F, C, Finv)
+        if hessian:
+            J = stress_tangent(code[mt], props[mt], F, C, Finv)
+            local_hessian(C, g, vol0[e], T, out[e])
+            if project:
+                project_psd(out[e])
+        else:
+            J = first_piola(code[mt], props[mt], F, P, Finv)
+            local_forces(P, g, vol0[e], out[e])
         if not (J > 0.0) and bad < 0:
             bad = e
-        local_hessian(C, g, vol0[e], T, out[e])
-        if project:
-            project_psd(out[e])
     return bad
+
+
+@njit(cache=True)
+def _forces_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, fe, start, stop):
+    return _local_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, False, False, fe, start, stop)
+
+
+@njit(cache=True)
+def _hessians_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, project, out, start, stop):
+    return _local_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, True, project, out, start, stop)
 
 
 @njit(cache=True)
@@ -564,6 +562,16 @@ def point_energies(u, nodes, G, F0, vol0, mat, code, props, out):
     return bad
 
 
+@njit(cache=True, inline="always")
+def _point_form(u, nodes, G, F0, p, code, props, F, out, Finv, tangent):
+    """F of particle p (point_F) into F, then its first Piola stress (or, with `tangent`, the
+    stress tangent) into out. Returns J."""
+    point_F(u, nodes, G, F0, p, F)
+    if tangent:
+        return stress_tangent(code, props, F, out, Finv)
+    return first_piola(code, props, F, out, Finv)
+
+
 @njit(cache=True)
 def point_forces(u, nodes, G, F0, vol0, mat, code, props, f):
     """Grid-node forces f = -d(sum_p vol0_p psi(F_p))/du into f (n_nodes, d) (overwritten),
@@ -576,9 +584,7 @@ def point_forces(u, nodes, G, F0, vol0, mat, code, props, f):
     f[:] = 0.0
     bad = -1
     for p in range(nodes.shape[0]):
-        point_F(u, nodes, G, F0, p, F)
-        mt = mat[p]
-        J = first_piola(code[mt], props[mt], F, P, Finv)
+        J = _point_form(u, nodes, G, F0, p, code[mat[p]], props[mat[p]], F, P, Finv, False)
         if not (J > 0.0) and bad < 0:
             bad = p
         local_forces(P, G[p], vol0[p], fe)
@@ -603,9 +609,7 @@ def point_hessians(u, nodes, G, F0, vol0, mat, code, props, project, out):
     T = np.empty((d * d, K * d))
     bad = -1
     for p in range(nodes.shape[0]):
-        point_F(u, nodes, G, F0, p, F)
-        mt = mat[p]
-        J = stress_tangent(code[mt], props[mt], F, C, Finv)
+        J = _point_form(u, nodes, G, F0, p, code[mat[p]], props[mat[p]], F, C, Finv, True)
         if not (J > 0.0) and bad < 0:
             bad = p
         if project:  # the tangent, (d d) square, not the (K d) square Hessian: G^T C+ G is PSD

@@ -20,8 +20,6 @@ grid's boundary conditions are an explicit-solver feature).
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 from numba import njit
 
@@ -29,13 +27,9 @@ from ..contact.augury.transfers import inertia_inverse, to_grid
 from ..errors import InstabilityError
 from ..fem import elements
 from ..shapes import ShapeData
+from ..shapes.cpdi import corner_signs
 
 WEIGHT_FLOOR = 1e-10  # grid weights below this are dropped (begin)
-
-
-def corner_signs(d: int) -> np.ndarray:
-    """(2^d, d) sign patterns of a box's corners: corner c of a particle is x + F (signs[c] * l)."""
-    return np.array(list(itertools.product((-1.0, 1.0), repeat=d)))
 
 
 def kept_weights(S: np.ndarray, keep: np.ndarray) -> np.ndarray:

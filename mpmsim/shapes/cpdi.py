@@ -20,6 +20,8 @@ flagged (the step then stops with a message) instead of writing outside the arra
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from numba import njit, prange
 
@@ -33,6 +35,11 @@ CORNERS = 0
 NINE_POINT = 1
 BAD_SPAN = 6  # the deformed particle spans more nodes than the node box holds
 BAD_DOMAIN = 7  # det J <= 0: the particle domain inverted
+
+
+def corner_signs(d: int) -> np.ndarray:
+    """(2^d, d) sign patterns of a box's corners: corner c of a particle is x + F (signs[c] * l)."""
+    return np.array(list(itertools.product((-1.0, 1.0), repeat=d)))
 
 
 @njit(cache=True, inline="always")

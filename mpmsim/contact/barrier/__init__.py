@@ -22,10 +22,10 @@ from .broadphase import (boundary_vertex_degree, box_pairs, correction_nodes, po
                          point_node_candidates, simplex_boxes)
 from .ccd import CCD_ETA, point_edge_ccd, point_edge_ccd_pairs, point_edge_separation_bound, point_point_ccd
 from .distance import (PE_P_E, PE_P_E0, PE_P_E1, point_edge_closest_param, point_edge_distance, point_edge_distance2,
-                       point_edge_distance2_gradient, point_edge_distance2_hessian, point_edge_distance_gradient,
-                       point_edge_distance_hessian, point_edge_distance_type, point_edge_friction_frame,
-                       point_edge_tangent, point_line_signed_distance_hessian, point_point_distance,
-                       point_point_distance2_hessian, point_point_distance_gradient, point_point_distance_hessian)
+                       point_edge_distance_gradient, point_edge_distance_hessian, point_edge_distance_type,
+                       point_edge_friction_frame, point_edge_tangent, point_line_signed_distance_hessian,
+                       point_point_distance, point_point_distance2_hessian, point_point_distance_gradient,
+                       point_point_distance_hessian)
 from .friction import (friction_f0, friction_f1, friction_f1_over_y, friction_f2, friction_f2_y_minus_f1_over_y3,
                        lagged_friction, point_edge_friction, point_edge_friction_operator,
                        point_point_friction_operator)
@@ -42,8 +42,8 @@ __all__ = [
     "det_step_bound_3x3", "first_nonpositive_in_unit", "friction_f0", "friction_f1", "friction_f1_over_y",
     "friction_f2", "friction_f2_y_minus_f1_over_y3", "lagged_friction", "point_boxes", "point_edge_barrier",
     "point_edge_barrier_pairs", "point_edge_candidates", "point_edge_ccd", "point_edge_ccd_pairs",
-    "point_edge_closest_param", "point_edge_distance", "point_edge_distance2", "point_edge_distance2_gradient",
-    "point_edge_distance2_hessian", "point_edge_distance_gradient", "point_edge_distance_hessian",
+    "point_edge_closest_param", "point_edge_distance", "point_edge_distance2",
+    "point_edge_distance_gradient", "point_edge_distance_hessian",
     "point_edge_distance_type", "point_edge_friction", "point_edge_friction_frame", "point_edge_friction_operator",
     "point_edge_separation_bound", "point_edge_tangent", "point_line_signed_distance_hessian",
     "point_node_candidates", "point_point_barrier", "point_point_ccd", "point_point_distance",

@@ -147,6 +147,22 @@ def _directional_step(yt, dy, target):
     return h
 
 
+@njit(cache=True, inline="always")
+def _advance_verdict(d_next, gap, toc, t_next, t_max, it, max_iter):
+    """After an advance from toc to t_next reaching distance d_next: the step to return, or -1
+    to go on. The first advance is safe by the bounds alone (d >= eta d0 in exact arithmetic);
+    later ones stop once the distance would fall below eta d0 (gap); a capped advance ends the
+    search (safe even where round-off puts d_next at gap on the first), and so does the
+    iteration limit (at the advance just taken, which is safe)."""
+    if d_next < gap and toc > 0.0:
+        return toc
+    if t_next >= t_max:
+        return t_max
+    if it + 1 >= max_iter:
+        return t_next
+    return -1.0
+
+
 @njit(cache=True)
 def point_edge_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
     """Additive CCD of a point against an edge, both moving linearly: y = (p, e0, e1) at the
@@ -185,17 +201,12 @@ def point_edge_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
         for a in range(6):
             yt[a] = y[a] + t_next * dy[a]
         d_next = point_edge_distance(yt)
-        # the first advance is safe by the bounds alone (d >= eta d0 in exact arithmetic); later
-        # ones stop once the distance would fall below eta d0
-        if d_next < gap and toc > 0.0:
-            return toc
-        if t_next >= t_max:  # (a capped first advance is safe even where round-off puts d_next at gap)
-            return t_max
+        done = _advance_verdict(d_next, gap, toc, t_next, t_max, it, max_iter)
+        if done >= 0.0:
+            return done
         toc = t_next
         d = d_next
         it += 1
-        if it >= max_iter:
-            return toc
         if it % _SEPARATION_EVERY == 0 and point_edge_separation_bound(y, dy, toc, t_max) >= gap:
             return t_max
 
@@ -217,21 +228,16 @@ def point_point_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
     gap = eta * d0
     toc = 0.0
     d = d0
-    it = 0
-    while True:
+    for it in range(max_iter):
         t_next = min(toc + (1.0 - eta) * d / M, t_max)
         rx = y[0] - y[2] + t_next * mx
         ry = y[1] - y[3] + t_next * my
-        d_next = np.sqrt(rx * rx + ry * ry)
-        if d_next < gap and toc > 0.0:
-            return toc
-        if t_next >= t_max:  # (a capped first advance is safe even where round-off puts d_next at gap)
-            return t_max
+        d = np.sqrt(rx * rx + ry * ry)
+        done = _advance_verdict(d, gap, toc, t_next, t_max, it, max_iter)
+        if done >= 0.0:
+            return done
         toc = t_next
-        d = d_next
-        it += 1
-        if it >= max_iter:
-            return toc
+    return toc
 
 
 @njit(cache=True)

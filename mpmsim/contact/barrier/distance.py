@@ -352,24 +352,14 @@ def point_edge_distance2(y, dtype=-1):
 
 
 @njit(cache=True)
-def point_edge_distance_gradient(y, g, dtype=-1):
-    """Unsigned point-edge distance d; fills its gradient g (6,) w.r.t. y = (p, e0, e1)."""
-    return _pe_dispatch(y, g, np.empty((0, 0)), dtype, False, False)
+def point_edge_distance_gradient(y, g, dtype=-1, squared=False):
+    """Unsigned point-edge distance d (d^2 with squared); fills its gradient g (6,) w.r.t.
+    y = (p, e0, e1)."""
+    return _pe_dispatch(y, g, np.empty((0, 0)), dtype, False, squared)
 
 
 @njit(cache=True)
-def point_edge_distance_hessian(y, g, H, dtype=-1):
-    """Unsigned point-edge distance d; fills gradient g (6,) and Hessian H (6, 6)."""
-    return _pe_dispatch(y, g, H, dtype, True, False)
-
-
-@njit(cache=True)
-def point_edge_distance2_gradient(y, g, dtype=-1):
-    """Squared point-edge distance d^2; fills its gradient g (6,)."""
-    return _pe_dispatch(y, g, np.empty((0, 0)), dtype, False, True)
-
-
-@njit(cache=True)
-def point_edge_distance2_hessian(y, g, H, dtype=-1):
-    """Squared point-edge distance d^2; fills gradient g (6,) and Hessian H (6, 6)."""
-    return _pe_dispatch(y, g, H, dtype, True, True)
+def point_edge_distance_hessian(y, g, H, dtype=-1, squared=False):
+    """Unsigned point-edge distance d (d^2 with squared); fills gradient g (6,) and Hessian
+    H (6, 6)."""
+    return _pe_dispatch(y, g, H, dtype, True, squared)

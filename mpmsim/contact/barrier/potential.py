@@ -29,38 +29,39 @@ from .distance import _pe_dispatch, _pp_blocks
 from ...fem.elements import project_psd
 
 
-@njit(cache=True)
-def barrier(d, dhat, kappa):
-    """b(d) = -kappa dhat (u - 1)^2 ln u, u = d/dhat, for 0 < d < dhat; 0 beyond; +inf for d <= 0."""
+@njit(cache=True, inline="always")
+def _barrier(d, dhat, kappa, order):
+    """The barrier (order 0) or its first or second derivative in d: 0 for d >= dhat, +-inf for
+    d <= 0 (the sign of the function's limit)."""
     if d >= dhat:
         return 0.0
     if d <= 0.0:
-        return np.inf
+        return -np.inf if order == 1 else np.inf
     u = d / dhat
-    return -kappa * dhat * (u - 1.0) ** 2 * np.log(u)
+    if order == 0:
+        return -kappa * dhat * (u - 1.0) ** 2 * np.log(u)
+    if order == 1:
+        return kappa * (-2.0 * (u - 1.0) * np.log(u) - (u - 1.0) ** 2 / u)
+    return kappa / dhat * (-2.0 * np.log(u) - 4.0 * (u - 1.0) / u + (u - 1.0) ** 2 / (u * u))
+
+
+@njit(cache=True)
+def barrier(d, dhat, kappa):
+    """b(d) = -kappa dhat (u - 1)^2 ln u, u = d/dhat, for 0 < d < dhat; 0 beyond; +inf for d <= 0."""
+    return _barrier(d, dhat, kappa, 0)
 
 
 @njit(cache=True)
 def barrier_first_derivative(d, dhat, kappa):
     """b'(d) = kappa [-2 (u - 1) ln u - (u - 1)^2 / u] (<= 0): minus the normal force per unit
     weight."""
-    if d >= dhat:
-        return 0.0
-    if d <= 0.0:
-        return -np.inf
-    u = d / dhat
-    return kappa * (-2.0 * (u - 1.0) * np.log(u) - (u - 1.0) ** 2 / u)
+    return _barrier(d, dhat, kappa, 1)
 
 
 @njit(cache=True)
 def barrier_second_derivative(d, dhat, kappa):
     """b''(d) = (kappa/dhat) [-2 ln u - 4 (u - 1)/u + (u - 1)^2/u^2] (>= 0)."""
-    if d >= dhat:
-        return 0.0
-    if d <= 0.0:
-        return np.inf
-    u = d / dhat
-    return kappa / dhat * (-2.0 * np.log(u) - 4.0 * (u - 1.0) / u + (u - 1.0) ** 2 / (u * u))
+    return _barrier(d, dhat, kappa, 2)
 
 
 @njit(cache=True)

@@ -107,6 +107,14 @@ def relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim,
 
 
 @njit(cache=True, inline="always")
+def _dot(a, b, dim):
+    out = 0.0
+    for d in range(dim):
+        out += a[d] * b[d]
+    return out
+
+
+@njit(cache=True, inline="always")
 def target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp):
     """Target a's partner, whether that is rigid, and the reduced mass; its normal into n and
     its stick impulse on the momenta pbuf into imp."""
@@ -140,9 +148,7 @@ def exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, ge
         if role[a] == 0:
             continue
         b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp)
-        dotn = 0.0
-        for d in range(dim):
-            dotn += imp[d] * n[d]
+        dotn = _dot(imp, n, dim)
         in_contact = touching[a - s0] and (dotn < 0.0 or not need_approach)
         if apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, in_contact, dim, out):
             for d in range(dim):
@@ -355,18 +361,15 @@ def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, to
     for s in range(s0, s1):
         for d in range(dim):
             pbuf[s - s0, d] = mass[nn + s] * dv[nn + s, d] if slot_group[s] < n_def else 0.0
-            dpb[s - s0, d] = 0.0
-    for a in range(s0, s1):
+    for a in range(s0, s1):  # (dpb: zeros as allocated)
         if role[a] == 0:
             continue
         b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp)
-        dotn = 0.0
         for d in range(dim):
             stick_total[a, d] += imp[d]
-            dotn += stick_total[a, d] * n[d]
-        touching = sep_velocity or delta2[a] < touch
-        for d in range(dim):
             imp[d] = stick_total[a, d]
+        dotn = _dot(imp, n, dim)
+        touching = sep_velocity or delta2[a] < touch
         applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, touching and dotn < 0.0,
                             dim, out)
         for d in range(dim):
