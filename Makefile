@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -40,10 +40,15 @@ bench: $(STAMP)
 fuzz: $(STAMP)
 	$(BIN)/python bench/fuzz.py --cases 5000 --seed 1 --out results/fuzz.csv
 
-# FEM bodies with APIC augury contact: two blocks (conservation, gap, energy), the ramp, where
-# contact fails (chart in docs/figures/), speed; about 10 minutes on one core
+# FEM bodies with APIC augury and field contact: two blocks (conservation, gap, energy), the ramp 2D and 3D, where
+# contact fails (charts in docs/figures/), speed; about 40 minutes on one core
 bench-fem: $(STAMP)
 	$(BIN)/python bench/fem_contact.py all
+
+# the 3D ramp (the paper's Fig. 11 in 3D): augury APIC/PIC and field contact, h = 0.5, 0.25, three
+# friction coefficients; about 15 minutes on one core (also part of bench-fem)
+bench-fem-3d: $(STAMP)
+	$(BIN)/python bench/fem_contact.py ramp3d
 
 # contact methods on the LR paper's problems: Fig. 5 errors, cost, charts in docs/figures/
 # (about 10 minutes on 2 cores; `python bench/contact.py ellipses` adds full-size Fig. 6)

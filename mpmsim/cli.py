@@ -472,9 +472,10 @@ def _describe_fem(scene, state, u) -> None:
     out.print(f"FEM boundary nodes ({role}): {len(fem.boundary)}", highlight=False)
     a = scene.contact.augury
     if a is not None:
-        out.print(f"augury contact: {a.transfer.upper()}, grid {a.cell_size:g} {u.length}, {a.kernel}, "
-                  f"{a.iterations} iteration(s), tau = " + (f"{a.tau:g} {u.time}" if a.tau else "the time step"),
-                  highlight=False)
+        how = ("field contact" if a.method == "field" else
+               f"augury contact: {a.transfer.upper()}, {a.iterations} iteration(s)")
+        out.print(f"{how}, grid {a.cell_size:g} {u.length}, {a.kernel}, tau = "
+                  + (f"{a.tau:g} {u.time}" if a.tau else "the time step"), highlight=False)
 
 
 def kernel_dimension(state) -> str:

@@ -349,7 +349,7 @@ class Simulation:
         if self.checkpoint_path is not None:  # the run is complete: nothing to continue
             self.checkpoint_path.unlink(missing_ok=True)
         wall = wallclock.perf_counter() - start
-        n_cells = len(st.fem.cells) if st.fem is not None else 0  # points stepped: particles + elements
         timed = st.step - (timed_from if timed_from is not None else st.step)
-        return RunResult(st.step, wall, timed * (st.particles.n + n_cells), self.timers, list(self.files),
+        stepped = sum(bodies.stepped for bodies in st.bodies)  # particles and elements
+        return RunResult(st.step, wall, timed * stepped, self.timers, list(self.files),
                          self.recorder.path, self.vtu.pvd_path if self.vtu else None, timed)

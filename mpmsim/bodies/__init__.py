@@ -10,12 +10,13 @@ kernels run over the whole set at once. A kind brings:
 - its history columns beyond those sums (`history_columns` / `history_values`),
 - its part of the output time series (`vtu_pieces`: named point/cell sets; pieces of the same
   part from several kinds are written as one file),
-- its own checks after a step (`check`: a stop message or None).
+- its own checks after a step (`check`: a stop message or None),
+- how many points a step advances (`stepped`) and its explicit step bound (`stable_dt`).
 
-Kinds today: deformable particles (`particles.Particles`) and rigid particles
-(`rigid.RigidParticles`). A new kind (an FEM mesh body, a rigid mesh) is a new `BodySet`
-subclass: the history, the output and the run loop ask every set in `state.bodies` the same
-questions and need no change.
+Kinds today: deformable particles (`particles.Particles`), rigid particles
+(`rigid.RigidParticles`) and FEM meshes (`fem.FemBodies`). A new kind (a rigid mesh) is a new
+`BodySet` subclass: the history, the output, the explicit step bound and the run loop ask every
+set in `state.bodies` the same questions and need no change.
 """
 
 from __future__ import annotations
@@ -90,3 +91,14 @@ class BodySet:
     def fastest(self, state, units) -> str | None:
         """Where this set moves fastest (for an energy-growth stop message), or None."""
         return None
+
+    @property
+    def stepped(self) -> int:
+        """How many points a step advances (the unit of the run's speed): deformable particles,
+        FEM elements; 0 for prescribed motion."""
+        return 0
+
+    def stable_dt(self, state, cfl: float) -> float:
+        """The largest explicit step this set allows now at Courant number cfl (inf: no bound of
+        its own; the particles' bound is the grid's, integrators.explicit)."""
+        return np.inf

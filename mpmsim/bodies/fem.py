@@ -68,6 +68,15 @@ class FemBodies(BodySet):
     def n(self) -> int:
         return len(self.mass)
 
+    @property
+    def stepped(self) -> int:
+        return len(self.cells)
+
+    def stable_dt(self, state, cfl: float) -> float:
+        """cfl x the smallest element's h / c at the current positions."""
+        m = state.materials
+        return cfl * elements.stable_time_step(self.x, self.cells, self.cell_mat, m.props, m.density)
+
     @classmethod
     def from_seed(cls, seed, materials, thickness: float, dim: int) -> "FemBodies":
         scale = thickness if dim == 2 else 1.0

@@ -57,6 +57,10 @@ class Particles(BodySet):
     def n(self) -> int:
         return len(self.mass)
 
+    @property
+    def stepped(self) -> int:
+        return self.n
+
     def view(self) -> ParticleView:
         return ParticleView(self.x, self.v, self.mass, self.vol, self.vol0, self.F, self.stress, self.mat, self.x0,
                             self.B, self.C, self.U, self.pressure, self.q, self.xref)

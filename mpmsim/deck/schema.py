@@ -109,6 +109,11 @@ class Augury(Strict):
     (docs/fem-contact.md): FEM boundary nodes and surface particles meet through grid transfers on
     a background grid of their own."""
 
+    method: Literal["augury", "field"] = Field(
+        default="augury", description="augury: the paper's augury iterations through the transfer H. field: one "
+        "velocity field per body on the augury grid, pair normals from both bodies' boundaries, the approaching "
+        "normal change applied and the tangential change capped by Coulomb (transfer and iterations unused); "
+        "sliding is not damped. docs/fem-contact.md.")
     cell_size: float = Field(gt=0, description="Spacing h_c of the augury grid (length unit).")
     transfer: Literal["apic", "pic"] = Field(default="apic", description="APIC (affine part kept) or PIC transfers.")
     iterations: int = Field(
@@ -116,7 +121,9 @@ class Augury(Strict):
         description="Augury iterations N: 0 makes bodies stick; 1 (default) lets them rebound and slide.")
     tau: float | None = Field(default=None, gt=0, description="Augury time tau (time unit). Default: the time step.")
     kernel: Literal["bspline2", "linear", "four_node"] = Field(
-        default="bspline2", description="Grid functions: quadratic B-spline, linear hats, or the paper's 4-node kernel.")
+        default="bspline2", description="Grid functions: the standard quadratic B-spline on 3 nodes per axis, linear "
+        "hats on 2, or four_node: the paper's adjusted quadratic B-spline on 4 (its Appendix B, used in all its "
+        "examples; the ramp decks use it).")
     overlap_tolerance: float = Field(
         default=0.01, gt=0, le=0.3,
         description="How deep (fraction of an element, in barycentric terms) a boundary node may sit inside another "

@@ -14,6 +14,8 @@ from .schema import (SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity,
                      VelocityTable)
 from .units import unit_system
 
+FIELD_LAWS = ("frictionless", "coulomb", "stick", "none")  # the laws augury field contact applies
+
 
 def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     problems: list[tuple[tuple, str]] = []
@@ -38,6 +40,12 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
         add(["contact", "augury"], "augury contact acts between an FEM body (discretization: fem) and other FEM or "
                                    f"particle bodies; the deck has {len(fem)} FEM and {len(particle_bodies)} particle "
                                    "bodies")
+    a = deck.contact.augury
+    if a is not None and a.method == "field":
+        for path, law in [(["contact", "default", "law"], deck.contact.default.law)] + \
+                [(["contact", "pairs", k, "law"], p.law) for k, p in enumerate(deck.contact.pairs)]:
+            if law not in FIELD_LAWS:
+                add(path, f"augury contact by method field takes the laws {', '.join(FIELD_LAWS)}, not '{law}'")
     problems += _check_fem_bodies(deck, fem, base_dir)
     if deck.integrator == "implicit":
         if particle_bodies:

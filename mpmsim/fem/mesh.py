@@ -74,18 +74,22 @@ def facet_normal_kernel(x, facets, normals, areas):
 
 
 @njit(cache=True)
-def node_normal_kernel(x, facets, out):
-    """Area-weighted mean of the adjacent facet normals at each node, normalised; rows of
-    nodes on no facet stay zero. out (n, dim) is overwritten."""
+def node_normal_kernel(x, facets, out, unit=True):
+    """Area-weighted mean of the adjacent facet normals at each node, normalised (unit=False:
+    divided by the summed area instead, so that its length says how well the facets agree: 1 on
+    a flat face, cos 45 degrees at a right-angled corner); rows of nodes on no facet stay zero.
+    out (n, dim) is overwritten."""
     dim = x.shape[1]
     k = facets.shape[1]
     normals = np.empty((facets.shape[0], dim))
     areas = np.empty(facets.shape[0])
     facet_normal_kernel(x, facets, normals, areas)
     out[:] = 0.0
+    total = np.zeros(out.shape[0])
     for f in range(facets.shape[0]):
         for j in range(k):
             i = facets[f, j]
+            total[i] += areas[f]
             for a in range(dim):
                 out[i, a] += areas[f] * normals[f, a]
     for i in range(out.shape[0]):
@@ -93,7 +97,7 @@ def node_normal_kernel(x, facets, out):
         for a in range(dim):
             s += out[i, a] * out[i, a]
         if s > 0.0:
-            s = np.sqrt(s)
+            s = np.sqrt(s) if unit else total[i]
             for a in range(dim):
                 out[i, a] /= s
 

@@ -8,7 +8,6 @@ import time as wallclock
 
 import numpy as np
 
-from ..fem.elements import stable_time_step
 from ..tasks import plan_tasks
 from ..tasks.setup import cfl_rule
 from . import Integrator
@@ -32,9 +31,9 @@ class ExplicitMPM(Integrator):
         element's h / c (at the current positions)."""
         t0 = wallclock.perf_counter()
         dt = self._rule(state) if self._rule is not None else np.inf
-        if self.fixed is None and state.fem is not None:
-            fem, m = state.fem, state.materials
-            dt = min(dt, self.cfl * stable_time_step(fem.x, fem.cells, fem.cell_mat, m.props, m.density))
+        if self.fixed is None:
+            for bodies in state.bodies:
+                dt = min(dt, bodies.stable_dt(state, self.cfl))
         self.timers[self.tasks[0].name] += wallclock.perf_counter() - t0
         return self.fixed if self.fixed is not None else dt
 

@@ -57,12 +57,19 @@ class AugurySettings:
     transfer: str
     kernel: str
     overlap_tolerance: float
+    method: str = "augury"  # or "field" (contact/augury/fields.py)
+    # the field method's law per deformable material pair: grid law codes, friction, static friction
+    law: np.ndarray | None = None
+    mu: np.ndarray | None = None
+    mu_static: np.ndarray | None = None
 
     @property
     def cell_size(self) -> float:
         return self.grid.h
 
     def describe(self) -> str:
+        if self.method == "field":
+            return f"field contact (one velocity field per body), {self.kernel} grid of {self.cell_size:g}"
         return (f"{self.transfer.upper()} augury, {self.iterations} iteration(s), {self.kernel} grid of "
                 f"{self.cell_size:g}")
 
@@ -137,9 +144,12 @@ def augury_settings(a, model: ContactModel, materials, fem, particle_mats) -> Au
                 mu_of[used] = law.coulomb
                 if law.law == "stick":
                     rule = STICK_SEPARATE
-    grid = AuguryGrid(float(a.cell_size), KERNELS[a.kernel], a.transfer == "apic")
+    grid = AuguryGrid(float(a.cell_size), KERNELS[a.kernel], a.transfer == "apic" and a.method == "augury")
+    laws = [[model.law(m, n) for n in materials.deformable] for m in materials.deformable]
+    table = lambda f, dtype=float: np.array([[f(pl) for pl in row] for row in laws], dtype=dtype)  # noqa: E731
     return AugurySettings(grid, int(a.iterations), a.tau, mu_of, rule, a.transfer, a.kernel,
-                          float(a.overlap_tolerance))
+                          float(a.overlap_tolerance), a.method, table(lambda pl: pl.code, np.int64),
+                          table(lambda pl: pl.friction), table(lambda pl: pl.static_friction))
 
 
 def barrier_settings(deck, materials, fem) -> BarrierSettings:

@@ -221,17 +221,17 @@ def interface_energy_error(normal: str, Dn, bond: str = "consistent") -> Measure
     return Measured(abs(mid / ref - 1))
 
 # --------------------------------------------------------------- FEM blocks, APIC augury contact
-def augury_blocks(h: float, speed: float) -> Measured:
+def augury_blocks(h: float, speed: float, method: str = "augury") -> Measured:
     """Smallest gap between the 2D blocks of inputs/fem_blocks_2d.yaml over the run, in augury
-    cells (h_c = 2h, APIC, N = 1, impact speed scaled); 0 when the interpenetration check
-    stopped the run."""
+    cells (h_c = 2h, APIC, N = 1, or field contact; impact speed scaled); 0 when the
+    interpenetration check stopped the run."""
     from mpmsim.fem.probes import boundary_gap
 
     d = example("fem_blocks_2d")
     for b in d["bodies"]:
         b["element_size"] = h
         b["velocity"] = [speed * float(c) for c in b["velocity"]]
-    d["contact"]["augury"]["cell_size"] = 2.0 * h
+    d["contact"]["augury"].update(cell_size=2.0 * h, method=method)
     d["time"] = {"end": 0.06 / speed, "dt": 1e-4 * h}
     sim = Simulation(build_scene(deck_from(d, ROOT / "inputs")), threads=1)
     st, gap = sim.state, np.inf
@@ -243,6 +243,27 @@ def augury_blocks(h: float, speed: float) -> Measured:
     except InstabilityError as exc:
         return Measured(0.0, str(exc).splitlines()[0])
     return Measured(gap / (2.0 * h))
+
+
+def ramp_slide_error(method: str) -> Measured:
+    """|x / analytic - 1| of the block's slide at t = 0.1 s on inputs/fem_ramp_2d.yaml at
+    h = 0.25 (h_c = h / 2, dt = 2.5e-5 h, mu = 0.2, the paper's 4-node kernel), APIC augury
+    (N = 1) or field contact."""
+    d = example("fem_ramp_2d")
+    for b in d["bodies"]:
+        b["element_size"] = 0.25
+    d["contact"]["augury"].update(cell_size=0.125, method=method)
+    d["time"] = {"end": 0.1, "dt": 6.25e-6}
+    sim = Simulation(build_scene(deck_from(d, ROOT / "inputs")), threads=1)
+    f = sim.state.fem
+    block = f.node_body == 1
+    centre = lambda: float(np.sum(f.mass[block] * f.x[block, 0]) / f.mass[block].sum())  # noqa: E731
+    x0 = centre()
+    while sim.state.t < sim.end * (1 - 1e-9):
+        sim.step()
+    th = np.radians(30.0)
+    analytic = 0.5 * 100.0 * (np.sin(th) - 0.2 * np.cos(th)) * np.cos(th) * 0.1**2
+    return Measured(abs((centre() - x0) / analytic - 1.0))
 
 
 SCENARIOS = [
@@ -312,4 +333,13 @@ SCENARIOS = [
     Scenario("augury contact loses its repulsion", "2D FEM blocks, twice the paper's impact speed (152 m/s)",
              "APIC augury, N = 1, h = 1/4, h_c = 1/2", "smallest gap / h_c (0: interpenetrated, stopped)", 1e-3,
              "above", lambda: augury_blocks(0.25, 2.0), unit="", must_stop=False),
+    Scenario("augury contact loses its repulsion", "2D FEM blocks, twice the paper's impact speed (152 m/s)",
+             "field contact, h = 1/8, h_c = 1/4", "smallest gap / h_c (0: interpenetrated, stopped)", 1e-3,
+             "above", lambda: augury_blocks(0.125, 2.0, "field"), unit="", must_stop=False),
+    Scenario("augury contact drags sliding bodies", "2D block on a 30 degree FEM ramp, mu = 0.2, h = 1/4",
+             "APIC augury, N = 1, tau = dt (the paper's)", "|slide at 0.1 s / analytic - 1|", 0.5, "above",
+             lambda: ramp_slide_error("augury")),
+    Scenario("augury contact drags sliding bodies", "2D block on a 30 degree FEM ramp, mu = 0.2, h = 1/4",
+             "field contact", "|slide at 0.1 s / analytic - 1|", 0.05, "below",
+             lambda: ramp_slide_error("field")),
 ]

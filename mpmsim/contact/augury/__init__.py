@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from ...fem.mesh import node_normal_kernel
+from .fields import field_correction
 from .transfers import correction, grid_entries
 
 
@@ -51,11 +52,11 @@ def surface_particles(x, mass, body, grid, threshold):
 
 
 @njit(cache=True)
-def gather_boundary(x, v, a, mass, facets, boundary, tau):
+def gather_boundary(x, v, a, mass, facets, boundary, tau, unit=True):
     """Positions, masses, predicted velocities v + tau a and outward normals of the FEM
-    boundary nodes."""
+    boundary nodes (unit=False: of length the facets' agreement, node_normal_kernel)."""
     normals = np.zeros_like(x)
-    node_normal_kernel(x, facets, normals)
+    node_normal_kernel(x, facets, normals, unit)
     nb = boundary.size
     dim = x.shape[1]
     xb = np.empty((nb, dim))
@@ -114,9 +115,23 @@ class AuguryContact:
 
     def __init__(self, scene):
         self.spec = scene.contact.augury
-        self.mu = self.spec.mu_of_material[scene.fem.node_mat[np.unique(scene.fem.facets)]]  # (nb,) per boundary node
+        fem = scene.fem
+        boundary = np.unique(fem.facets)
+        self.mu = self.spec.mu_of_material[fem.node_mat[boundary]]  # (nb,) per boundary node
         self.particles = scene.has_particles
         self.pending = None  # (particle indices, Â, Â_B) whose second half the next step gives
+        # field method: each augury particle's body (FEM bodies, then particle bodies) and material
+        self.node_body, self.node_mat = fem.node_body[boundary], fem.node_mat[boundary]
+        self.n_fem_bodies = len(fem.infos)
+        self.n_bodies = self.n_fem_bodies  # and the particle bodies (with_particles)
+
+    def _correction(self, ent, x, m, vbar, B, normal, mu, body, mat, tau):
+        """(Â, Â_B) of the augury particles by the deck's method."""
+        spec = self.spec
+        if spec.method == "field":
+            return field_correction(ent, x, m, vbar, normal, body, mat, self.n_bodies, spec.law, spec.mu,
+                                    spec.mu_static, tau, spec.grid.h)
+        return correction(ent, m, vbar, B, normal, mu, spec.grid, spec.iterations, tau, spec.rule)
 
     def carry(self, state) -> None:
         """The second half of the previous step's particle corrections."""
@@ -134,31 +149,45 @@ class AuguryContact:
         P = state.particles if self.particles else None
         spec = self.spec
         tau = spec.tau if spec.tau is not None else state.dt
-        if P is None or P.n == 0:
+        if (P is None or P.n == 0) and spec.method == "augury":
             boundary_contact(fem.x, fem.v, fem.a, fem.mass, fem.held, fem.facets, fem.boundary, fem.B, self.mu,
                              spec.grid, spec.iterations, tau, spec.rule, fem.a_contact, fem.Bdot, fem.Dinv)
             return
         self.with_particles(state, fem, P, spec, tau)
 
     def with_particles(self, state, fem, P, spec, tau) -> None:
+        """The correction of the FEM boundary nodes and of the particle bodies' surface
+        particles (P None or empty: FEM bodies only, field method)."""
         grid = spec.grid
-        idx, pn = surface_particles(P.x, P.mass, P.local_body, grid, SURFACE_THRESHOLD)
-        xb, mb, vbar, nrm = gather_boundary(fem.x, fem.v, fem.a, fem.mass, fem.facets, fem.boundary, tau)
+        xb, mb, vbar, nrm = gather_boundary(fem.x, fem.v, fem.a, fem.mass, fem.facets, fem.boundary, tau,
+                                            spec.method == "augury")
         nb, dim = xb.shape
-        apic_particles = grid.apic and len(P.B) == P.n
+        if P is not None and P.n:
+            idx, pn = surface_particles(P.x, P.mass, P.local_body, grid, SURFACE_THRESHOLD)
+        else:
+            idx, pn = np.zeros(0, np.int64), np.zeros((0, dim))
+        apic_particles = grid.apic and P is not None and len(P.B) == P.n
         B = np.zeros((nb + idx.size, dim, dim))
         if grid.apic:
             B[:nb] = fem.B
             if apic_particles:
                 B[nb:] = P.B[idx]
-        x = np.concatenate([xb, P.x[idx]])
+        self.n_bodies = self.n_fem_bodies + (len(P.infos) if P is not None else 0)
+        x = np.concatenate([xb, P.x[idx]]) if idx.size else xb
         ent = grid_entries(x, grid)
-        acc, acc_B = correction(ent, np.concatenate([mb, P.mass[idx]]), np.concatenate([vbar, P.v[idx]]), B,
-                                np.concatenate([nrm, pn]), np.concatenate([self.mu, spec.mu_of_material[P.mat[idx]]]),
-                                grid, spec.iterations, tau, spec.rule)
+        if idx.size:
+            body = np.concatenate([self.node_body, self.n_fem_bodies + P.local_body[idx]])
+            mat = np.concatenate([self.node_mat, P.mat[idx]])
+            acc, acc_B = self._correction(ent, x, np.concatenate([mb, P.mass[idx]]),
+                                          np.concatenate([vbar, P.v[idx]]), B, np.concatenate([nrm, pn]),
+                                          np.concatenate([self.mu, spec.mu_of_material[P.mat[idx]]]), body, mat, tau)
+        else:
+            acc, acc_B = self._correction(ent, x, mb, vbar, B, nrm, self.mu, self.node_body, self.node_mat, tau)
         scatter_boundary(acc[:nb], fem.boundary, fem.held, fem.a, fem.a_contact)
         fem.Bdot[:] = acc_B[:nb]
         fem.Dinv[:] = ent.Di[:nb]
+        if not idx.size:
+            return
         half = 0.5 * state.dt
         acc_p = acc[nb:]
         acc_pB = acc_B[nb:] if apic_particles else None
