@@ -49,6 +49,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .closest import edge_edge_distance2, point_triangle_distance2
 from .distance import point_edge_distance
 
 CCD_ETA = 0.1
@@ -215,29 +216,7 @@ def point_edge_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
 def point_point_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
     """Additive CCD of two linearly moving points y = (p, q), displacements dy (4,); same
     contract as `point_edge_ccd` with M = |dp - dq|."""
-    d0 = np.sqrt((y[0] - y[2]) ** 2 + (y[1] - y[3]) ** 2)
-    if not d0 > 0.0:
-        return 0.0
-    mx = dy[0] - dy[2]
-    my = dy[1] - dy[3]
-    M = np.sqrt(mx * mx + my * my)
-    if not np.isfinite(M):
-        return 0.0
-    if M == 0.0 or (1.0 - eta) * d0 >= M * t_max:
-        return t_max
-    gap = eta * d0
-    toc = 0.0
-    d = d0
-    for it in range(max_iter):
-        t_next = min(toc + (1.0 - eta) * d / M, t_max)
-        rx = y[0] - y[2] + t_next * mx
-        ry = y[1] - y[3] + t_next * my
-        d = np.sqrt(rx * rx + ry * ry)
-        done = _advance_verdict(d, gap, toc, t_next, t_max, it, max_iter)
-        if done >= 0.0:
-            return done
-        toc = t_next
-    return toc
+    return _pair_ccd(PP, y, dy, eta, t_max, max_iter)
 
 
 @njit(cache=True)
@@ -262,3 +241,75 @@ def point_edge_ccd_pairs(points, dpoints, verts, dverts, edges, pairs, eta=CCD_E
         if t == 0.0:
             break
     return t
+
+
+# ---------------------------------------------------------------------------------------------- 3D
+# pair kinds of the plain additive CCD: 3D point-triangle (p, t0, t1, t2), 3D edge-edge
+# (a0, a1, b0, b1), 2D point-point (p, q)
+PT, EE, PP = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def _pair_distance(kind, y):
+    if kind == PP:
+        return np.sqrt((y[0] - y[2]) ** 2 + (y[1] - y[3]) ** 2)
+    return np.sqrt(point_triangle_distance2(y) if kind == PT else edge_edge_distance2(y))
+
+
+@njit(cache=True, inline="always")
+def _pair_rate(kind, dy):
+    """The Lipschitz constant of the pair's distance along dy: the largest relative speed of a
+    vertex of one side against a vertex of the other (the distance is a minimum over convex
+    combinations, each moving at a convex combination of those speeds). Point-triangle: side
+    {p} against {t0, t1, t2}; edge-edge: {a0, a1} against {b0, b1}; point-point: p against q."""
+    dim = 2 if kind == PP else 3
+    first = 2 if kind == EE else 1
+    M = 0.0
+    for i in range(first):
+        for j in range(first, dy.shape[0] // dim):
+            r = 0.0
+            for a in range(dim):
+                r += (dy[dim * i + a] - dy[dim * j + a]) ** 2
+            M = max(M, np.sqrt(r))
+    return M
+
+
+@njit(cache=True, inline="always")
+def _pair_ccd(kind, y, dy, eta, t_max, max_iter):
+    """Plain additive CCD of a pair (the module's algorithm without the point-edge refinements):
+    t in [0, t_max] such that the pair does not touch over [0, t] and d(t) >= eta d(0)."""
+    d0 = _pair_distance(kind, y)
+    if not d0 > 0.0:
+        return 0.0
+    M = _pair_rate(kind, dy)
+    if not np.isfinite(M):
+        return 0.0
+    if M == 0.0 or (1.0 - eta) * d0 >= M * t_max:
+        return t_max
+    gap = eta * d0
+    yt = y.copy()
+    toc = 0.0
+    d = d0
+    for it in range(max_iter):
+        t_next = min(toc + (1.0 - eta) * d / M, t_max)
+        for a in range(y.shape[0]):
+            yt[a] = y[a] + t_next * dy[a]
+        d = _pair_distance(kind, yt)
+        done = _advance_verdict(d, gap, toc, t_next, t_max, it, max_iter)
+        if done >= 0.0:
+            return done
+        toc = t_next
+    return toc
+
+
+@njit(cache=True)
+def point_triangle_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
+    """Additive CCD of a point against a triangle, y = (p, t0, t1, t2) (12,) at the start, dy
+    their displacements; same contract as `point_edge_ccd`, M = max_i |dp - dt_i|."""
+    return _pair_ccd(PT, y, dy, eta, t_max, max_iter)
+
+
+@njit(cache=True)
+def edge_edge_ccd(y, dy, eta=CCD_ETA, t_max=1.0, max_iter=CCD_MAX_ITER):
+    """Additive CCD of two edges, y = (a0, a1, b0, b1) (12,); M = max_ij |da_i - db_j|."""
+    return _pair_ccd(EE, y, dy, eta, t_max, max_iter)

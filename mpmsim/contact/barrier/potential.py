@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .closest import edge_edge_distance_hessian, point_triangle_distance_hessian
 from .distance import _pe_dispatch, _pp_blocks
 from ...fem.elements import project_psd
 
@@ -100,6 +101,22 @@ def point_edge_barrier(y, dhat, kappa, g, H, project=False, dtype=-1):
     """Barrier energy b(d) of the point-edge pair y = (p, e0, e1) (unsigned distance d);
     fills its gradient g (6,) and Hessian H (6, 6) (PSD-projected if `project`)."""
     d = _pe_dispatch(y, g, H, dtype, True, False)
+    return _chain(d, g, H, dhat, kappa, project)
+
+
+@njit(cache=True)
+def point_triangle_barrier(y, dhat, kappa, g, H, project=False, dtype=-1):
+    """Barrier energy b(d) of the 3D point-triangle pair y = (p, t0, t1, t2) (12,); fills its
+    gradient g (12,) and Hessian H (12, 12) (PSD-projected if `project`)."""
+    d = point_triangle_distance_hessian(y, g, H, dtype)
+    return _chain(d, g, H, dhat, kappa, project)
+
+
+@njit(cache=True)
+def edge_edge_barrier(y, dhat, kappa, g, H, project=False, dtype=-1):
+    """Barrier energy b(d) of the 3D edge-edge pair y = (a0, a1, b0, b1) (12,), without IPC's
+    mollifier for near-parallel edges; fills g (12,) and H (12, 12)."""
+    d = edge_edge_distance_hessian(y, g, H, dtype)
     return _chain(d, g, H, dhat, kappa, project)
 
 
