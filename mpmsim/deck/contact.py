@@ -4,7 +4,17 @@ pairs and the normal settings."""
 
 from __future__ import annotations
 
+import difflib
+
 from .schema import Deck, Rigid
+
+
+def no_material(name: str, materials) -> str:
+    """The message for a material name the deck does not define, with the closest name or
+    the list of names."""
+    close = difflib.get_close_matches(str(name), list(materials), n=1, cutoff=0.6)
+    hint = f"did you mean '{close[0]}'?" if close else f"materials: {', '.join(materials)}"
+    return f"no material named '{name}' ({hint})"
 
 MAX_GROUPS = 64  # node group sets are 64-bit masks
 
@@ -39,7 +49,7 @@ def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
     for i, pair in enumerate(c.pairs):
         for j, m in enumerate(pair.between):
             if m not in deck.materials:
-                problems.append((("contact", "pairs", i, "between", j), f"no material named '{m}'"))
+                problems.append((("contact", "pairs", i, "between", j), no_material(m, deck.materials)))
         if len(set(pair.between)) == 1:
             problems.append((("contact", "pairs", i, "between"), "a pair needs two different materials"))
     for path, law in [(("contact", "default"), c.default)] + [(("contact", "pairs", i), p) for i, p in enumerate(c.pairs)]:

@@ -27,6 +27,7 @@ class LoadedDeck:
     path: Path
     data: dict  # the raw mapping, for tools that vary keys (sweeps)
     text: str = ""  # the YAML as read, to locate problems found after loading
+    label: str | None = None  # a deck given as a mapping: how errors name it (no file, no lines)
 
     @property
     def base_dir(self) -> Path:
@@ -125,11 +126,19 @@ def as_loaded_deck(deck, name: str = "deck", base_dir: str | Path | None = None)
     if not isinstance(deck, dict):
         raise DeckError(((), f"a deck is a file path, a mapping or a Deck, not {type(deck).__name__}"), source=name)
     path = Path(base_dir if base_dir is not None else ".") / f"{name}.yaml"
-    return load_deck_text(yaml.safe_dump(deck, sort_keys=False, allow_unicode=True), path)
+    label = f"deck '{name}' (a mapping)"
+    try:
+        loaded = load_deck_text(yaml.safe_dump(deck, sort_keys=False, allow_unicode=True), path)
+    except DeckError as exc:  # the lines are those of a YAML dump the caller never saw: key paths only
+        raise DeckError(exc.problems, source=label) from None
+    loaded.label = label
+    return loaded
 
 
 def raise_at(problems: list[tuple[tuple, str]], loaded: LoadedDeck) -> typing.NoReturn:
     """Raise DeckError for problems found after loading (e.g. by the scene builder)."""
+    if loaded.label is not None:
+        raise DeckError(problems, source=loaded.label)
     root = yaml.compose(loaded.text, Loader=yaml.SafeLoader)
     raise _with_lines(problems, root, str(loaded.path))
 

@@ -12,6 +12,7 @@ import numpy as np
 from ..materials.model import MODELS
 from .schema import (SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity, SineVelocity,
                      VelocityTable)
+from .contact import no_material
 from .units import unit_system
 
 FIELD_LAWS = ("frictionless", "coulomb", "stick", "none")  # the laws augury field contact applies
@@ -115,7 +116,7 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
 
     for i, name in enumerate(deck.output.material_stress):
         if name not in deck.materials:
-            add(["output", "material_stress", i], f"unknown material '{name}'")
+            add(["output", "material_stress", i], no_material(name, deck.materials))
         elif isinstance(deck.materials[name], Rigid):
             add(["output", "material_stress", i], f"'{name}' is rigid: it has no stress")
 
@@ -155,7 +156,7 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     av = deck.artificial_viscosity
     for i, name in enumerate(av.materials or [] if av is not None else []):
         if name not in deck.materials:
-            add(["artificial_viscosity", "materials", i], f"unknown material '{name}'")
+            add(["artificial_viscosity", "materials", i], no_material(name, deck.materials))
         elif isinstance(deck.materials[name], Rigid):
             add(["artificial_viscosity", "materials", i], f"'{name}' is rigid: it has no stress")
     from .contact import check_contact
@@ -226,7 +227,7 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
         for j, mname in enumerate(names):
             mpath = path + (["map", j, "material"] if isinstance(body, Image) else ["material"])
             if mname not in deck.materials:
-                add(mpath, f"no material named '{mname}' (materials: {', '.join(deck.materials)})")
+                add(mpath, no_material(mname, deck.materials))
             elif isinstance(deck.materials[mname], Rigid) and body.velocity is not None:
                 add(path + ["velocity"], f"material '{mname}' is rigid: its velocity is set in the material")
         if isinstance(body, Image):

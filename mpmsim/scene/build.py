@@ -184,8 +184,15 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
             continue
         k, pts = k[sel], pts[sel]
         outside = np.any((pts < grid.domain_lo) | (pts > grid.domain_hi), axis=1)
-        if outside.any():
-            problems.append((("bodies", i), "extends outside grid.domain"))
+        if outside.any():  # say where and by how much (the shape's bounding box against the domain)
+            lo, hi = np.asarray(blo)[:dim], np.asarray(bhi)[:dim]
+            sides = [f"{grid.domain_lo[a] - lo[a]:.4g} below the domain's {'xyz'[a]}min = {grid.domain_lo[a]:g}"
+                     for a in range(dim) if lo[a] < grid.domain_lo[a]]
+            sides += [f"{hi[a] - grid.domain_hi[a]:.4g} beyond its {'xyz'[a]}max = {grid.domain_hi[a]:g}"
+                      for a in range(dim) if hi[a] > grid.domain_hi[a]]
+            who = f"body '{body.name}'" if body.name else "the body"
+            problems.append((("bodies", i), f"{who} extends outside grid.domain: {', '.join(sides)}; enlarge "
+                                            "grid.domain or move the body"))
             continue
         flat = k[:, 0] + n_lat[0] * (k[:, 1] + (n_lat[1] * k[:, 2] if dim == 3 else 0))
         cls = body_materials(body, pts, base)

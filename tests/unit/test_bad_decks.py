@@ -57,18 +57,20 @@ CASES = [
      "materials.platen.velocity.times", 7, "strictly increasing"),
     ("duplicate key", [("time: {end: 0.1}", "time: {end: 0.1}\ntime: {end: 0.2}")], "time", 11, "duplicate"),
     ("domain misses body", [("  cell_size: 1.0", "  cell_size: 1.0\n  domain: {min: [0, 0], max: [2, 2]}")],
-     "bodies.0", 10, "outside grid.domain"),
+     "bodies.0", 10, "extends outside grid.domain: 2 beyond its xmax = 2, 2 beyond its ymax = 2"),
     ("empty deck", "", None, 1, "empty"),
     ("negative Mie-Gruneisen K", [("type: neo_hookean, K: 100.0, G: 50.0,", "type: mie_gruneisen, K: -1.0, gamma0: 2, S1: 1.4,")],
      "materials.block.K", 7, "greater than 0"),
     ("artificial viscosity on unknown material", [("time: {end: 0.1}", "time: {end: 0.1}\nartificial_viscosity: {A1: 0.4, A2: 4, materials: [steel]}")],
-     "artificial_viscosity.materials.0", 11, "unknown material 'steel'"),
+     "artificial_viscosity.materials.0", 11, "no material named 'steel' (materials: block)"),
     ("negative artificial viscosity", [("time: {end: 0.1}", "time: {end: 0.1}\nartificial_viscosity: {A1: -0.4, A2: 4}")],
      "artificial_viscosity.A1", 11, "greater than or equal to 0"),
     ("constrained faces need whole cells", [("{ymin: fixed}", "{xmin: fixed, xmax: roller}"),
                                            ("max: [4, 4]", "max: [4.5, 4]")], "grid.cell_size", 4, "whole number"),
     ("contact pair names no material", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {pairs: [{between: [block, stone], law: stick}]}\n")],
      "contact.pairs.0.between.1", 11, "no material named 'stone'"),
+    ("contact pair misspells a material", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {pairs: [{between: [blok, block], law: stick}]}\n")],
+     "contact.pairs.0.between.0", 11, "no material named 'blok' (did you mean 'block'?)"),
     ("unknown normal method", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {normal: logistic}\n")],
      "contact.normal", 11, "'logistic_regression'"),
     ("bad interface stiffness", [("time: {end: 0.1}\n", "time: {end: 0.1}\ncontact: {default: {law: interface, Dt: -2}}\n")],
@@ -86,7 +88,7 @@ CASES = [
                                         "{law: coulomb, friction: 0.3, static_friction: 0.2}}\n")],
      "contact.default.static_friction", 11, "below the kinetic friction"),
     ("history of unknown material", [("time: {end: 0.1}\n", "time: {end: 0.1}\noutput: {material_stress: [stone]}\n")],
-     "output.material_stress.0", 11, "unknown material 'stone'"),
+     "output.material_stress.0", 11, "no material named 'stone'"),
 ]
 
 
@@ -160,3 +162,25 @@ def test_unreadable_decks_are_one_line_errors(tmp_path, content, words):
         result = CliRunner().invoke(app, [command, str(deck)])
         assert result.exit_code == 2, result.output
         assert words in result.output and "Traceback" not in result.output
+
+
+def test_a_deck_given_as_a_mapping_is_named_by_key_path_without_a_file():
+    """Simulation.from_deck(mapping): the message names the deck and the key, not the file or
+    line of a YAML dump the caller never saw; scene-level problems (the body outside the domain,
+    with side and distance) the same way."""
+    import yaml
+
+    from mpmsim import DeckError, Simulation
+
+    data = yaml.safe_load(BASE)
+    data["materials"]["block"]["K"] = -1.0
+    with pytest.raises(DeckError) as exc:
+        Simulation.from_deck(data, name="mine")
+    assert str(exc.value) == "deck 'mine' (a mapping): materials.block.K: input should be greater than 0"
+    data = yaml.safe_load(BASE)
+    data["grid"]["domain"] = {"min": [0, 0], "max": [2, 2]}
+    with pytest.raises(DeckError) as exc:
+        Simulation.from_deck(data)
+    assert str(exc.value).startswith("deck 'deck' (a mapping): bodies.0: the body extends outside grid.domain: "
+                                     "2 beyond its xmax = 2, 2 beyond its ymax = 2")
+    assert ".yaml" not in str(exc.value) and "line" not in str(exc.value)
