@@ -13,7 +13,7 @@ from ..materials.model import MODELS
 from .schema import (SHAPES_2D, SHAPES_3D, Deck, Image, Rigid, RotationVelocity, SineVelocity,
                      VelocityTable)
 from .contact import no_material
-from .units import unit_system
+from .units import MAX_WAVE_SPEED, unit_system
 
 FIELD_LAWS = ("frictionless", "coulomb", "stick", "none")  # the laws augury field contact applies
 
@@ -132,9 +132,16 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             for key, message in model.check(mat, dim):
                 add(["materials", name, *key], message)
         density = getattr(mat, "density", None)
-        if density is not None and density > units.max_density:
+        if density is not None and not units.min_density <= density <= units.max_density:
             add(["materials", name, "density"],
                 f"density {density:g} is implausible in {units.name} units: density is in {units.density}")
+        elif density is not None and model is not None:
+            modulus = float(model.wave_modulus(model.row(mat)))  # (an unstable set of constants: <= 0)
+            speed = np.sqrt(modulus / density) if modulus > 0.0 and np.isfinite(modulus) else 0.0
+            if speed > MAX_WAVE_SPEED:
+                add(["materials", name], f"its elastic wave speed sqrt(modulus / density) = {speed:.3g} m/s is faster "
+                    f"than any solid's (diamond: 1.8e4 m/s): moduli are in {units.stress} in {units.name} units"
+                    + (" (E in Pa gives 1e6 times too stiff)" if units.stress == "MPa" else ""))
         if isinstance(mat, Rigid):
             if isinstance(mat.velocity, VelocityTable):
                 tab = mat.velocity

@@ -50,6 +50,13 @@ CASES = [
                                                "output: {energy_ledger: true}")],
      "output.energy_ledger", 13, "explicit MPM step"),
     ("implausible density", [("density: 0.001", "density: 2.78")], "materials.block.density", 7, "g/mm^3"),
+    ("density next to nothing", [("density: 0.001", "density: 1.0e-300")], "materials.block.density", 7,
+     "density 1e-300 is implausible in mm-g-ms units"),
+    ("SI with mm-g-ms numbers", [("units: mm-g-ms", "units: SI")], "materials.block.density", 7,
+     "density 0.001 is implausible in SI units: density is in kg/m^3"),
+    ("moduli in Pa in an mm-g-ms deck", [("K: 100.0, G: 50.0", "K: 1.0e11, G: 5.0e10")], "materials.block", 7,
+     "wave speed sqrt(modulus / density) = 1.29e+07 m/s is faster than any solid's (diamond: 1.8e4 m/s): moduli "
+     "are in MPa in mm-g-ms units (E in Pa gives 1e6 times too stiff)"),
     ("missing image", [("  - {shape: rectangle, min: [0, 0], max: [4, 4], material: block}",
                         "  - {shape: image, file: nowhere.png, pixel_size: 0.5, origin: [0, 0],\n"
                         "     map: [{grey: [0, 10], material: block}]}")], "bodies.0.file", 9, "not found"),
@@ -131,11 +138,11 @@ def test_missing_deck_file(tmp_path):
 
 
 def test_absurd_step_or_output_counts_are_refused_with_the_estimate(tmp_path):
-    """A density of 1e-300 makes the stable step absurdly small: `run` refuses it (exit 2) with
+    """An end time of 1e12 ms at a step of a few microseconds: `run` refuses it (exit 2) with
     the estimate and the override, before writing anything; the same for 1e-300 s output
     intervals; --max-steps lets a user go on."""
     deck = tmp_path / "d.yaml"
-    deck.write_text(BASE.replace("density: 0.001", "density: 1.0e-300"))
+    deck.write_text(BASE.replace("time: {end: 0.1}", "time: {end: 1.0e12}"))
     out = tmp_path / "o"
     result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet"])
     assert result.exit_code == 2, result.output
