@@ -62,9 +62,9 @@ def _deposit(ent, x, m, vbar, normal, body, mat, gm, gp, gn, gx, gmat):
 
 
 @njit(cache=True, inline="always")
-def _facing(ent, x, m, normal, body, gm, gx, h, fm, fn, fx, faces):
+def _facing(ent, x, m, normal, body, gm, gx, h, fm, fn, faces):
     """Step 2: which entries face the others (faces (n, K)), and the facing mass fm, normal
-    moment fn and first moment fx of each body at nodes two bodies reach."""
+    moment fn of each body at nodes two bodies reach."""
     n, K = ent.node.shape
     nn, nb = gm.shape
     dim = x.shape[1]
@@ -95,7 +95,6 @@ def _facing(ent, x, m, normal, body, gm, gx, h, fm, fn, fx, faces):
                 fm[i, b] += wm
                 for d in range(dim):
                     fn[i, b, d] += wm * normal[p, d]
-                    fx[i, b, d] += wm * x[p, d]
 
 
 @njit(cache=True, inline="always")
@@ -182,9 +181,8 @@ def field_correction(ent, x, m, vbar, normal, body, mat, n_bodies, law, mu, mu_s
     _deposit(ent, x, m, vbar, normal, body, mat, gm, gp, gn, gx, gmat)
     fm = np.zeros((nn, n_bodies))
     fn = np.zeros((nn, n_bodies, dim))
-    fx = np.zeros((nn, n_bodies, dim))
     faces = np.zeros((n, K), dtype=np.bool_)
-    _facing(ent, x, m, normal, body, gm, gx, h, fm, fn, fx, faces)
+    _facing(ent, x, m, normal, body, gm, gx, h, fm, fn, faces)
     # the candidate normals, the gaps along them, and the contact normal: the flatter side's,
     # or where both are equally flat the one along which the surfaces lie further apart (a
     # side face above a floor is not in contact with it)
