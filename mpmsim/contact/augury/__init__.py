@@ -86,20 +86,6 @@ def scatter_boundary(acc, boundary, held, a, a_contact):
                 a[i, d] += acc[q, d]
 
 
-@njit(cache=True)
-def boundary_contact(x, v, a, mass, held, facets, boundary, B, mu, grid, iterations, tau, rule, a_contact, Bdot,
-                     Dinv):
-    """The augury correction of the boundary nodes (FEM bodies only): predicted
-    V̄ = (v + tau a, B), Â added to a (held components: none) and kept in a_contact,
-    Ḃ = Â_B, D^-1 of the transfer kept."""
-    xb, mb, vbar, nrm = gather_boundary(x, v, a, mass, facets, boundary, tau)
-    ent = grid_entries(xb, grid)
-    acc, acc_B = correction(ent, mb, vbar, B if grid.apic else np.zeros_like(B), nrm, mu, grid, iterations, tau, rule)
-    scatter_boundary(acc, boundary, held, a, a_contact)
-    Bdot[:] = acc_B
-    Dinv[:] = ent.Di
-
-
 SURFACE_THRESHOLD = 0.05  # surface particles: |first moment| > 0.05 (local mass) h_c (surface_particles)
 
 
@@ -123,7 +109,7 @@ class AuguryContact:
         # field method: each augury particle's body (FEM bodies, then particle bodies) and material
         self.node_body, self.node_mat = fem.node_body[boundary], fem.node_mat[boundary]
         self.n_fem_bodies = len(fem.infos)
-        self.n_bodies = self.n_fem_bodies  # and the particle bodies (with_particles)
+        self.n_bodies = self.n_fem_bodies  # and the particle bodies (set by `correct`)
 
     def _correction(self, ent, x, m, vbar, B, normal, mu, body, mat, tau):
         """(Â, Â_B) of the augury particles by the deck's method."""
@@ -149,15 +135,11 @@ class AuguryContact:
         P = state.particles if self.particles else None
         spec = self.spec
         tau = spec.tau if spec.tau is not None else state.dt
-        if (P is None or P.n == 0) and spec.method == "augury":
-            boundary_contact(fem.x, fem.v, fem.a, fem.mass, fem.held, fem.facets, fem.boundary, fem.B, self.mu,
-                             spec.grid, spec.iterations, tau, spec.rule, fem.a_contact, fem.Bdot, fem.Dinv)
-            return
-        self.with_particles(state, fem, P, spec, tau)
+        self.correct(state, fem, P, spec, tau)
 
-    def with_particles(self, state, fem, P, spec, tau) -> None:
+    def correct(self, state, fem, P, spec, tau) -> None:
         """The correction of the FEM boundary nodes and of the particle bodies' surface
-        particles (P None or empty: FEM bodies only, field method)."""
+        particles (P None or empty: the FEM bodies alone)."""
         grid = spec.grid
         xb, mb, vbar, nrm = gather_boundary(fem.x, fem.v, fem.a, fem.mass, fem.facets, fem.boundary, tau,
                                             spec.method == "augury")
