@@ -56,8 +56,6 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             if deck.shape_function in ("cpdi", "cpdi_q", "b2cpdi"):
                 add(["shape_function"], "implicit particle bodies take a tensor-product shape function "
                                         "(linear, gimp, bspline2, bspline3)")
-            if deck.dim == 3 and fem:
-                add(["integrator"], "implicit barrier contact between particles and FEM bodies is 2D for now")
         if deck.time.dt is None:
             add(["time", "dt"], "implicit integration takes a fixed time step: give time.dt")
         if (len(fem) > 1 or (fem and particle_bodies)) and (deck.implicit is None or deck.implicit.dhat is None):
@@ -65,7 +63,8 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
         if deck.contact.augury is not None:
             add(["contact", "augury"], "augury contact is explicit; implicit integration uses the barrier")
         if deck.dim == 3 and len(fem) > 1:
-            add(["integrator"], "implicit barrier contact between FEM bodies is 2D for now")
+            add(["integrator"], "implicit barrier contact between FEM bodies is 2D for now (3D meets particles "
+                                "with FEM bodies only: edge-edge terms are not built)")
     elif deck.implicit is not None:
         add(["implicit"], "settings for integrator: implicit, but the deck's integrator is explicit")
     if deck.output.energy_ledger and (deck.integrator != "explicit" or fem or not particle_bodies):

@@ -44,6 +44,7 @@ from scipy.sparse.linalg import splu
 from numba import njit
 
 from ..contact.barrier.energy import BarrierContact, LaggedFriction, check_initial_gaps
+from ..contact.barrier.surface import SurfaceBarrier, SurfaceFriction
 from ..energy import StepStart
 from ..errors import InstabilityError
 from . import Integrator
@@ -138,12 +139,13 @@ class ImplicitStep(Integrator):
         self.grid = GridUnknowns(run.update.scheme) if scene.has_particles else None
         bodies = n_fem + (1 if self.grid is not None else 0)
         dhat = barrier.dhat
-        self.contact = dhat is not None and n_fem >= 1 and bodies > 1 and scene.dim == 2
+        self.contact = dhat is not None and n_fem >= 1 and bodies > 1
         if dhat is not None:
             check_initial_gaps(scene, dhat, barrier.particle_contact == "corners")
         what = "FEM bodies" if self.grid is None else ("particle bodies" if not n_fem else "FEM and particle bodies")
         self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, sparse LU"),
-                     ("barrier contact", f"log barrier on FEM boundary edges, dhat {dhat:g}, kappa {barrier.kappa:g}"
+                     ("barrier contact", f"log barrier on FEM boundary {'edges' if scene.dim == 2 else 'triangles'}, "
+                      f"dhat {dhat:g}, kappa {barrier.kappa:g}"
                       + (f", particles at their {barrier.particle_contact}" if self.grid is not None else "")
                       if self.contact else "no contact")]
         if self.grid is not None:
@@ -178,10 +180,15 @@ class ImplicitStep(Integrator):
             terms.append(ParticleStrain(self.grid, m, fem.n))
         if self.contact:
             b = self.barrier
-            barrier = BarrierContact(fem, self.grid, b.dhat, b.kappa, self.thickness, b.particle_contact)
+            if dim == 2:
+                barrier = BarrierContact(fem, self.grid, b.dhat, b.kappa, self.thickness, b.particle_contact)
+                friction = LaggedFriction
+            else:
+                barrier = SurfaceBarrier(fem, self.grid, b.dhat, b.kappa, b.particle_contact)
+                friction = SurfaceFriction
             terms.append(barrier)
             if self.mu.any():
-                terms.append(LaggedFriction(barrier, self.mu, b.friction_velocity))
+                terms.append(friction(barrier, self.mu, b.friction_velocity))
         terms.append(Gravity(self.gravity))
         self.terms = terms + self.added
         f = terms[0].forces(fem.x)

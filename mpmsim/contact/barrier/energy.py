@@ -34,6 +34,7 @@ from ...shapes.cpdi import corner_signs
 from .broadphase import (box_pairs, correction_nodes, point_boxes, point_edge_candidates, point_node_candidates,
                          simplex_boxes)
 from .ccd import point_edge_ccd_pairs
+from .closest import point_triangle_distance
 from .distance import point_edge_distance, point_edge_friction_frame
 from .friction import point_edge_friction
 from .potential import barrier_normal_force, point_edge_barrier_pairs, point_node_barrier_pairs, vertex_edges
@@ -128,17 +129,23 @@ class BarrierContact(Potential):
         parts = [(node, w, np.zeros((nb, d)), fem.node_body[b], b, self.boundary_weight, fem.node_mat[b])]
         if grid is not None:
             P = step.state.particles
-            t = self.thickness
-            width = np.sqrt(P.vol0 / t) * t  # the particle's width x thickness (2D)
-            if self.particle_contact == "corners":  # each corner carries half of a face
+            corners = self.particle_contact == "corners"
+            if corners:
                 owner, nodes, S, off = grid.corners(step.state)
-                width = 0.5 * width[owner]
             else:
                 owner, nodes, S = np.arange(P.n), grid.nodes, grid.S
                 off = grid.x0 - np.einsum("pk,pkc->pc", S, grid.X[nodes])
+            width = self.particle_weights(P.vol0, owner, corners)
             parts.append((fem.n + nodes, S, off, self.n_fem_bodies + np.zeros(len(owner), np.int64),
                           np.full(len(owner), -1, np.int64), width, P.mat[owner]))
         self.points = ContactPoints(*(np.concatenate([q[k] for q in parts]) for k in range(7)))
+
+    def particle_weights(self, vol0: np.ndarray, owner: np.ndarray, corners: bool) -> np.ndarray:
+        """Barrier weight of each contact point on a particle: its width x thickness (2D), each
+        corner half of that (it carries half of a face)."""
+        t = self.thickness
+        width = np.sqrt(vol0 / t) * t
+        return 0.5 * width[owner] if corners else width
 
     def pairs(self, y: np.ndarray, p: np.ndarray) -> Pairs:
         """Point-edge pairs, and point-vertex pairs of the (deg - 1) correction, of different
@@ -327,20 +334,19 @@ class LaggedFriction(Potential):
 
 
 def particles_inside(x: np.ndarray, verts: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """(particle, triangle) pairs (k, 2) with the particle strictly inside the triangle (2D),
-    candidates from the spatial hash of their boxes."""
+    """(particle, cell) pairs (k, 2) with the particle strictly inside the triangle (2D) or
+    tetrahedron (3D): all barycentric coordinates positive. Candidates from the spatial hash
+    of their boxes."""
     z = np.zeros_like(x)
     lo, hi = point_boxes(x, z)
     tlo, thi = simplex_boxes(verts, np.zeros_like(verts), cells, 0.0)
     pairs = box_pairs(lo, hi, tlo, thi, np.full(len(x), -1, np.int64), cells)
     if not len(pairs):
         return pairs
-    a, b, c = (verts[cells[pairs[:, 1], k]] for k in range(3))
-    v0, v1, r = b - a, c - a, x[pairs[:, 0]] - a
-    det = v0[:, 0] * v1[:, 1] - v0[:, 1] * v1[:, 0]
-    s = (r[:, 0] * v1[:, 1] - r[:, 1] * v1[:, 0]) / det
-    t = (v0[:, 0] * r[:, 1] - v0[:, 1] * r[:, 0]) / det
-    return pairs[(s > 0.0) & (t > 0.0) & (s + t < 1.0)]
+    v0 = verts[cells[pairs[:, 1], 0]]
+    T = np.stack([verts[cells[pairs[:, 1], k]] - v0 for k in range(1, cells.shape[1])], axis=2)  # (k, d, d)
+    lam = np.linalg.solve(T, (x[pairs[:, 0]] - v0)[:, :, None])[:, :, 0]
+    return pairs[(lam > 0.0).all(axis=1) & (lam.sum(axis=1) < 1.0)]
 
 
 def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
@@ -350,10 +356,11 @@ def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
     from ...fem.probes import boundary_gap
 
     fem = scene.fem
-    if fem is None or fem.points.shape[1] != 2:
+    if fem is None:
         return
+    dim = fem.points.shape[1]
     problems = []
-    n = len(fem.infos)
+    n = len(fem.infos) if dim == 2 else 0  # 3D FEM bodies do not meet each other (deck check)
     for a in range(n):
         for b in range(a + 1, n):
             gap = boundary_gap(fem.points, fem.facets, fem.node_body, a, b)
@@ -378,11 +385,10 @@ def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
             owner = np.repeat(owner, len(signs))
         pairs = point_edge_candidates(x, np.zeros_like(x), fem.points, np.zeros_like(fem.points), fem.facets, dhat,
                                       np.full(len(x), -1, np.int64))
-        y = np.empty(6)
+        distance = point_edge_distance if dim == 2 else point_triangle_distance
         for q, e in pairs:
-            a, b = fem.facets[e]
-            y[:] = (*x[q], *fem.points[a], *fem.points[b])
-            d = point_edge_distance(y)
+            a = fem.facets[e, 0]
+            d = distance(np.concatenate([x[q], fem.points[fem.facets[e]].ravel()]))
             if d <= dhat:
                 what = "a particle's corner" if corners else "a particle"
                 problems.append((("implicit", "dhat"), f"{what} of '{_body_name(scene, seed.body[owner[q]])}' at "

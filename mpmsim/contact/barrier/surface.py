@@ -1,0 +1,473 @@
+"""3D barrier contact: contact points (FEM boundary nodes, MPM particles) against the boundary
+triangles of other FEM bodies, and its lagged friction (BFEMP Eq. 32; docs/bfemp.md).
+
+Potential of one point p (weight w_p, an area: kappa is a pressure):
+
+    Phi_p = w_p [ sum_t b(d_pt) - sum_e (deg_e - 1) b(d_pe) + sum_{v in V_I} b(d_pv) ]
+
+over the boundary triangles t, edges e (deg_e the triangles at e: 2 on a closed surface) and
+surface-interior vertices v (all of a closed surface) within dhat. On a flat or convex patch the
+corrections cancel the duplicates exactly: a point over an edge sees the two triangles at the same
+distance as the edge, a point over a vertex sees its n triangles and n edges at the vertex's
+distance, and either way one barrier remains. Distances come from closest.py (point-edge and
+point-point pairs are point-triangle types with a placeholder third/fourth vertex).
+
+Grouping and projection: the terms of one point form one stencil (the point and every FEM node of
+its triangles); their Hessians are summed unprojected and the sum is projected to PSD once, so
+the correction terms (negative barriers) never leave Newton's matrix indefinite and where the sum
+is PSD (a flat or convex surface) the Hessian is exact. This extends the 2D kernel's
+PSD(H1 + H2 - Hv) - H1 - H2 at a boundary vertex (potential.point_node_barrier_pairs).
+
+Contact areas: an FEM boundary node carries a third of its triangles' areas; a particle the
+largest cross-section pi r^2 of the sphere of its volume (the paper's choice), or with
+`particle_contact: corners` each of its 8 corners a quarter of a face, l^2/4.
+
+Friction (SurfaceFriction): per point, lagged at the step's start on its nearest triangle: the
+normal force lambda = |dPhi_p/dp| (the whole group's force on the point, corrections included),
+the closest point's barycentric coordinates beta and a tangent basis T (3, 2) of the plane normal
+to p - c; slip u = T^T (dp - sum_j beta_j dt_j), D = mu lambda f0(|u|) (friction.lagged_friction).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from ...energy import Derivatives, Potential, StepStart
+from ...fem.elements import project_psd
+from .broadphase import point_edge_candidates
+from .ccd import point_triangle_ccd
+from .closest import PT_P_E0, PT_P_T0, PT_P_T1, point_triangle_distance_hessian
+from .energy import BarrierContact, ContactPoints
+from .friction import lagged_friction
+from .potential import _chain
+
+
+class Surface(NamedTuple):
+    """Boundary surface topology of the FEM bodies (built once)."""
+
+    triangles: np.ndarray  # (m, 3)
+    edges: np.ndarray  # (E, 2)
+    triangle_edges: np.ndarray  # (m, 3) edge ids of each triangle
+    edge_coef: np.ndarray  # (E,) -(deg_e - 1)
+    vertex_coef: np.ndarray  # (n,) 1 at surface-interior vertices, else 0
+
+
+def surface_topology(triangles: np.ndarray, n_verts: int) -> Surface:
+    """Edges, their triangle counts and the surface-interior vertices (every edge at them shared)."""
+    m = len(triangles)
+    local = np.array([[0, 1], [1, 2], [2, 0]])
+    e = np.sort(triangles[:, local].reshape(-1, 2), axis=1)
+    edges, inverse, deg = np.unique(e, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(m, 3)
+    open_vertex = np.zeros(n_verts, bool)
+    open_vertex[edges[deg < 2].ravel()] = True
+    on_surface = np.zeros(n_verts, bool)
+    on_surface[triangles.ravel()] = True
+    vertex_coef = (on_surface & ~open_vertex).astype(float)
+    return Surface(np.ascontiguousarray(triangles, np.int64), np.ascontiguousarray(edges, np.int64),
+                   np.ascontiguousarray(inverse, np.int64), -(deg - 1.0), vertex_coef)
+
+
+def triangle_weights(x: np.ndarray, triangles: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """(len(nodes),) a third of the summed area of each node's boundary triangles."""
+    a, b, c = (x[triangles[:, k]] for k in range(3))
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    w = np.zeros(len(x))
+    for k in range(3):
+        np.add.at(w, triangles[:, k], area / 3.0)
+    return w[nodes]
+
+
+class Groups(NamedTuple):
+    """The barrier terms of one evaluation, grouped by contact point."""
+
+    point: np.ndarray  # (g,) contact point of each group
+    start: np.ndarray  # (g + 1,) its terms: simplex[start[i]:start[i + 1]]
+    simplex: np.ndarray  # (t, 3) FEM nodes of each term (-1 padded: edge, vertex)
+    coef: np.ndarray  # (t,) +1 (triangle, interior vertex) or -(deg_e - 1) (edge)
+    nodes: np.ndarray  # (g, s) the group's FEM nodes (padded with its first)
+    pairs: np.ndarray  # (k, 2) the candidate (point, triangle) pairs (CCD)
+
+
+NO_GROUPS = Groups(np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros((0, 3), np.int64), np.zeros(0),
+                   np.zeros((0, 1), np.int64), np.zeros((0, 2), np.int64))
+
+
+@njit(cache=True)
+def _add_unique(buf, n, v):
+    for i in range(n):
+        if buf[i] == v:
+            return n
+    buf[n] = v
+    return n + 1
+
+
+@njit(cache=True)
+def group_terms(pairs, triangles, triangle_edges, edges, edge_coef, vertex_coef):
+    """Terms per point from (point, triangle) pairs sorted by point: each triangle, each of their
+    edges with a nonzero correction, each of their surface-interior vertices, once per point.
+    Returns (point, start, simplex, coef, nodes) of Groups."""
+    k = pairs.shape[0]
+    n_groups = 0
+    smax = 1
+    i = 0
+    while i < k:
+        j = i
+        while j < k and pairs[j, 0] == pairs[i, 0]:
+            j += 1
+        n_groups += 1
+        smax = max(smax, 3 * (j - i))
+        i = j
+    point = np.empty(n_groups, np.int64)
+    start = np.zeros(n_groups + 1, np.int64)
+    simplex = np.full((7 * k, 3), -1, np.int64)
+    coef = np.empty(7 * k)
+    nodes = np.empty((n_groups, smax), np.int64)
+    ebuf = np.empty(3 * k + 1, np.int64)
+    vbuf = np.empty(3 * k + 1, np.int64)
+    t = 0
+    g = 0
+    i = 0
+    s_used = 1
+    while i < k:
+        j = i
+        while j < k and pairs[j, 0] == pairs[i, 0]:
+            j += 1
+        point[g] = pairs[i, 0]
+        ne = 0
+        nv = 0
+        for q in range(i, j):
+            tri = pairs[q, 1]
+            for c in range(3):
+                simplex[t, c] = triangles[tri, c]
+                nv = _add_unique(vbuf, nv, triangles[tri, c])
+                ne = _add_unique(ebuf, ne, triangle_edges[tri, c])
+            coef[t] = 1.0
+            t += 1
+        for q in range(ne):
+            e = ebuf[q]
+            if edge_coef[e] != 0.0:
+                simplex[t, 0] = edges[e, 0]
+                simplex[t, 1] = edges[e, 1]
+                coef[t] = edge_coef[e]
+                t += 1
+        for q in range(nv):
+            nodes[g, q] = vbuf[q]
+            if vertex_coef[vbuf[q]] != 0.0:
+                simplex[t, 0] = vbuf[q]
+                coef[t] = vertex_coef[vbuf[q]]
+                t += 1
+        for q in range(nv, smax):
+            nodes[g, q] = vbuf[0]
+        s_used = max(s_used, nv)
+        g += 1
+        start[g] = t
+        i = j
+    return point, start, simplex[:t], coef[:t], np.ascontiguousarray(nodes[:, :s_used])
+
+
+@njit(cache=True, inline="always")
+def _term_distance(y, n_nodes, g, H):
+    """Distance (with gradient g (12,) and Hessian H (12, 12)) of the point y[0:3] to the simplex
+    of n_nodes vertices at y[3:] (placeholders beyond them): triangle, segment or vertex."""
+    if n_nodes == 3:
+        return point_triangle_distance_hessian(y, g, H, -1)
+    if n_nodes == 1:
+        return point_triangle_distance_hessian(y, g, H, PT_P_T0)
+    num = 0.0
+    den = 0.0
+    for a in range(3):
+        e = y[6 + a] - y[3 + a]
+        num += (y[a] - y[3 + a]) * e
+        den += e * e
+    kind = PT_P_T0 if num <= 0.0 else (PT_P_T1 if num >= den else PT_P_E0)
+    return point_triangle_distance_hessian(y, g, H, kind)
+
+
+@njit(cache=True)
+def surface_barrier_groups(points, verts, point, start, simplex, coef, nodes, dhat, kappa, weights, grads,
+                           hessians, project=True):
+    """Phi = sum over groups of the point's terms (module docstring); fills each group's gradient
+    grads (g, 3 (1 + s)) and Hessian hessians (g, 3 (1 + s), 3 (1 + s)) over (point, nodes[g]),
+    projected to PSD if `project`. Returns the total (inf if a pair touches)."""
+    y = np.empty(12)
+    g12 = np.empty(12)
+    H12 = np.empty((12, 12))
+    s = nodes.shape[1]
+    slot = np.empty(4, np.int64)
+    total = 0.0
+    for grp in range(point.shape[0]):
+        i = point[grp]
+        grads[grp, :] = 0.0
+        hessians[grp, :, :] = 0.0
+        for a in range(3):
+            y[a] = points[i, a]
+        slot[0] = 0
+        for term in range(start[grp], start[grp + 1]):
+            m = 0
+            for c in range(3):
+                v = simplex[term, c]
+                if v < 0:
+                    break
+                m += 1
+                for q in range(s):
+                    if nodes[grp, q] == v:
+                        slot[1 + c] = 1 + q
+                        break
+            for c in range(3):
+                v = simplex[term, min(c, m - 1)]
+                for a in range(3):
+                    y[3 + 3 * c + a] = verts[v, a]
+            d = _term_distance(y, m, g12, H12)
+            total += _chain(d, g12, H12, dhat, kappa * weights[i] * coef[term], False)
+            for A in range(1 + m):
+                for a in range(3):
+                    grads[grp, 3 * slot[A] + a] += g12[3 * A + a]
+                    for B in range(1 + m):
+                        for b in range(3):
+                            hessians[grp, 3 * slot[A] + a, 3 * slot[B] + b] += H12[3 * A + a, 3 * B + b]
+        if project:
+            project_psd(hessians[grp])
+    return total
+
+
+@njit(cache=True)
+def point_triangle_ccd_pairs(points, dpoints, verts, dverts, triangles, pairs, t_max=1.0):
+    """Largest common step in [0, t_max] for all (point, triangle) pairs (point_triangle_ccd)."""
+    y = np.empty(12)
+    dy = np.empty(12)
+    t = t_max
+    for k in range(pairs.shape[0]):
+        i = pairs[k, 0]
+        for a in range(3):
+            y[a] = points[i, a]
+            dy[a] = dpoints[i, a]
+            for c in range(3):
+                v = triangles[pairs[k, 1], c]
+                y[3 + 3 * c + a] = verts[v, a]
+                dy[3 + 3 * c + a] = dverts[v, a]
+        t = min(t, point_triangle_ccd(y, dy, t_max=t))
+        if t == 0.0:
+            break
+    return t
+
+
+class SurfaceBarrier(BarrierContact):
+    """The log barrier between the contact points and the FEM boundary triangles of other bodies
+    (3D; the module docstring)."""
+
+    def __init__(self, fem, grid, dhat: float, kappa: float, particle_contact: str):
+        self.fem, self.grid = fem, grid
+        self.dhat, self.kappa = dhat, kappa
+        self.thickness = 1.0
+        self.particle_contact = particle_contact
+        self.n_fem_bodies = len(fem.infos)
+        self.surface = surface_topology(fem.facets, fem.n)
+        self.triangle_body = fem.node_body[fem.facets[:, 0]]
+        self.boundary_weight = triangle_weights(fem.X, fem.facets, fem.boundary)
+        self.points = None
+        self.current = NO_GROUPS
+        self._local = None
+
+    def particle_weights(self, vol0: np.ndarray, owner: np.ndarray, corners: bool) -> np.ndarray:
+        if corners:  # a quarter of a face of the particle's cube
+            return 0.25 * np.cbrt(vol0[owner]) ** 2
+        r = np.cbrt(3.0 * vol0 / (4.0 * np.pi))
+        return np.pi * r * r
+
+    def pairs(self, y: np.ndarray, p: np.ndarray) -> Groups:
+        fem, pts = self.fem, self.points
+        nf = fem.n
+        z, dz = pts.positions(y), pts.moves(p)
+        tris = self.surface.triangles
+        pairs = point_edge_candidates(z, dz, y[:nf], p[:nf], tris, self.dhat, pts.vertex)
+        if len(pairs):
+            pairs = pairs[pts.body[pairs[:, 0]] != self.triangle_body[pairs[:, 1]]]
+        if not len(pairs):
+            return NO_GROUPS
+        pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+        s = self.surface
+        return Groups(*group_terms(pairs, tris, s.triangle_edges, s.edges, s.edge_coef, s.vertex_coef), pairs)
+
+    def value(self, y):
+        grp = self.current
+        k, s = grp.nodes.shape
+        gl, Hl = np.zeros((k, 3 * (1 + s))), np.zeros((k, 3 * (1 + s), 3 * (1 + s)))
+        phi = 0.0
+        if k:
+            phi = surface_barrier_groups(self.points.positions(y), y[:self.fem.n], grp.point, grp.start, grp.simplex,
+                                         grp.coef, grp.nodes, self.dhat, self.kappa, self.points.weight, gl, Hl)
+        self._local = (gl, Hl)
+        return phi
+
+    def derivatives(self, y, force):
+        grp = self.current
+        if not len(grp.point):
+            return Derivatives((), ())
+        s, h = self.points.pair_terms(grp.point, grp.nodes, *self._local, 3)
+        return Derivatives((s,), (h,))
+
+    def step_bound(self, y, p):
+        pairs = self.current.pairs
+        if not len(pairs):
+            return 1.0
+        pts, nf = self.points, self.fem.n
+        return point_triangle_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.surface.triangles, pairs)
+
+
+@njit(cache=True)
+def lag_surface_friction(points, verts, triangles, point, start, simplex, grads, pair_mu, dhat, tri, G, mu_lambda):
+    """Per group: the nearest triangle tri (g, 3), the slip operator G (g, 12, 2) over (point,
+    tri) and mu lambda, lambda = |the group's force on its point| (grads[:, :3])."""
+    y = np.empty(12)
+    g12 = np.empty(12)
+    H12 = np.empty((12, 12))
+    for grp in range(point.shape[0]):
+        i = point[grp]
+        for a in range(3):
+            y[a] = points[i, a]
+        best = np.inf
+        for term in range(start[grp], start[grp + 1]):
+            if simplex[term, 2] < 0:
+                continue
+            for c in range(3):
+                for a in range(3):
+                    y[3 + 3 * c + a] = verts[simplex[term, c], a]
+            d = point_triangle_distance_hessian(y, g12, H12, -1)
+            if d < best:
+                best = d
+                for c in range(3):
+                    tri[grp, c] = simplex[term, c]
+        for c in range(3):
+            for a in range(3):
+                y[3 + 3 * c + a] = verts[tri[grp, c], a]
+        d = point_triangle_distance_hessian(y, g12, H12, -1)
+        # closest point c = p - d n, n = grad_p d; its barycentric coordinates on the triangle
+        n = g12[:3].copy()
+        cp = y[:3] - d * n
+        e1 = y[6:9] - y[3:6]
+        e2 = y[9:12] - y[3:6]
+        r = cp - y[3:6]
+        a11, a12, a22 = e1 @ e1, e1 @ e2, e2 @ e2
+        b1, b2 = r @ e1, r @ e2
+        det = a11 * a22 - a12 * a12
+        s1 = (a22 * b1 - a12 * b2) / det
+        s2 = (a11 * b2 - a12 * b1) / det
+        beta = np.array([1.0 - s1 - s2, s1, s2])
+        # tangent basis of the plane normal to n
+        t1 = np.cross(n, np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
+        t1 /= np.sqrt(t1 @ t1)
+        t2 = np.cross(n, t1)
+        for a in range(3):
+            G[grp, a, 0] = t1[a]
+            G[grp, a, 1] = t2[a]
+            for c in range(3):
+                G[grp, 3 + 3 * c + a, 0] = -beta[c] * t1[a]
+                G[grp, 3 + 3 * c + a, 1] = -beta[c] * t2[a]
+        f = np.sqrt(grads[grp, 0] ** 2 + grads[grp, 1] ** 2 + grads[grp, 2] ** 2)
+        mu_lambda[grp] = pair_mu[grp] * f if d < dhat else 0.0
+
+
+@njit(cache=True)
+def surface_friction_pairs(x, x0, point_rows, point, tri, G, mu_lambda, eps, grads, hessians):
+    """Lagged friction sum_g mu lambda_g f0(|G_g^T dz_g|) over the groups' (point, triangle)
+    stencils of the step's displacement x - x0 (points at rows point_rows[point])."""
+    dz = np.empty(12)
+    total = 0.0
+    for k in range(point.shape[0]):
+        if mu_lambda[k] == 0.0:
+            grads[k, :] = 0.0
+            hessians[k, :, :] = 0.0
+            continue
+        i = point_rows[point[k]]
+        for a in range(3):
+            dz[a] = x[i, a] - x0[i, a]
+            for c in range(3):
+                v = tri[k, c]
+                dz[3 + 3 * c + a] = x[v, a] - x0[v, a]
+        total += lagged_friction(dz, G[k], mu_lambda[k], eps, grads[k], hessians[k])
+    return total
+
+
+class SurfaceLag(NamedTuple):
+    point: np.ndarray  # (g,) contact points
+    tri: np.ndarray  # (g, 3) their nearest triangles' nodes
+    G: np.ndarray  # (g, 12, 2) slip operators
+    mu_lambda: np.ndarray  # (g,)
+
+
+class SurfaceFriction(Potential):
+    """Lagged, smoothed Coulomb friction on the 3D barrier's contacts (module docstring)."""
+
+    name = "lagged friction"
+    lagged = True
+
+    def __init__(self, contact: SurfaceBarrier, mu: np.ndarray, friction_velocity: float):
+        self.contact = contact
+        self.mu = mu
+        self.eps_v = friction_velocity
+        self.lag = None
+        self.eps = 0.0
+        self.start = None
+        self._local = None
+
+    @property
+    def active(self) -> bool:
+        return self.lag is not None
+
+    def _extended(self, y):
+        nf = self.contact.fem.n
+        pts = self.contact.points
+        return np.concatenate([y[:nf], pts.positions(y)]), nf + np.arange(len(pts.node))
+
+    def begin(self, step: StepStart):
+        self.eps = self.eps_v * step.dt
+        self.start = self._extended(step.y)[0]
+        self.relag(step.y)
+
+    def relag(self, y):
+        c = self.contact
+        grp = c.pairs(y, np.zeros_like(y))
+        k = len(grp.point)
+        if not k:
+            self.lag = None
+            return False
+        fem, pts = c.fem, c.points
+        s = grp.nodes.shape[1]
+        gl, Hl = np.zeros((k, 3 * (1 + s))), np.zeros((k, 3 * (1 + s), 3 * (1 + s)))
+        z = pts.positions(y)
+        surface_barrier_groups(z, y[:fem.n], grp.point, grp.start, grp.simplex, grp.coef, grp.nodes, c.dhat,
+                               c.kappa, pts.weight, gl, Hl)
+        tri, G, mu_lambda = np.zeros((k, 3), np.int64), np.zeros((k, 12, 2)), np.zeros(k)
+        first = grp.simplex[grp.start[:-1], 0]  # a node of the point's first triangle (its body)
+        mu = self.mu[pts.mat[grp.point], fem.node_mat[first]]
+        lag_surface_friction(z, y[:fem.n], c.surface.triangles, grp.point, grp.start, grp.simplex, gl, mu, c.dhat,
+                             tri, G, mu_lambda)
+        self.lag = SurfaceLag(grp.point, tri, G, mu_lambda)
+        return True
+
+    def value(self, y):
+        lag = self.lag
+        if lag is None:
+            self._local = None
+            return 0.0
+        k = len(lag.point)
+        gf, Hf = np.zeros((k, 12)), np.zeros((k, 12, 12))
+        ext, ids = self._extended(y)
+        total = surface_friction_pairs(ext, self.start, ids, lag.point, lag.tri, lag.G, lag.mu_lambda, self.eps,
+                                       gf, Hf)
+        self._local = (gf, Hf)
+        return total
+
+    def derivatives(self, y, force):
+        if self._local is None:
+            return Derivatives((), ())
+        s, h = self.contact.points.pair_terms(self.lag.point, self.lag.tri, *self._local, 3)
+        return Derivatives((s,), (h,))
+
+
+__all__ = ["SurfaceBarrier", "SurfaceFriction", "ContactPoints", "surface_topology", "group_terms",
+           "surface_barrier_groups"]
