@@ -4,13 +4,14 @@ colliding blocks in 2D (inputs/fem_blocks_2d.yaml) at three refinements, h_c = 2
 What is checked (numbers measured in docs/fem-contact.md):
 - linear momentum to round-off with PIC and APIC; angular momentum counting the affine part to
   round-off with APIC only;
-- no augury iteration (N = 0): the bodies stick; APIC comes to a gap under 0.1 h_c on the
-  finest grid, PIC stays a grid cell or so away at every level;
+- no augury iteration (N = 0), `bspline2` kernel: the bodies stick; APIC comes to a gap under
+  0.1 h_c on the finest grid, PIC stays a grid cell or so away at every level (with the 4-node
+  kernel APIC does not: docs/fem-contact.md);
 - one iteration (N = 1): the blocks rebound, APIC keeps more energy than PIC at every level and
   its loss falls under refinement;
 - no boundary node of one block is ever inside the other (a polygon test of its own);
-- where contact fails (a fine augury grid at twice the paper's speed), the run stops with exit 3 naming the
-  bodies and the time.
+- where contact fails (a fine augury grid at four times the paper's speed), the run stops with exit 3
+  naming the bodies and the time.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ LEVELS = (0.5, 0.25, 0.125)
 
 
 def blocks_deck(h: float, transfer: str, iterations: int, end: float, shift: float | None = None,
-                tolerance: float | None = None) -> dict:
+                tolerance: float | None = None, kernel: str | None = None) -> dict:
     d = yaml.safe_load((ROOT / "inputs" / "fem_blocks_2d.yaml").read_text())
     for b in d["bodies"]:
         b["element_size"] = h
@@ -45,6 +46,8 @@ def blocks_deck(h: float, transfer: str, iterations: int, end: float, shift: flo
     d["contact"]["augury"].update(cell_size=2.0 * h, transfer=transfer, iterations=iterations)
     if tolerance is not None:
         d["contact"]["augury"]["overlap_tolerance"] = tolerance
+    if kernel is not None:
+        d["contact"]["augury"]["kernel"] = kernel
     d["time"] = {"end": end, "dt": 1e-4 * h}
     d["output"] = {"history_interval": end / 100}
     return d
@@ -64,9 +67,9 @@ def boundary_loop(facets: np.ndarray, node_body: np.ndarray, body: int) -> np.nd
 
 @functools.lru_cache(maxsize=None)
 def run(h: float, transfer: str, iterations: int, end: float, shift: float | None = None,
-        tolerance: float | None = None) -> dict:
+        tolerance: float | None = None, kernel: str | None = None) -> dict:
     """One run, sampled 50 times: gap, nodes of each body strictly inside the other, energy."""
-    deck = blocks_deck(h, transfer, iterations, end, shift, tolerance)
+    deck = blocks_deck(h, transfer, iterations, end, shift, tolerance, kernel)
     sim = Simulation(build_scene(deck_from(deck)), threads=1)
     st = sim.state
     f = st.fem
@@ -108,16 +111,23 @@ def test_blocks_conserve_linear_momentum_and_apic_angular_momentum(transfer):
 
 
 def test_no_boundary_node_ever_ends_inside_the_other_block():
+    """h = 0.25, APIC, N = 1, to t = 0.06 s. The gap starts at 0.65 h_c and its smallest value
+    (sampled 50 times) is 0.286 h_c with the 4-node kernel, which reaches 2 h_c (0.11 h_c with
+    bspline2, which reaches 1.5 h_c): below 0.35 h_c says the blocks met."""
     r = run(0.25, "apic", 1, 0.06)
     assert r["inside"] == 0
-    assert r["gaps"].min() < 0.2 * r["hc"]  # the blocks did meet
+    assert r["gaps"].min() < 0.35 * r["hc"]  # the blocks did meet
 
 
 def test_without_augury_iterations_the_blocks_stick_apic_at_a_small_gap():
-    """N = 0, blocks started 6 apart so they meet during the run. Measured gap/h_c (minimum over
-    the run): APIC 1.00, 0.28, 0.043; PIC 1.44, 1.04, 0.73 at h = 0.5, 0.25, 0.125."""
-    apic = [run(h, "apic", 0, 0.08, 6.0) for h in LEVELS]
-    pic = [run(h, "pic", 0, 0.08, 6.0) for h in LEVELS]
+    """N = 0, blocks started 6 apart so they meet during the run, with the `bspline2` kernel.
+    Measured gap/h_c (minimum over the run): APIC 1.00, 0.28, 0.043; PIC 1.44, 1.04, 0.73 at
+    h = 0.5, 0.25, 0.125. With the 4-node kernel (the default) APIC does not stick at a small
+    gap: minimum gap/h_c 1.65, 0.87, 0.15 (PIC 2.09, 1.74, 1.27), and after the minimum the
+    blocks part to 1-2 h_c (h = 0.125: 0.16 at t = 0.06 s, 1.37 at 0.11 s, 0.96 at 0.16 s);
+    docs/fem-contact.md."""
+    apic = [run(h, "apic", 0, 0.08, 6.0, kernel="bspline2") for h in LEVELS]
+    pic = [run(h, "pic", 0, 0.08, 6.0, kernel="bspline2") for h in LEVELS]
     a = [r["gaps"].min() / r["hc"] for r in apic]
     p = [r["gaps"].min() / r["hc"] for r in pic]
     assert a[-1] < 0.1
@@ -128,11 +138,12 @@ def test_without_augury_iterations_the_blocks_stick_apic_at_a_small_gap():
 
 def test_with_one_augury_iteration_the_blocks_rebound_and_apic_loses_less_energy():
     """N = 1, to t = 0.1; energy = kinetic (with the affine part) + strain. Measured E(0.1)/E0 at
-    h = 0.25, 0.125, 1/16: APIC 0.27, 0.60, 0.84; PIC 0.05, 0.06, 0.10. APIC keeps more at every
-    level and its loss falls under refinement (73%, 40%, 16%). At h = 1/16 APIC lets nodes up to
-    0.14 h into the other block during the collision (then the blocks part), so that level runs
-    with overlap_tolerance 0.3. (h = 0.5 keeps 0.39: its blocks are still within the augury reach
-    3 h_c = 3 at t = 0.1, with energy in the affine modes; docs/fem-contact.md.)"""
+    h = 0.25, 0.125, 1/16 with the 4-node kernel: APIC 0.152, 0.393, 0.747; PIC 0.050, 0.049
+    (bspline2: APIC 0.27, 0.60, 0.84; PIC 0.05, 0.06, 0.10). APIC keeps more at every level and
+    its loss falls under refinement (85%, 61%, 25%). At h = 1/16 APIC lets nodes into the other
+    block during the collision (then the blocks part), so that level runs with
+    overlap_tolerance 0.3. (h = 0.5 keeps 0.364: its blocks are still within the augury reach
+    4 h_c = 4 at t = 0.1, with energy in the affine modes; docs/fem-contact.md.)"""
     levels = ((0.25, None), (0.125, None), (0.0625, 0.3))
     apic = [run(h, "apic", 1, 0.1, None, tol) for h, tol in levels]
     pic = [run(h, "pic", 1, 0.1, None, tol) for h, tol in levels]
@@ -145,12 +156,13 @@ def test_with_one_augury_iteration_the_blocks_rebound_and_apic_loses_less_energy
 
 
 def test_lost_contact_stops_the_run_naming_the_bodies(tmp_path):
-    """At twice the paper's impact speed on h = 1/8 (h_c = 1/4), boundary nodes cross into the
-    other block (0.4 mm deep at t = 0.0163 s, 19 mm = 0.15 h by t = 0.03 s when the check is
-    relaxed): the interpenetration check stops the run (exit 3) and keeps its output."""
-    d = blocks_deck(0.125, "apic", 1, 0.03)
+    """At four times the paper's impact speed on h = 1/8 (h_c = 1/4), a boundary node crosses into
+    the other block (measured with the 4-node kernel: stopped at step 1161, t = 0.0145 s; at twice
+    the speed contact holds there, smallest gap 0.017 h_c): the interpenetration check stops the
+    run (exit 3) and keeps its output."""
+    d = blocks_deck(0.125, "apic", 1, 0.02)
     for b in d["bodies"]:
-        b["velocity"] = [2.0 * c for c in b["velocity"]]
+        b["velocity"] = [4.0 * c for c in b["velocity"]]
     deck = tmp_path / "blocks.yaml"
     deck.write_text(yaml.safe_dump(json.loads(json.dumps(d)), sort_keys=False))
     out = tmp_path / "o"
@@ -158,7 +170,7 @@ def test_lost_contact_stops_the_run_naming_the_bodies(tmp_path):
     assert result.exit_code == 3, result.output
     text = " ".join(result.output.split())
     assert "bodies 'lower' and 'upper' interpenetrate" in text
-    assert "t = 0.0166" in text
+    assert "t = 0.0145" in text
     assert "more than 0.01 of the element" in text
     assert any(out.glob("*.pvd"))
 
@@ -205,12 +217,13 @@ def test_3d_blocks_conserve_momenta_through_the_collision(transfer):
 @pytest.mark.parametrize("transfer", ["apic", "pic"])
 def test_mpm_disk_and_fem_block_meet_through_the_augury_grid(transfer):
     """inputs/fem_disk_block_2d.yaml: an MPM disk (APIC particles) strikes an FEM block; the
-    disk's surface particles and the block's boundary nodes are the augury particles. Linear
-    momentum of particles + mesh is exact with both transfers (measured 8e-15, 2e-15); angular
-    momentum, counting the particles' and nodes' affine parts, to round-off of sum m |x| |v|
-    with APIC, while PIC drifts. With APIC the disk rebounds and particle centres reach at most
-    0.022 (0.43 MPM cell) into the block (with no contact they pass through it); PIC stops the
-    disk a gap away, where it sticks."""
+    disk's surface particles and the block's boundary nodes are the augury particles. Measured
+    with the 4-node kernel: linear momentum of particles + mesh is exact with both transfers
+    (5.5e-15, 1.2e-15); angular momentum, counting the particles' and nodes' affine parts, to
+    round-off of sum m |x| |v| with APIC (7e-16), while PIC drifts (0.16). With APIC the disk
+    rebounds (x momentum 2800 -> -180) and particle centres reach at most 0.021 (0.42 MPM cell)
+    into the block (with no contact they pass through it); PIC stops the disk a gap away, where
+    it sticks with 0.0999 of its momentum (bspline2: 0.049), bound 0.15."""
     d = yaml.safe_load((ROOT / "inputs" / "fem_disk_block_2d.yaml").read_text())
     d["contact"]["augury"]["transfer"] = transfer
     sim = Simulation(build_scene(deck_from(d)), threads=1)
@@ -243,4 +256,4 @@ def test_mpm_disk_and_fem_block_meet_through_the_augury_grid(transfer):
         assert deepest < 0.03  # (distance to the nearest block node bounds the depth from above)
     else:  # PIC holds the disk a gap away and it sticks there
         assert deepest == 0.0
-        assert 0 < c["px_disk"][-1] < 0.1 * c["px_disk"][0]
+        assert 0 < c["px_disk"][-1] < 0.15 * c["px_disk"][0]
