@@ -5,6 +5,7 @@
     python bench/implicit.py --buckling     # stacked semicircular rings, three ring-ring mu
     python bench/implicit.py --solvers      # Newton's matrices: splu against CHOLMOD (cholespy, extra `bench`)
     python bench/implicit.py --quadrature   # 1D model: particle quadrature against B-spline knots
+    python bench/implicit.py --contact3d    # 3D: an MPM cube dropped on an FEM slab, contact cost per iteration
 
 inputs/implicit_blocks_2d.yaml (FEM on FEM) at element size h, and inputs/implicit_rings_2d.yaml
 (an MPM ring against an FEM ring), on 1 and 2 threads: DOFs, Newton iterations per step and the time per
@@ -331,6 +332,75 @@ def solver_study() -> None:
                   + " ".join(f"{r:.1e}" for r in res))
 
 
+def cube_drop_deck(speed: float = 2.0, dt: float = 2e-3, end: float = 0.03) -> dict:
+    """An MPM cube (0.1 m, 512 particles) dropped at `speed` onto a held FEM slab (216
+    tetrahedra), backward Euler, adaptive kappa (tests/implicit/test_implicit_3d.py's scene)."""
+    return {
+        "title": "3D cube drop", "units": "SI", "analysis": "3d",
+        "grid": {"cell_size": 0.025, "domain": {"min": [-0.2, -0.15, -0.2], "max": [0.2, 0.2, 0.2]}},
+        "shape_function": "bspline2", "update": {"scheme": "apic"},
+        "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
+        "bodies": [
+            {"name": "slab", "shape": "box", "min": [-0.15, -0.05, -0.15], "max": [0.15, 0.0, 0.15], "material": "m",
+             "discretization": "fem", "element_size": 0.05,
+             "constraints": [{"region": {"min": [-1.0, -0.06, -1.0], "max": [1.0, -0.045, 1.0]}}]},
+            {"name": "cube", "shape": "box", "min": [-0.04, 0.004, -0.06], "max": [0.06, 0.104, 0.04],
+             "material": "m", "velocity": [0.5, -speed, 0.0]}],
+        "contact": {"default": {"law": "coulomb", "friction": 0.3}},
+        "integrator": "implicit",
+        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "newton_tolerance": 1e-6},
+        "time": {"end": end, "dt": dt},
+        "output": {"history_interval": end},
+    }
+
+
+def contact3d_study(threads: int) -> None:
+    """Per Newton iteration: the 3D barrier's broad phase and grouping (sweep), its energy with
+    gradient and projected Hessian (value + derivatives), its CCD (step_bound), and the friction
+    term; after a first, compiling step."""
+    numba.set_num_threads(threads)
+    d = cube_drop_deck()
+    sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=threads)
+    sim.step()
+    timers: dict[str, float] = {}
+
+    def timed(obj, name, label):
+        f = getattr(obj, name)
+
+        def wrapper(*a, **k):
+            t0 = time.perf_counter()
+            r = f(*a, **k)
+            timers[label] = timers.get(label, 0.0) + time.perf_counter() - t0
+            return r
+        setattr(obj, name, wrapper)
+
+    terms = {t.name: t for t in sim.integrator.terms}
+    barrier, friction = terms["barrier contact"], terms.get("lagged friction")
+    timed(barrier, "sweep", "broad phase + grouping (sweep)")
+    timed(barrier, "value", "barrier energy, gradient, projected Hessian (value)")
+    timed(barrier, "derivatives", "barrier scatter to the unknowns (derivatives)")
+    timed(barrier, "step_bound", "CCD (step_bound)")
+    if friction is not None:
+        timed(friction, "value", "friction (value)")
+        timed(friction, "derivatives", "friction (derivatives)")
+    sim.reset_timers()
+    first = len(sim.integrator.stats)
+    t0 = time.perf_counter()
+    while sim.state.t < sim.end * (1 - 1e-9):
+        sim.step()
+    wall = time.perf_counter() - t0
+    stats = sim.integrator.stats[first:]
+    its = sum(s[0] for s in stats)
+    groups = len(barrier.current.point)
+    print(f"3D cube drop: {sim.state.particles.n} particles, {len(sim.state.fem.cells)} tetrahedra, {len(stats)} steps, "
+          f"{its / len(stats):.2f} Newton iterations per step, {wall / its * 1e3:.1f} ms per iteration, "
+          f"{groups} contact groups at the end, {threads} thread(s); {sim.integrator.report()[0]}")
+    for label, sec in timers.items():
+        print(f"  {label:55s} {sec / its * 1e3:8.2f} ms per iteration")
+    for part, sec in sim.integrator.timers.items():
+        print(f"  step timer: {part:42s} {sec / its * 1e3:8.2f} ms per iteration")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--h", type=float, default=0.025, help="element size of the blocks (default 0.025)")
@@ -341,6 +411,8 @@ def main() -> None:
     ap.add_argument("--solvers", action="store_true", help="splu against CHOLMOD on Newton's matrices instead")
     ap.add_argument("--quadrature", action="store_true",
                     help="the 1D model of particle quadrature against B-spline knots instead (column orders)")
+    ap.add_argument("--contact3d", action="store_true",
+                    help="the 3D barrier's cost per Newton iteration instead (broad phase, assembly, CCD)")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
     args = ap.parse_args()
     numba.set_num_threads(1)
@@ -352,6 +424,10 @@ def main() -> None:
         return
     if args.quadrature:
         quadrature_study()
+        return
+    if args.contact3d:
+        for threads in args.threads:
+            contact3d_study(threads)
         return
     if args.buckling:
         buckling_study(ROOT / "docs" / "figures" / "bfemp_buckling.png")

@@ -510,8 +510,10 @@ class Implicit(Strict):
         default=None, gt=0, description="Barrier distance (length unit): bodies push apart closer than this. "
         "Needed with two or more FEM bodies, or FEM and particle bodies.")
     kappa: float | None = Field(
-        default=None, gt=0, description="Barrier stiffness (stress unit). Default: 1e-3 x the largest E of the "
-        "bodies' materials; hard impacts of particle bodies need more (docs/bfemp.md).")
+        default=None, gt=0, description="Barrier stiffness (stress unit). Default: adaptive, IPC's rule: bounds from "
+        "the mean mass, the scene's size, the time step and dhat; at the first step that starts in contact, the "
+        "value that balances the barrier's gradient against the rest of the step's; doubled when the closest "
+        "distance keeps shrinking below 1e-9 of the scene's size (docs/bfemp.md). A number here fixes it.")
     friction_velocity: float = Field(
         default=1e-3, gt=0, description="eps_v (velocity unit): slip slower than this is smoothed static friction "
         "(a sticking body creeps below it). Friction coefficients come from contact.default and contact.pairs "

@@ -44,6 +44,7 @@ from scipy.sparse.linalg import splu
 from numba import njit
 
 from ..contact.barrier.energy import BarrierContact, LaggedFriction, check_initial_gaps
+from ..contact.barrier.stiffness import STALL, initial_stiffness, raised_stiffness, stiffness_bounds
 from ..contact.barrier.surface import SurfaceBarrier, SurfaceFriction
 from ..energy import StepStart
 from ..errors import InstabilityError
@@ -145,7 +146,7 @@ class ImplicitStep(Integrator):
         what = "FEM bodies" if self.grid is None else ("particle bodies" if not n_fem else "FEM and particle bodies")
         self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, sparse LU"),
                      ("barrier contact", f"log barrier on FEM boundary {'edges' if scene.dim == 2 else 'triangles'}, "
-                      f"dhat {dhat:g}, kappa {barrier.kappa:g}"
+                      f"dhat {dhat:g}, kappa {'adaptive' if barrier.kappa is None else f'{barrier.kappa:g}'}"
                       + (f", particles at their {barrier.particle_contact}" if self.grid is not None else "")
                       if self.contact else "no contact")]
         if self.grid is not None:
@@ -155,6 +156,11 @@ class ImplicitStep(Integrator):
         self.terms = []
         self.added: list = []  # terms given by add_term, after the built-in ones
         self.spring = None  # (moving components, their targets, stiffness) during a step
+        self.barrier_term = None
+        self.adaptive = self.contact and barrier.kappa is None
+        self.kappa_bounds = None  # adaptive kappa: (kappa_min, kappa_max, bounding-box diagonal)
+        self.kappa_set = False  # the initial balance taken (at the first step that starts in contact)
+        self.closest = np.inf  # smallest pair distance after the last Newton iteration
 
     def add_term(self, term) -> None:
         """Add an energy term (mpmsim.energy.Potential) to the incremental potential, after the
@@ -180,12 +186,14 @@ class ImplicitStep(Integrator):
             terms.append(ParticleStrain(self.grid, m, fem.n))
         if self.contact:
             b = self.barrier
+            kappa = b.kappa if b.kappa is not None else 0.0  # adaptive: set at the first step
             if dim == 2:
-                barrier = BarrierContact(fem, self.grid, b.dhat, b.kappa, self.thickness, b.particle_contact)
+                barrier = BarrierContact(fem, self.grid, b.dhat, kappa, self.thickness, b.particle_contact)
                 friction = LaggedFriction
             else:
-                barrier = SurfaceBarrier(fem, self.grid, b.dhat, b.kappa, b.particle_contact)
+                barrier = SurfaceBarrier(fem, self.grid, b.dhat, kappa, b.particle_contact)
                 friction = SurfaceFriction
+            self.barrier_term = barrier
             terms.append(barrier)
             if self.mu.any():
                 terms.append(friction(barrier, self.mu, b.friction_velocity))
@@ -305,11 +313,52 @@ class ImplicitStep(Integrator):
                 halvings += 1
             self.timers["line search"] += wallclock.perf_counter() - t0
             y = trial
+            if self.adaptive:
+                self._raise_kappa(y, it)
         names = self._body_names(state)
         raise InstabilityError(
             f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: Newton did not converge in "
             f"{self.max_iterations} iterations (bodies {names}; last max|p|/dt = {self._step_size(p) / dt:.3g}); "
             "try a smaller time.dt or a larger implicit.newton_tolerance", state.t, state.step)
+
+    def _initial_kappa(self, y, yt, free, mass, lagged) -> None:
+        """Adaptive kappa (contact/barrier/stiffness.py): its bounds at the first step, the
+        gradient balance at the first step that starts with pairs within dhat."""
+        barrier = self.barrier_term
+        if self.kappa_bounds is None:
+            diagonal = float(np.linalg.norm(y.max(axis=0) - y.min(axis=0)))
+            kmin, kmax = stiffness_bounds(float(mass[mass > 0].mean()), diagonal, self.c,
+                                          float(barrier.points.weight.mean()), barrier.dhat)
+            self.kappa_bounds = (kmin, kmax, diagonal)
+            barrier.kappa = kmin
+        self.spring = None
+        self._sweep(y)
+        if not barrier.in_contact:
+            return
+        kmin, kmax, _ = self.kappa_bounds
+        barrier.kappa = 0.0
+        g_rest = self._energy(y, yt, True)[1]
+        barrier.kappa = 1.0
+        g_barrier = (self._energy(y, yt, True)[1] - g_rest)[free]
+        if not g_barrier.any():  # candidates, but none within dhat yet
+            barrier.kappa = kmin
+            return
+        barrier.kappa = initial_stiffness(g_barrier, g_rest[free], kmin, kmax)
+        self.kappa_set = True
+        for term in lagged:  # their normal forces with this kappa
+            term.relag(y)
+
+    def _raise_kappa(self, y, iteration: int) -> None:
+        """After a Newton iteration: IPC's raise (a closest distance below 1e-9 of the scene that
+        keeps shrinking), and ours: every STALL iterations of one solve in contact."""
+        barrier = self.barrier_term
+        d = barrier.min_distance(y)
+        _, kmax, diagonal = self.kappa_bounds
+        kappa = raised_stiffness(self.closest, d, barrier.kappa, kmax, diagonal)
+        if iteration % STALL == 0 and d < barrier.dhat:
+            kappa = min(kmax, 2.0 * kappa)
+        barrier.kappa = kappa
+        self.closest = d
 
     def _body_names(self, state) -> str:
         infos = list(self.fem.infos) + (list(state.particles.infos) if self.grid is not None else [])
@@ -350,6 +399,8 @@ class ImplicitStep(Integrator):
         for term in self.terms:
             term.begin(start)
         lagged = [term for term in self.terms if term.lagged]
+        if self.adaptive and not self.kappa_set:
+            self._initial_kappa(yn, yt, free, mass, lagged)
         y = yn.copy()
         its = halvings = 0
         ccd_limited = False
@@ -410,4 +461,8 @@ class ImplicitStep(Integrator):
         lags = np.array([s[3] for s in self.stats])
         if self.friction_lags > 1:
             line += f", {lags.mean():.2f} friction lags per step (max {lags.max()})"
+        if self.adaptive and self.kappa_bounds is not None:
+            kmin, kmax, _ = self.kappa_bounds
+            line += (f"; adaptive kappa {self.barrier_term.kappa:.4g} (range {kmin:.3g} to {kmax:.3g}"
+                     + ("" if self.kappa_set else ", no contact yet") + ")")
         return [line]

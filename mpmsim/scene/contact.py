@@ -79,7 +79,7 @@ class BarrierSettings:
     """Barrier contact of the implicit step (implicit.dhat, kappa, friction settings)."""
 
     dhat: float | None  # None: no contact
-    kappa: float  # the deck's, or 1e-3 x the largest E of the bodies' materials
+    kappa: float | None  # the deck's; None: adaptive (contact/barrier/stiffness.py)
     friction_velocity: float
     friction_lags: int
     particle_contact: str  # centres or corners
@@ -126,7 +126,7 @@ def build_contact_model(deck, materials, fem=None, particle_mats=()) -> ContactM
     if fem is not None and c.augury is not None:
         model.augury = augury_settings(c.augury, model, materials, fem, particle_mats)
     if deck.integrator == "implicit":
-        model.barrier = barrier_settings(deck, materials, fem)
+        model.barrier = barrier_settings(deck)
     return model
 
 
@@ -152,14 +152,9 @@ def augury_settings(a, model: ContactModel, materials, fem, particle_mats) -> Au
                           table(lambda pl: pl.friction), table(lambda pl: pl.static_friction))
 
 
-def barrier_settings(deck, materials, fem) -> BarrierSettings:
+def barrier_settings(deck) -> BarrierSettings:
     imp = deck.implicit if deck.implicit is not None else Implicit()
-    used = set(int(m) for m in fem.cell_mat) if fem is not None else set()
-    used |= {materials.deformable.index(b.material) for b in deck.bodies
-             if b.discretization == "particles" and b.material in materials.deformable}
-    young = max(float(deck.materials[materials.deformable[m]].E) for m in used)
-    kappa = imp.kappa if imp.kappa is not None else 1e-3 * young
-    return BarrierSettings(imp.dhat, kappa, imp.friction_velocity, imp.friction_lags, imp.particle_contact)
+    return BarrierSettings(imp.dhat, imp.kappa, imp.friction_velocity, imp.friction_lags, imp.particle_contact)
 
 
 def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | None:

@@ -109,7 +109,7 @@ def cube_deck(speed: float, dt: float, end: float, friction: float = 0.0, free_f
         "bodies": [target, {"name": "cube", "shape": "box", "min": [-0.04, 0.004, -0.06],
                             "max": [0.06, 0.104, 0.04], "material": "m", "velocity": [sideways, -speed, 0.0]}],
         "integrator": "implicit",
-        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "kappa": 1e6, "newton_tolerance": 1e-6},
+        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "newton_tolerance": 1e-6},
         "time": {"end": end, "dt": dt},
     }
     if friction:

@@ -164,6 +164,17 @@ class BarrierContact(Potential):
     def sweep(self, y, p):
         self.current = self.pairs(y, p)
 
+    @property
+    def in_contact(self) -> bool:
+        """Whether the last sweep found pairs."""
+        return len(self.current.edge) > 0
+
+    def min_distance(self, y) -> float:
+        """The smallest point-edge distance of the pairs within dhat at y (inf if none)."""
+        pairs = self.pairs(y, np.zeros_like(y)).edge
+        return min_pair_distance(self.points.positions(y), y[:self.fem.n], self.fem.facets, pairs) if len(pairs) \
+            else np.inf
+
     def value(self, y):
         fem, pts = self.fem, self.points
         yf = y[:fem.n]
@@ -215,6 +226,24 @@ class BarrierContact(Potential):
             m = counts[inverse].astype(float)
             share[at_end] = np.maximum(m - self.node_weight[end[at_end]], 0.0) / m
         return share
+
+
+@njit(cache=True)
+def min_pair_distance(points, verts, simplices, pairs):
+    """The smallest distance over (point, simplex) pairs: edges (2D) or triangles (3D)."""
+    k = simplices.shape[1]
+    y = np.empty(3 * (k + 1)) if k == 3 else np.empty(6)
+    dim = points.shape[1]
+    best = np.inf
+    for q in range(pairs.shape[0]):
+        i = pairs[q, 0]
+        for a in range(dim):
+            y[a] = points[i, a]
+            for c in range(k):
+                y[dim * (c + 1) + a] = verts[simplices[pairs[q, 1], c], a]
+        d = point_triangle_distance(y) if k == 3 else point_edge_distance(y)
+        best = min(best, d)
+    return best
 
 
 @njit(cache=True)

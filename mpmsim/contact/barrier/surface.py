@@ -40,7 +40,7 @@ from ...fem.elements import project_psd
 from .broadphase import point_edge_candidates
 from .ccd import point_triangle_ccd
 from .closest import PT_P_E0, PT_P_T0, PT_P_T1, point_triangle_distance_hessian
-from .energy import BarrierContact, ContactPoints
+from .energy import BarrierContact, ContactPoints, min_pair_distance
 from .friction import lagged_friction
 from .potential import _chain
 
@@ -291,6 +291,16 @@ class SurfaceBarrier(BarrierContact):
         pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
         s = self.surface
         return Groups(*group_terms(pairs, tris, s.triangle_edges, s.edges, s.edge_coef, s.vertex_coef), pairs)
+
+    @property
+    def in_contact(self) -> bool:
+        return len(self.current.point) > 0
+
+    def min_distance(self, y) -> float:
+        """The smallest point-triangle distance of the pairs within dhat at y (inf if none)."""
+        pairs = self.pairs(y, np.zeros_like(y)).pairs
+        return min_pair_distance(self.points.positions(y), y[:self.fem.n], self.surface.triangles, pairs) \
+            if len(pairs) else np.inf
 
     def value(self, y):
         grp = self.current
