@@ -6,6 +6,7 @@
     python bench/implicit.py --solvers      # Newton's matrices: splu against CHOLMOD (cholespy, extra `bench`)
     python bench/implicit.py --quadrature   # 1D model: particle quadrature against B-spline knots
     python bench/implicit.py --contact3d    # 3D: an MPM cube dropped on an FEM slab, contact cost per iteration
+    python bench/implicit.py --impact3d 1e-1 1e-2 1e-3   # 3D: a 20 m/s cube on a held slab at dt = f x T
 
 inputs/implicit_blocks_2d.yaml (FEM on FEM) at element size h, and inputs/implicit_rings_2d.yaml
 (an MPM ring against an FEM ring), on 1 and 2 threads: DOFs, Newton iterations per step and the time per
@@ -401,6 +402,62 @@ def contact3d_study(threads: int) -> None:
         print(f"  step timer: {part:42s} {sec / its * 1e3:8.2f} ms per iteration")
 
 
+def inside_tetrahedra(points: np.ndarray, x: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Which points lie strictly inside some tetrahedron (signed volumes of the point with each
+    face all of the tetrahedron's sign)."""
+    def vol(a, b, c, d):
+        return np.einsum("...i,...i->...", np.cross(b - a, c - a), d - a)
+
+    inside = np.zeros(len(points), bool)
+    for e in cells:
+        a, b, c, d = x[e]
+        s = np.sign(vol(a, b, c, d))
+        inside |= ((s * vol(points, b, c, d) > 0) & (s * vol(a, points, c, d) > 0)
+                   & (s * vol(a, b, points, d) > 0) & (s * vol(a, b, c, points) > 0))
+    return inside
+
+
+def impact3d_study(fractions: list[float]) -> None:
+    """A 2 cm MPM cube (64 particles) at 20 m/s onto a held FEM slab (1 cm thick, 150
+    tetrahedra), backward Euler, adaptive kappa, time step f x T (T: the time to cross the slab
+    and the gap), over 3 T: the whole impact. Every step: no particle inside a tetrahedron or
+    below the slab; the run: Newton iterations per step, kappa, the rebound speed."""
+    speed, gap, thick = 20.0, 1e-3, 0.01
+    T = (thick + gap) / speed
+    for f in fractions:
+        d = {
+            "title": "3D impact", "units": "SI", "analysis": "3d",
+            "grid": {"cell_size": 0.005, "domain": {"min": [-0.03, -0.02, -0.03], "max": [0.03, 0.04, 0.03]}},
+            "shape_function": "bspline2", "update": {"scheme": "apic"},
+            "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
+            "bodies": [
+                {"name": "slab", "shape": "box", "min": [-0.025, -thick, -0.025], "max": [0.025, 0.0, 0.025],
+                 "material": "m", "discretization": "fem", "element_size": 0.01,
+                 "constraints": [{"region": {"min": [-1.0, -thick - 0.001, -1.0], "max": [1.0, -thick + 0.001, 1.0]}}]},
+                {"name": "cube", "shape": "box", "min": [-0.01, gap + 0.00125, -0.01], "max": [0.01, gap + 0.02125, 0.01],
+                 "material": "m", "velocity": [0.0, -speed, 0.0]}],
+            "integrator": "implicit",
+            "implicit": {"scheme": "backward_euler", "dhat": 2.5e-4, "newton_tolerance": 1e-6},
+            "time": {"end": 3.0 * T, "dt": f * T},
+            "output": {"history_interval": 3.0 * T},
+        }
+        sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=1)
+        st = sim.state
+        P, fem = st.particles, st.fem
+        bad = 0
+        low = np.inf
+        t0 = time.perf_counter()
+        while st.t < sim.end * (1 - 1e-9):
+            sim.step()
+            bad += int(inside_tetrahedra(P.x, fem.x, fem.cells).any() or P.x[:, 1].min() < -thick)
+            low = min(low, float(P.x[:, 1].min()))
+        stats = np.array(sim.integrator.stats)
+        print(f"dt = {f:g} T: {len(stats)} steps, {time.perf_counter() - t0:.1f} s, Newton {stats[:, 0].mean():.2f} per "
+              f"step ({stats[:, 0].max()} at most), steps with a particle inside or through: {bad}, lowest particle "
+              f"{low * 1e3:.3f} mm, cube velocity {P.v[:, 1].mean():+.2f} m/s at 3T; "
+              f"{sim.integrator.report()[0].split('; ')[-1]}", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--h", type=float, default=0.025, help="element size of the blocks (default 0.025)")
@@ -413,6 +470,8 @@ def main() -> None:
                     help="the 1D model of particle quadrature against B-spline knots instead (column orders)")
     ap.add_argument("--contact3d", action="store_true",
                     help="the 3D barrier's cost per Newton iteration instead (broad phase, assembly, CCD)")
+    ap.add_argument("--impact3d", type=float, nargs="+", metavar="F",
+                    help="a 20 m/s cube on a held slab in 3D at dt = F x the crossing time, over the whole impact")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
     args = ap.parse_args()
     numba.set_num_threads(1)
@@ -424,6 +483,9 @@ def main() -> None:
         return
     if args.quadrature:
         quadrature_study()
+        return
+    if args.impact3d:
+        impact3d_study(args.impact3d)
         return
     if args.contact3d:
         for threads in args.threads:
