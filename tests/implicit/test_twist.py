@@ -188,9 +188,9 @@ def twists():
 
 def test_the_cube_top_turns_more_with_more_friction(twists):
     """With the shell turned 18 degrees the cube's top centre (the 12 top particles within 25 mm
-    of the axis) has turned: mu = 0 < mu = 0.1 < mu = 0.5 (measured XX, XX, XX degrees); without
-    friction it still turns a little (the barrier's roughness between particles and triangles:
-    XX degrees, more than 0.2)."""
+    of the axis) has turned: mu = 0 < mu = 0.1 < mu = 0.5 (measured 1.50, 3.69, 12.28 degrees);
+    without friction it still turns a little (the barrier's roughness between particles and
+    triangles: 1.50 degrees, more than 0.2). The three runs take about 125 s on one core."""
     end = {mu: run[-1] for mu, run in twists.items()}
     assert all(e[1] == pytest.approx(18.0, abs=1e-3) for e in end.values())
     a0, a1, a5 = (end[mu][2] for mu in (0.0, 0.1, 0.5))
@@ -199,7 +199,8 @@ def test_the_cube_top_turns_more_with_more_friction(twists):
 
 def test_with_mu_half_the_cube_top_follows_the_shell_before_it_slips(twists):
     """mu = 0.5: at a shell angle of 9 degrees (t = 0.2) the top centre is within 5% of the shell
-    (measured XX%); mu = 0.1 has slipped by then (below 50% of the shell, measured XX%)."""
+    (measured 8.77: 2.6% behind); mu = 0.1 has slipped by then (below 50% of the shell, measured
+    2.97 degrees, 33%)."""
     t, shell, top = twists[0.5][7]
     assert t == pytest.approx(0.2) and shell == pytest.approx(9.0, abs=1e-3)
     assert top == pytest.approx(shell, rel=0.05)
