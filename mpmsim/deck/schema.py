@@ -256,9 +256,26 @@ class Domain(Strict):
     max: Vector = Field(description="Upper corner.")
 
 
+class MotionPhase(Strict):
+    """One phase of a prescribed rigid motion, from the previous phase's `until` (0 for the first)
+    to its own: a translation at `velocity` plus a rotation at `angular_velocity` about the axis
+    through `center`. The motion carries the held nodes' initial positions (and the centre) from
+    phase to phase; after the last phase they stay where it left them."""
+
+    until: float = Field(gt=0, description="End time of the phase (phases in increasing order).")
+    velocity: Vector | None = Field(default=None, description="Translation velocity (default 0).")
+    angular_velocity: float | Vector | None = Field(
+        default=None, description="Angular velocity (rad per time unit): [wx, wy, wz] in 3D, a number "
+        "(about z) in 2D (default 0).")
+    center: Vector | None = Field(
+        default=None, description="A point on the rotation axis, in the initial (t = 0) world coordinates; it "
+        "moves with the held nodes (the earlier phases and this phase's velocity). Needed with angular_velocity.")
+
+
 class NodeConstraint(Strict):
     """FEM nodes held: those inside `region` or in the mesh's `node_set`; fixed in `axes`
-    (default: all), or moving there at a prescribed `velocity`."""
+    (default: all), or moving there at a prescribed `velocity`, or following a prescribed
+    rigid `motion` in all components (integrator: implicit)."""
 
     region: Domain | None = Field(default=None, description="Box selecting the nodes.")
     frame: Literal["world", "body"] = Field(
@@ -267,6 +284,10 @@ class NodeConstraint(Strict):
     node_set: str | None = Field(default=None, description="Name of a node set of the mesh file.")
     axes: list[Literal["x", "y", "z"]] | None = Field(default=None, description="Components held (default: all).")
     velocity: Vector | None = Field(default=None, description="Prescribed velocity of the held components (default 0).")
+    motion: list[MotionPhase] | None = Field(
+        default=None, description="Prescribed rigid motion of the held nodes (all components; not with velocity "
+        "or axes): phases of constant translation and rotation, each {until, velocity, angular_velocity, center}; "
+        "the nodes' target at time t is the motion applied to their initial positions. Implicit integrator only.")
 
 
 class Transform(Strict):

@@ -300,7 +300,40 @@ def _check_fem_bodies(deck, fem: list[int], base_dir: Path) -> list[tuple[tuple,
             for a in c.axes or []:
                 if a not in "xyz"[:dim]:
                     add(path + ["constraints", j, "axes"], f"'{a}' is not a direction of a {dim}D analysis")
+            if c.motion is not None:
+                _check_motion(c, path + ["constraints", j], dim, deck.integrator, add)
     return problems
+
+
+def _check_motion(c, path, dim: int, integrator: str, add) -> None:
+    """A constraint's prescribed rigid motion: alone (no velocity, no axes), implicit, phases in
+    increasing time with vectors of the analysis's size."""
+    if integrator != "implicit":
+        add(path + ["motion"], "a prescribed motion is followed by the implicit integrator only (integrator: implicit)")
+    if c.velocity is not None:
+        add(path + ["velocity"], "give either velocity or motion, not both")
+    if c.axes is not None:
+        add(path + ["axes"], "a prescribed motion holds every component: leave axes out")
+    if not c.motion:
+        add(path + ["motion"], "give at least one phase")
+    before = 0.0
+    for k, ph in enumerate(c.motion):
+        where = path + ["motion", k]
+        if ph.until <= before:
+            add(where + ["until"], f"phases end in increasing time: {ph.until:g} is not after {before:g}")
+        before = max(before, ph.until)
+        if ph.velocity is not None and len(ph.velocity) != dim:
+            add(where + ["velocity"], f"needs {dim} components")
+        w = ph.angular_velocity
+        if w is not None:
+            if dim == 2 and not isinstance(w, float | int):
+                add(where + ["angular_velocity"], "in 2D the angular velocity is a number (about z)")
+            elif dim == 3 and (isinstance(w, float | int) or len(w) != 3):
+                add(where + ["angular_velocity"], "in 3D the angular velocity is a vector [wx, wy, wz]")
+            if ph.center is None:
+                add(where + ["center"], "a rotation needs center (a point on its axis)")
+        if ph.center is not None and len(ph.center) != dim:
+            add(where + ["center"], f"needs {dim} components")
 
 
 def body_name(body, index: int) -> str:

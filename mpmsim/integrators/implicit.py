@@ -28,8 +28,10 @@ step is taken when it is feasible whole (it squares the residual, so momentum is
 round-off, not to the tolerance). Because every accepted position lies on the feasible side of
 the CCD bound, no point ever crosses an edge, whatever the time step. Lagged terms (friction)
 are re-lagged in an outer loop until Newton converges at once under them (friction_lags).
-Components moving at a prescribed velocity are pulled to their target by a stiffening spring
-inside the solve. 2D (plane strain); the elastic parts also in 3D without contact.
+Components moving at a prescribed velocity, or nodes following a prescribed rigid motion
+(fem.motion: their targets are the motion's positions at t^{n+1}), are pulled to their target by
+a stiffening spring inside the solve. The grid nodes on and beyond a constrained face of
+grid.boundaries are held (implicit_mpm.walls). 2D (plane strain) and 3D.
 """
 
 from __future__ import annotations
@@ -161,6 +163,7 @@ class ImplicitStep(Integrator):
         self.kappa_bounds = None  # adaptive kappa: (kappa_min, kappa_max, bounding-box diagonal)
         self.kappa_set = False  # the initial balance taken (at the first step that starts in contact)
         self.closest = np.inf  # smallest pair distance after the last Newton iteration
+        self.motions = scene.fem.motions if scene.fem is not None else []  # (nodes, RigidMotion)
 
     def add_term(self, term) -> None:
         """Add an energy term (mpmsim.energy.Potential) to the incremental potential, after the
@@ -376,6 +379,9 @@ class ImplicitStep(Integrator):
             self.grid.begin(state)
         fem, grid, d = self.fem, self.grid, self.dim
         nf = fem.n
+        t_next = state.t + dt
+        for nodes, motion in self.motions:  # the rigid motion's velocity at t^{n+1} (its target below)
+            fem.held_velocity[nodes] = motion.velocities(fem.X[nodes], t_next)
         self.c = 2.0 * self.zeta * self.beta * dt * dt
         h2 = self.zeta * (1.0 - 2.0 * self.beta) * dt * dt
         # the unknowns: FEM nodes, then the particles' active grid nodes
@@ -384,7 +390,7 @@ class ImplicitStep(Integrator):
             vn = np.concatenate([fem.v, grid.v])
             an = np.concatenate([fem.a, grid.a_grid])
             mass = np.concatenate([fem.mass, grid.mass])
-            held = np.concatenate([fem.held, np.zeros((grid.n, d), bool)])
+            held = np.concatenate([fem.held, grid.held])
             held_velocity = np.concatenate([fem.held_velocity, np.zeros((grid.n, d))])
         else:
             yn, vn, an = fem.x.copy(), fem.v.copy(), fem.a.copy()
@@ -392,8 +398,11 @@ class ImplicitStep(Integrator):
         self.M = np.repeat(mass, d)
         yt = yn + dt * vn + h2 * an
         moving = held & (held_velocity != 0.0)
-        fixed = held & ~moving
         target = yn + dt * held_velocity
+        for nodes, motion in self.motions:
+            target[nodes] = motion.positions(fem.X[nodes], t_next)
+            moving[nodes] = True
+        fixed = held & ~moving
         free = ~fixed.ravel()
         start = StepStart(state, yn, mass, dt)
         for term in self.terms:

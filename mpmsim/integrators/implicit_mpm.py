@@ -14,8 +14,11 @@ After the Newton solve the grid's new velocity and acceleration go back to the p
 PIC v_p = sum w v_i; FLIP v_p += sum w (v_i - v_i^n); APIC also B_p = sum w v_i (X_i - x_p)^T;
 a_p = sum w a_i; positions and F follow the grid's motion.
 
-The grid has no walls here: particle bodies meet FEM bodies only through the barrier (the
-grid's boundary conditions are an explicit-solver feature).
+Walls: the constrained faces of grid.boundaries hold the active nodes on and beyond their grid
+line (`held`): a fixed face every component, a roller (slip) face the normal one. Those
+components keep zero displacement (the integrator eliminates them); unlike the explicit step
+there is no ghost mirroring, so with B-splines the material at the wall line moves by the
+small weight of the first free node (the wall acts half a cell or so inside the face).
 """
 
 from __future__ import annotations
@@ -69,6 +72,25 @@ def particle_update(nodes, S, x, X, u, v_new, v_old, a_new, flip, apic, xp, vp, 
             ap[p, c] = ai
 
 
+def walls(ijk: np.ndarray, face_type: np.ndarray, wall_index: np.ndarray, d: int) -> np.ndarray:
+    """(n, d) bool: components of the nodes (i, j, k) held by a constrained face (on and beyond
+    its grid line; FIXED all components, ROLLER the normal one)."""
+    from ..scene.grid import FIXED, ROLLER
+
+    held = np.zeros((len(ijk), d), bool)
+    for f in range(2 * d):
+        t = int(face_type[f])
+        if t not in (FIXED, ROLLER):
+            continue
+        axis = f // 2
+        on = ijk[:, axis] <= wall_index[f] if f % 2 == 0 else ijk[:, axis] >= wall_index[f]
+        if t == FIXED:
+            held[on] = True
+        else:
+            held[on, axis] = True
+    return held
+
+
 class GridUnknowns:
     """The particle bodies' share of one implicit step: set up by `begin` (shape functions,
     active nodes, grid masses and velocities), read by the integrator's energy, and closed by
@@ -105,6 +127,7 @@ class GridUnknowns:
         ijk = np.stack([active % sx, (active // sx) % sy, active // (sx * sy)], axis=1).astype(float)
         origin, h = np.asarray(grid.view.origin, dtype=float), np.asarray(grid.view.h, dtype=float)
         self.X = origin[None, :d] + ijk[:, :d] * h[None, :d]
+        self.held = walls(ijk.astype(np.int64), np.asarray(grid.view.face_type), np.asarray(grid.view.wall_index), d)
         self.nodes, self.S = local, S
         self.G = np.einsum("pba,pkb->pka", P.F, grad)  # F^nT grad w
         self.F0 = P.F.copy()

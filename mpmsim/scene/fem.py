@@ -5,7 +5,7 @@ concatenated into one seed (node and cell arrays with a body index)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,6 +27,7 @@ class FemSeed:
     held: np.ndarray  # (n, dim) bool: component held
     held_velocity: np.ndarray  # (n, dim) its prescribed velocity
     infos: list  # BodyInfo of each FEM body
+    motions: list = field(default_factory=list)  # (node indices, fem.motion.RigidMotion) of prescribed motions
 
     @property
     def n_nodes(self) -> int:
@@ -101,11 +102,15 @@ def initial_velocity(body, x: np.ndarray) -> np.ndarray:
 
 
 def held_nodes(body, mesh, own: np.ndarray, x: np.ndarray, problems: list, path: tuple):
-    """(held (n, dim) bool, prescribed velocity (n, dim)) from the body's constraints; `own`:
-    the node positions before the body's transforms."""
+    """(held (n, dim) bool, prescribed velocity (n, dim), [(nodes, RigidMotion)]) from the body's
+    constraints; `own`: the node positions before the body's transforms. A prescribed motion
+    holds every component of its nodes (velocity 0 here: the integrator sets it each step)."""
+    from ..fem.motion import RigidMotion
+
     n, dim = x.shape
     held = np.zeros((n, dim), dtype=bool)
     value = np.zeros((n, dim))
+    motions = []
     for j, c in enumerate(body.constraints):
         if c.region is not None:
             pos = own if c.frame == "body" else x
@@ -126,7 +131,9 @@ def held_nodes(body, mesh, own: np.ndarray, x: np.ndarray, problems: list, path:
             d = "xyz".index(a)
             held[sel, d] = True
             value[sel, d] = c.velocity[d] if c.velocity is not None else 0.0
-    return held, value
+        if c.motion:
+            motions.append((np.flatnonzero(sel), RigidMotion(c.motion, dim)))
+    return held, value, motions
 
 
 def build_fem(deck, base_dir, materials) -> tuple[FemSeed | None, list]:
@@ -151,13 +158,13 @@ def build_fem(deck, base_dir, materials) -> tuple[FemSeed | None, list]:
             problems.append(((*path, "file" if body.shape == "mesh" else "shape"), str(exc)))
             continue
         x = np.asarray(m.points, float)
-        held, value = held_nodes(body, m, own.points, x, problems, path)
-        parts.append((i, body, m, x, initial_velocity(body, x), held, value))
+        held, value, motion = held_nodes(body, m, own.points, x, problems, path)
+        parts.append((i, body, m, x, initial_velocity(body, x), held, value, motion))
     if not parts or problems:
         return None, problems
     offset = 0
-    cells, facets, node_body, cell_body, cell_mat, vel, held, value, pts, infos = ([] for _ in range(10))
-    for row, (i, body, m, x, v, hd, hv) in enumerate(parts):
+    cells, facets, node_body, cell_body, cell_mat, vel, held, value, pts, infos, motions = ([] for _ in range(11))
+    for row, (i, body, m, x, v, hd, hv, mo) in enumerate(parts):
         infos.append(BodyInfo(i, body_name(body, i), "fem", body.material))
         pts.append(x)
         cells.append(np.asarray(m.cells, np.int64) + offset)
@@ -168,7 +175,8 @@ def build_fem(deck, base_dir, materials) -> tuple[FemSeed | None, list]:
         vel.append(v)
         held.append(hd)
         value.append(hv)
+        motions += [(nodes + offset, motion) for nodes, motion in mo]
         offset += len(x)
     cat = np.concatenate
     return FemSeed(cat(pts), cat(cells), cat(facets), cat(node_body), cat(cell_body), cat(cell_mat), cat(vel),
-                   cat(held), cat(value), infos), []
+                   cat(held), cat(value), infos, motions), []
