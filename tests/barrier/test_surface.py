@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mpmsim.contact.barrier.potential import barrier, barrier_first_derivative
-from mpmsim.contact.barrier.surface import group_terms, surface_barrier_groups, surface_topology
+from mpmsim.contact.barrier.surface import group_bounds, group_terms, surface_barrier_groups, surface_topology
 from mpmsim.fem import mesh as femmesh
 from tests.barrier.fd import fd_gradient, fd_jacobian, rel_err
 
@@ -41,7 +41,8 @@ class Point:
     def terms(self, p):
         pairs = np.array([[0, t] for t in range(len(self.F))], dtype=np.int64)
         S = self.S
-        return group_terms(pairs, self.F, S.triangle_edges, S.edges, S.edge_coef, S.vertex_coef)
+        return group_terms(pairs, group_bounds(pairs[:, 0]), self.F, S.triangle_edges, S.edges, S.edge_coef,
+                           S.vertex_coef)
 
     def __call__(self, p, V=None, project=True):
         """(Phi, gradient over (p, group nodes), Hessian (projected to PSD), group nodes)."""

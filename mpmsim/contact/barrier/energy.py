@@ -340,25 +340,34 @@ class LaggedFriction(Potential):
         self.lag = Lag(pairs, tau, r, mu_lambda)
         return True
 
-    def value(self, y):
+    def _friction(self, ext, ids, gf, Hf) -> float:
+        """The lagged friction of every contact at positions ext (FEM nodes, then the points at
+        rows ids), with its local gradients gf and Hessians Hf over (point, edge nodes)."""
         lag = self.lag
-        if lag is None:
+        return friction_pairs(ext, self.start, ids, self.contact.fem.facets, lag.pairs, lag.tau, lag.r,
+                              lag.mu_lambda, self.eps, gf, Hf)
+
+    def _stencils(self):
+        """(contact points, their FEM nodes) of the lagged contacts."""
+        pairs = self.lag.pairs
+        return pairs[:, 0], self.contact.fem.facets[pairs[:, 1]]
+
+    def value(self, y):
+        if self.lag is None:
             self._local = None
             return 0.0
-        k = len(lag.pairs)
-        gf, Hf = np.zeros((k, 6)), np.zeros((k, 6, 6))
+        point, others = self._stencils()
+        n = (1 + others.shape[1]) * y.shape[1]
+        gf, Hf = np.zeros((len(point), n)), np.zeros((len(point), n, n))
         ext, ids = self._extended(y)
-        total = friction_pairs(ext, self.start, ids, self.contact.fem.facets, lag.pairs, lag.tau, lag.r,
-                               lag.mu_lambda, self.eps, gf, Hf)
+        total = self._friction(ext, ids, gf, Hf)
         self._local = (gf, Hf)
         return total
 
     def derivatives(self, y, force):
         if self._local is None:
             return Derivatives((), ())
-        pairs = self.lag.pairs
-        s, h = self.contact.points.pair_terms(pairs[:, 0], self.contact.fem.facets[pairs[:, 1]], *self._local,
-                                              y.shape[1])
+        s, h = self.contact.points.pair_terms(*self._stencils(), *self._local, y.shape[1])
         return Derivatives((s,), (h,))
 
 

@@ -35,12 +35,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ...energy import Derivatives, Potential, StepStart
+from ...energy import Derivatives
 from ...fem.elements import project_psd
 from .broadphase import point_edge_candidates
 from .ccd import point_triangle_ccd
 from .closest import PT_P_E0, PT_P_T0, PT_P_T1, point_triangle_distance_hessian
-from .energy import BarrierContact, ContactPoints, min_pair_distance
+from .energy import BarrierContact, ContactPoints, LaggedFriction, min_pair_distance
 from .friction import lagged_friction
 from .potential import _chain
 
@@ -106,21 +106,16 @@ def _add_unique(buf, n, v):
 
 
 @njit(cache=True)
-def group_terms(pairs, triangles, triangle_edges, edges, edge_coef, vertex_coef):
-    """Terms per point from (point, triangle) pairs sorted by point: each triangle, each of their
-    edges with a nonzero correction, each of their surface-interior vertices, once per point.
-    Returns (point, start, simplex, coef, nodes) of Groups."""
+def group_terms(pairs, bounds, triangles, triangle_edges, edges, edge_coef, vertex_coef):
+    """Terms per point from (point, triangle) pairs sorted by point, group g being the pairs
+    bounds[g]:bounds[g + 1]: each triangle, each of their edges with a nonzero correction, each
+    of their surface-interior vertices, once per point. Returns (point, start, simplex, coef,
+    nodes) of Groups."""
     k = pairs.shape[0]
-    n_groups = 0
+    n_groups = bounds.shape[0] - 1
     smax = 1
-    i = 0
-    while i < k:
-        j = i
-        while j < k and pairs[j, 0] == pairs[i, 0]:
-            j += 1
-        n_groups += 1
-        smax = max(smax, 3 * (j - i))
-        i = j
+    for g in range(n_groups):
+        smax = max(smax, 3 * (bounds[g + 1] - bounds[g]))
     point = np.empty(n_groups, np.int64)
     start = np.zeros(n_groups + 1, np.int64)
     simplex = np.full((7 * k, 3), -1, np.int64)
@@ -129,17 +124,12 @@ def group_terms(pairs, triangles, triangle_edges, edges, edge_coef, vertex_coef)
     ebuf = np.empty(3 * k + 1, np.int64)
     vbuf = np.empty(3 * k + 1, np.int64)
     t = 0
-    g = 0
-    i = 0
     s_used = 1
-    while i < k:
-        j = i
-        while j < k and pairs[j, 0] == pairs[i, 0]:
-            j += 1
-        point[g] = pairs[i, 0]
+    for g in range(n_groups):
+        point[g] = pairs[bounds[g], 0]
         ne = 0
         nv = 0
-        for q in range(i, j):
+        for q in range(bounds[g], bounds[g + 1]):
             tri = pairs[q, 1]
             for c in range(3):
                 simplex[t, c] = triangles[tri, c]
@@ -163,10 +153,13 @@ def group_terms(pairs, triangles, triangle_edges, edges, edge_coef, vertex_coef)
         for q in range(nv, smax):
             nodes[g, q] = vbuf[0]
         s_used = max(s_used, nv)
-        g += 1
-        start[g] = t
-        i = j
+        start[g + 1] = t
     return point, start, simplex[:t], coef[:t], np.ascontiguousarray(nodes[:, :s_used])
+
+
+def group_bounds(points: np.ndarray) -> np.ndarray:
+    """(g + 1,) where each run of equal values of the sorted `points` starts, and the end."""
+    return np.r_[0, np.flatnonzero(np.diff(points)) + 1, len(points)].astype(np.int64)
 
 
 @njit(cache=True, inline="always")
@@ -290,7 +283,8 @@ class SurfaceBarrier(BarrierContact):
             return NO_GROUPS
         pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
         s = self.surface
-        return Groups(*group_terms(pairs, tris, s.triangle_edges, s.edges, s.edge_coef, s.vertex_coef), pairs)
+        return Groups(*group_terms(pairs, group_bounds(pairs[:, 0]), tris, s.triangle_edges, s.edges, s.edge_coef,
+                                   s.vertex_coef), pairs)
 
     @property
     def in_contact(self) -> bool:
@@ -409,34 +403,9 @@ class SurfaceLag(NamedTuple):
     mu_lambda: np.ndarray  # (g,)
 
 
-class SurfaceFriction(Potential):
-    """Lagged, smoothed Coulomb friction on the 3D barrier's contacts (module docstring)."""
-
-    name = "lagged friction"
-    lagged = True
-
-    def __init__(self, contact: SurfaceBarrier, mu: np.ndarray, friction_velocity: float):
-        self.contact = contact
-        self.mu = mu
-        self.eps_v = friction_velocity
-        self.lag = None
-        self.eps = 0.0
-        self.start = None
-        self._local = None
-
-    @property
-    def active(self) -> bool:
-        return self.lag is not None
-
-    def _extended(self, y):
-        nf = self.contact.fem.n
-        pts = self.contact.points
-        return np.concatenate([y[:nf], pts.positions(y)]), nf + np.arange(len(pts.node))
-
-    def begin(self, step: StepStart):
-        self.eps = self.eps_v * step.dt
-        self.start = self._extended(step.y)[0]
-        self.relag(step.y)
+class SurfaceFriction(LaggedFriction):
+    """Lagged, smoothed Coulomb friction on the 3D barrier's contacts (module docstring): the 2D
+    term's lag bookkeeping with per-point frames on the nearest triangle."""
 
     def relag(self, y):
         c = self.contact
@@ -459,25 +428,14 @@ class SurfaceFriction(Potential):
         self.lag = SurfaceLag(grp.point, tri, G, mu_lambda)
         return True
 
-    def value(self, y):
+    def _friction(self, ext, ids, gf, Hf) -> float:
         lag = self.lag
-        if lag is None:
-            self._local = None
-            return 0.0
-        k = len(lag.point)
-        gf, Hf = np.zeros((k, 12)), np.zeros((k, 12, 12))
-        ext, ids = self._extended(y)
-        total = surface_friction_pairs(ext, self.start, ids, lag.point, lag.tri, lag.G, lag.mu_lambda, self.eps,
-                                       gf, Hf)
-        self._local = (gf, Hf)
-        return total
+        return surface_friction_pairs(ext, self.start, ids, lag.point, lag.tri, lag.G, lag.mu_lambda, self.eps, gf,
+                                      Hf)
 
-    def derivatives(self, y, force):
-        if self._local is None:
-            return Derivatives((), ())
-        s, h = self.contact.points.pair_terms(self.lag.point, self.lag.tri, *self._local, 3)
-        return Derivatives((s,), (h,))
+    def _stencils(self):
+        return self.lag.point, self.lag.tri
 
 
-__all__ = ["SurfaceBarrier", "SurfaceFriction", "ContactPoints", "surface_topology", "group_terms",
+__all__ = ["SurfaceBarrier", "SurfaceFriction", "ContactPoints", "surface_topology", "group_terms", "group_bounds",
            "surface_barrier_groups"]
