@@ -128,6 +128,9 @@ def run(
             log = RunLog(Path(directory) / f"{scene.loaded.stem}_run.log", _command_line(ctx), scene.loaded,
                          numba.get_num_threads())
             log.note(thread_line)
+            for notice in scene.notices:  # (also with --quiet: a warning is not progress)
+                log.note(f"warning: {notice}")
+                err.print(f"[yellow]warning:[/] {notice}", highlight=False, soft_wrap=True)
             if restart is not None:
                 restarted = (f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
                              f"{_units(scene).time}")
@@ -411,6 +414,8 @@ def _check(scene) -> None:
     steps = int(np.ceil(d.time.end / dt))
     out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
               highlight=False)
+    for notice in scene.notices:
+        out.print(f"[yellow]warning:[/] {notice}", highlight=False)
     if scene.has_particles:
         from .stability import compaction_warnings
 

@@ -325,6 +325,9 @@ class BodyBase(Strict):
     clip: Domain | None = Field(
         default=None, description="Keep only the part of the shape inside this box (symmetry models: "
         "an eighth of a sphere).")
+    overwrites: bool = Field(
+        default=False, description="Particle bodies: this body is laid over earlier ones on purpose (an inclusion, "
+        "a platen across a corner): where it takes their particles, no warning.")
 
 
 class Corners(BodyBase):

@@ -56,6 +56,7 @@ class Scene:
     settings: RunSettings
     digest: str  # sha256 of the validated deck (a checkpoint belongs to it)
     record: dict  # the validated deck as JSON values (the history's sidecar keeps it)
+    notices: tuple = ()  # what `check` and `run` warn about (overlapping bodies, gaps closed by filling)
 
     @property
     def has_particles(self) -> bool:
@@ -102,18 +103,18 @@ def build_scene(loaded: LoadedDeck) -> Scene:
         return Scene(loaded, None, mats, empty_seed(dim), empty_seed(dim), None, deck.thickness,
                      build_contact_model(deck, mats, fem), [], [], fem, settings,
                      deck_digest(deck), deck.model_dump(mode="json"))
-    grid, deformable, rigid, semi = build_particles(loaded, mats, particle_bodies)
+    grid, deformable, rigid, semi, notices = build_particles(loaded, mats, particle_bodies)
     infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind,  # noqa: E731
                                          deck.bodies[i].material) for i in np.unique(seed.body)]
     contact = build_contact_model(deck, mats, fem, np.unique(deformable.mat))
     return Scene(loaded, grid, mats, deformable, rigid, semi, deck.thickness, contact,
                  infos(deformable, "particles"), infos(rigid, "rigid particles"), fem, settings,
-                 deck_digest(deck), deck.model_dump(mode="json"))
+                 deck_digest(deck), deck.model_dump(mode="json"), tuple(notices))
 
 
 def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: list):
     """The background grid and the particles of the particle bodies [(deck index, body)]:
-    (grid, deformable seed, rigid seed, particle semi-lengths)."""
+    (grid, deformable seed, rigid seed, particle semi-lengths, notices)."""
     deck = loaded.deck
     base = loaded.base_dir
     dim = deck.dim
@@ -210,6 +211,7 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     rev = slice(None, None, -1)
     _, first_in_rev = np.unique(keys[rev], return_index=True)
     keep = np.sort(len(keys) - 1 - first_in_rev)
+    notices = overwritten(deck, keys, owners, keep)
     keys, owners, mat_names = keys[keep], owners[keep], mat_names[keep]
 
     kk = np.empty((len(keys), dim), dtype=int)
@@ -218,6 +220,7 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
         kk[:, a] = rem % n_lat[a]
         rem //= n_lat[a]
     x = grid.origin + (kk + 0.5) * spacing
+    notices += gaps_closed(deck, base, keys, kk, owners, x, spacing, n_lat)
     vol = np.prod(spacing) * (deck.thickness if dim == 2 else 1.0)
 
     rigid_mask = np.array([m in mats.rigid for m in mat_names], dtype=bool)
@@ -257,4 +260,67 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
              if not np.all((deformable.x >= load.region.min) & (deformable.x <= load.region.max), axis=1).any()]
     if empty:
         raise_at(empty, loaded)
-    return grid, deformable, rigid, 0.5 * spacing
+    return grid, deformable, rigid, 0.5 * spacing, notices
+
+
+def overwritten(deck, keys: np.ndarray, owners: np.ndarray, keep: np.ndarray) -> list[str]:
+    """Where a later body overwrites an earlier one's particles (lattice sites claimed twice):
+    one line per (earlier, later) pair with the count, unless the later body says `overwrites`."""
+    lost = np.ones(len(keys), bool)
+    lost[keep] = False
+    if not lost.any():
+        return []
+    order = np.argsort(keys[keep])
+    winner = owners[keep][order][np.searchsorted(keys[keep][order], keys[lost])]
+    pairs, counts = np.unique(np.stack([owners[lost], winner], axis=1), axis=0, return_counts=True)
+    meant = np.array([deck.bodies[b].overwrites for b in pairs[:, 1]], bool)
+    pairs, counts = pairs[~meant], counts[~meant]
+    total = np.bincount(owners, minlength=len(deck.bodies))
+    return [f"body '{body_name(deck.bodies[a], a)}' loses {n} of its {total[a]} particles to "
+            f"'{body_name(deck.bodies[b], b)}' where they overlap (a later body overwrites earlier ones): "
+            "separate the shapes if they are meant to meet"
+            for (a, b), n in zip(pairs.tolist(), counts.tolist())]
+
+
+GAP_SAMPLES = 32  # points tested between two neighbouring particle centres of different bodies
+
+
+def gaps_closed(deck, base, keys, kk, owners, x, spacing, n_lat) -> list[str]:
+    """Bodies whose shapes are apart but whose particle domains touch at t = 0: neighbouring
+    lattice sites of two bodies with points between their centres inside neither shape. The
+    narrowest such stretch estimates the gap where they are closest (to 1/33 of the spacing).
+    One line per body pair."""
+    dim = x.shape[1]
+    order = np.argsort(keys)
+    found: dict[tuple[int, int], float] = {}
+    stride = np.cumprod(np.r_[1, n_lat[:-1]]).astype(np.int64)
+    s = (np.arange(1, GAP_SAMPLES + 1) / (GAP_SAMPLES + 1))[:, None]
+    for a in range(dim):
+        can = kk[:, a] < n_lat[a] - 1
+        nb = keys[can] + stride[a]
+        at = np.minimum(np.searchsorted(keys[order], nb), len(keys) - 1)
+        hit = keys[order][at] == nb
+        i = np.flatnonzero(can)[hit]
+        j = order[at[hit]]
+        cross = owners[i] != owners[j]
+        i, j = i[cross], j[cross]
+        for A, B in {(int(p), int(q)) for p, q in zip(owners[i], owners[j])}:
+            on = (owners[i] == A) & (owners[j] == B)
+            pts = (x[i[on]][None, :, :] * (1 - s[:, :, None]) + x[j[on]][None, :, :] * s[:, :, None]).reshape(-1, dim)
+            empty = ~(_inside_body(deck.bodies[A], pts, base) | _inside_body(deck.bodies[B], pts, base))
+            counts = empty.reshape(GAP_SAMPLES, -1).sum(axis=0)
+            if counts.any():  # the narrowest stretch inside neither shape: the gap where they are closest
+                width = counts[counts > 0].min() / (GAP_SAMPLES + 1) * spacing[a]
+                key = (min(A, B), max(A, B))
+                found[key] = min(found.get(key, np.inf), float(width))
+    return [f"bodies '{body_name(deck.bodies[A], A)}' and '{body_name(deck.bodies[B], B)}' are apart (gap about "
+            f"{gap:.2g} where closest) but their particles' domains touch at t = 0 (particle spacing {spacing.min():.3g}): the "
+            "filling closes the gap and they are in contact from the first step; move them at least one particle "
+            "spacing apart, or refine the grid" for (A, B), gap in sorted(found.items())]
+
+
+def _inside_body(body, pts: np.ndarray, base) -> np.ndarray:
+    sel = inside(body, pts, base)
+    if body.clip is not None:
+        sel &= np.all((pts >= np.asarray(body.clip.min)) & (pts <= np.asarray(body.clip.max)), axis=1)
+    return sel
