@@ -60,12 +60,12 @@ SPRING_START, SPRING_MAX = 1e2, 1e12  # prescribed-motion spring stiffness relat
 
 
 @njit(cache=True)
-def free_csc(rows, cols, vals, index, n):
-    """The sparse matrix of the triplets (rows, cols, vals) (duplicates summed) restricted to
-    the unknowns k with index[k] >= 0 and renumbered by index, n of them, as canonical CSC
-    arrays (indptr, indices, data): rows sorted within each column, no duplicates. One pass
-    buckets the entries by column, a second sums each column's duplicates through a row
-    marker and sorts its (few) distinct rows."""
+def csc_slots(rows, cols, index, n):
+    """The pattern of the triplets (rows, cols) restricted to the unknowns k with index[k] >= 0
+    and renumbered by index, n of them: canonical CSC arrays (indptr, indices) (rows sorted
+    within each column, no duplicates) and each triplet's slot in them (-1: eliminated). One
+    pass buckets the entries by column, a second gives each column's distinct rows their slots
+    through a row marker and sorts its (few) rows."""
     start = np.zeros(n + 1, np.int64)
     for k in range(len(rows)):
         i, j = index[rows[k]], index[cols[k]]
@@ -75,17 +75,18 @@ def free_csc(rows, cols, vals, index, n):
         start[j + 1] += start[j]
     fill = start[:n].copy()
     r = np.empty(start[n], np.int32)
-    v = np.empty(start[n])
+    who = np.empty(start[n], np.int64)  # the triplet of each bucketed entry
     for k in range(len(rows)):
         i, j = index[rows[k]], index[cols[k]]
         if i >= 0 and j >= 0:
             r[fill[j]] = i
-            v[fill[j]] = vals[k]
+            who[fill[j]] = k
             fill[j] += 1
+    slot = np.full(len(rows), -1, np.int64)
     where = np.full(n, -1, np.int64)  # slot of row i in the column being built (stale: < first)
     indptr = np.zeros(n + 1, np.int32)
     indices = np.empty(start[n], np.int32)
-    data = np.empty(start[n])
+    moved = np.empty(start[n], np.int64)
     nnz = 0
     for j in range(n):
         first = nnz
@@ -94,15 +95,53 @@ def free_csc(rows, cols, vals, index, n):
             if where[i] < first:
                 where[i] = nnz
                 indices[nnz] = i
-                data[nnz] = v[q]
                 nnz += 1
-            else:
-                data[where[i]] += v[q]
+            slot[who[q]] = where[i]
         order = np.argsort(indices[first:nnz])
         indices[first:nnz] = indices[first:nnz][order]
-        data[first:nnz] = data[first:nnz][order]
+        for t in range(nnz - first):
+            moved[first + order[t]] = first + t
+        for q in range(start[j], start[j + 1]):
+            slot[who[q]] = moved[slot[who[q]]]
         indptr[j + 1] = nnz
-    return indptr, indices[:nnz].copy(), data[:nnz].copy()
+    return indptr, indices[:nnz].copy(), slot
+
+
+@njit(cache=True)
+def csc_values(slot, vals, nnz):
+    """The CSC values of triplet values vals on the pattern `slot` (csc_slots): duplicates
+    summed in triplet order."""
+    data = np.zeros(nnz)
+    for k in range(len(slot)):
+        if slot[k] >= 0:
+            data[slot[k]] += vals[k]
+    return data
+
+
+def free_csc(rows, cols, vals, index, n):
+    """The sparse matrix of the triplets (rows, cols, vals) (duplicates summed) restricted to
+    the unknowns k with index[k] >= 0 and renumbered by index, n of them, as canonical CSC
+    arrays (indptr, indices, data)."""
+    indptr, indices, slot = csc_slots(rows, cols, index, n)
+    return indptr, indices, csc_values(slot, vals, len(indices))
+
+
+class CscPattern:
+    """The Newton matrix's pattern, kept while the triplets' (rows, cols) and the free unknowns
+    stay the same (between contact-pair changes): then only the values are scattered."""
+
+    def __init__(self):
+        self.key = None
+        self.pattern = None
+
+    def matrix(self, rows, cols, vals, index, n) -> sp.csc_matrix:
+        key = self.key
+        if key is None or not (len(key[0]) == len(rows) and np.array_equal(key[2], index)
+                               and np.array_equal(key[0], rows) and np.array_equal(key[1], cols)):
+            self.key = (rows, cols, index)
+            self.pattern = csc_slots(rows, cols, index, n)
+        indptr, indices, slot = self.pattern
+        return sp.csc_matrix((csc_values(slot, vals, len(indices)), indices, indptr), shape=(n, n))
 
 
 def empty_fem(dim: int) -> SimpleNamespace:
@@ -158,6 +197,7 @@ class ImplicitStep(Integrator):
         self.terms = []
         self.added: list = []  # terms given by add_term, after the built-in ones
         self.spring = None  # (moving components, their targets, stiffness) during a step
+        self.pattern = CscPattern()
         self.barrier_term = None
         self.adaptive = self.contact and barrier.kappa is None
         self.kappa_bounds = None  # adaptive kappa: (kappa_min, kappa_max, bounding-box diagonal)
@@ -286,8 +326,7 @@ class ImplicitStep(Integrator):
             t0 = wallclock.perf_counter()
             self._sweep(y)
             E, g, H = self._energy(y, yt, True)
-            indptr, indices, data = free_csc(*H, index, m)
-            Hf = sp.csc_matrix((data, indices, indptr), shape=(m, m))
+            Hf = self.pattern.matrix(*H, index, m)
             self.timers["assemble"] += wallclock.perf_counter() - t0
             t0 = wallclock.perf_counter()
             p = np.zeros(y.size)
