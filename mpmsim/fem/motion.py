@@ -35,7 +35,8 @@ def cross(w: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 
 class RigidMotion:
-    """The phases of one constraint's `motion` (deck.schema.MotionPhase list) in `dim` dimensions."""
+    """The phases of one constraint's `motion` (MotionPhase entries: until, velocity, angular_velocity,
+    center) in `dim` dimensions."""
 
     def __init__(self, phases, dim: int):
         self.dim = dim
