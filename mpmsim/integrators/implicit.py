@@ -13,13 +13,17 @@ The unknowns y are the FEM vertices followed by the active grid nodes of the par
 velocities and accelerations transferred to the grid, and back after the solve). The step
 composes energy terms (mpmsim/energy.py: value, gradient, PSD Hessian, step bound), in this
 order: the FEM strain energy and the particles' (terms.py: a particle is an element over its
-grid nodes), the log barrier between contact points and FEM boundary edges and its lagged
-friction (contact/barrier/energy.py), and gravity. A new physics term is a Potential added to
+grid nodes), the log barrier between contact points and FEM boundary edges (2D,
+contact/barrier/energy.py) or triangles (3D, contact/barrier/surface.py) and its lagged
+friction, and gravity. Without a deck kappa the barrier's stiffness adapts
+(contact/barrier/stiffness.py: its bounds at the first step, the gradient balance at the first
+step in contact, raised after Newton iterations where contacts keep closing or a solve stalls). A new physics term is a Potential added to
 `terms`; the Newton loop below does not change.
 
 Projected Newton: the terms' Hessians (PSD) and M make H = M + c sum_terms H_term on the free
 degrees of freedom (held components move to their target and are eliminated; the local
-Hessians' triplets go straight into CSC over the free unknowns, free_csc), solved with scipy's
+Hessians' triplets go straight into CSC over the free unknowns, csc_slots/csc_values, the pattern
+kept while the triplets' places stay the same), solved with scipy's
 sparse LU (splu). Line search: alpha = the smallest of the terms' step bounds (additive CCD
 keeps every contact point at least 10% of its distance from every edge; the inversion bounds
 keep det F > 0 for triangles and particles), then halved until E decreases. Stop when the

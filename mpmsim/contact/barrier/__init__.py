@@ -18,6 +18,11 @@ then value, gradient and Hessian on the stacked coordinate vector of the pair):
               point-triangle and edge-edge (3D)
   inversion   largest step keeping det(A + alpha B) >= 0.1 det A (2x2, 3x3)
   broadphase  swept-box candidate pairs from a uniform-grid hash; boundary-node correction
+  energy      the 2D energy terms of the implicit step: barrier contact (points against FEM boundary
+              edges) and its lagged friction; start-up gap and overlap checks
+  surface     the 3D terms: points against FEM boundary triangles (the paper's (deg - 1) edge and
+              interior-vertex corrections, one PSD projection per point) and their friction
+  stiffness   the adaptive barrier stiffness (IPC's rule in this distance form)
 """
 
 from .broadphase import (boundary_vertex_degree, box_pairs, correction_nodes, point_boxes, point_edge_candidates,
