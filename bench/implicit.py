@@ -33,17 +33,21 @@ from mpmsim.scene import build_scene  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
 
 
-def measure(name: str, d: dict, threads: int = 1) -> None:
-    numba.set_num_threads(threads)
-    sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=threads)
-    sim.step()
+def timed_run(sim) -> tuple[float, list]:
+    """Step `sim` to its end after its first (compiling) step: (seconds, the timed steps' Newton stats)."""
     sim.reset_timers()
     first = len(sim.integrator.stats)
     t0 = time.perf_counter()
     while sim.state.t < sim.end * (1 - 1e-9):
         sim.step()
-    wall = time.perf_counter() - t0
-    stats = sim.integrator.stats[first:]
+    return time.perf_counter() - t0, sim.integrator.stats[first:]
+
+
+def measure(name: str, d: dict, threads: int = 1) -> None:
+    numba.set_num_threads(threads)
+    sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=threads)
+    sim.step()
+    wall, stats = timed_run(sim)
     steps = len(stats)
     st = sim.state
     its = sum(s[0] for s in stats)
@@ -384,13 +388,7 @@ def contact3d_study(threads: int) -> None:
     if friction is not None:
         timed(friction, "value", "friction (value)")
         timed(friction, "derivatives", "friction (derivatives)")
-    sim.reset_timers()
-    first = len(sim.integrator.stats)
-    t0 = time.perf_counter()
-    while sim.state.t < sim.end * (1 - 1e-9):
-        sim.step()
-    wall = time.perf_counter() - t0
-    stats = sim.integrator.stats[first:]
+    wall, stats = timed_run(sim)
     its = sum(s[0] for s in stats)
     groups = len(barrier.current.point)
     print(f"3D cube drop: {sim.state.particles.n} particles, {len(sim.state.fem.cells)} tetrahedra, {len(stats)} steps, "
