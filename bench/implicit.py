@@ -7,6 +7,7 @@
     python bench/implicit.py --quadrature   # 1D model: particle quadrature against B-spline knots
     python bench/implicit.py --contact3d    # 3D: an MPM cube dropped on an FEM slab, contact cost per iteration
     python bench/implicit.py --impact3d 1e-1 1e-2 1e-3   # 3D: a 20 m/s cube on a held slab at dt = f x T
+    python bench/implicit.py --impact2d 1e-4  # 2D: the tests' 20 m/s block on a held wall, whole impact
 
 inputs/implicit_blocks_2d.yaml (FEM on FEM) at element size h, and inputs/implicit_rings_2d.yaml
 (an MPM ring against an FEM ring), on 1 and 2 threads: DOFs, Newton iterations per step and the time per
@@ -400,6 +401,51 @@ def contact3d_study(threads: int) -> None:
         print(f"  step timer: {part:42s} {sec / its * 1e3:8.2f} ms per iteration")
 
 
+FAST_BLOCK_T = (0.002 + 0.05) / 20.0  # the time the fast block needs to cross its gap and the wall
+
+
+def fast_block_deck(fraction: float, crossings: float = 3.0) -> dict:
+    """An MPM block at 20 m/s at a thin held FEM wall (2D, adaptive kappa), dt = fraction x
+    FAST_BLOCK_T, over `crossings` x FAST_BLOCK_T (3: the whole impact, the block turned back)."""
+    T = FAST_BLOCK_T
+    return {
+        "title": "fast block", "units": "SI", "analysis": "plane_strain",
+        "grid": {"cell_size": 0.02, "domain": {"min": [-0.3, -0.2], "max": [0.3, 0.2]}},
+        "shape_function": "bspline2", "update": {"scheme": "apic"},
+        "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
+        "bodies": [
+            {"name": "wall", "shape": "rectangle", "min": [-0.003, -0.15], "max": [0.047, 0.15], "material": "m",
+             "discretization": "fem", "element_size": 0.025,
+             "constraints": [{"region": {"min": [0.04, -1.0], "max": [1.0, 1.0]}}]},
+            {"name": "block", "shape": "rectangle", "min": [-0.1, -0.05], "max": [-0.004, 0.05],
+             "material": "m", "velocity": [20.0, 0.0]},
+        ],
+        "integrator": "implicit",
+        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "newton_tolerance": 1e-6},
+        "time": {"end": crossings * T, "dt": fraction * T},
+        "output": {"history_interval": crossings * T},
+    }
+
+
+def impact2d_study(fractions: list[float]) -> None:
+    """fast_block_deck over the whole impact: every step no particle inside the wall or through it;
+    Newton iterations per step, kappa, the block's velocity at the end."""
+    for f in fractions:
+        sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(fast_block_deck(f)), ROOT / "inputs" / "bench.yaml")),
+                         threads=1)
+        st = sim.state
+        P, fem = st.particles, st.fem
+        bad = 0
+        t0 = time.perf_counter()
+        while st.t < sim.end * (1 - 1e-9):
+            sim.step()
+            bad += int(len(particles_inside(P.x, fem.x, fem.cells)) > 0 or P.x[:, 0].max() >= 0.047)
+        stats = np.array(sim.integrator.stats)
+        print(f"dt = {f:g} T: {len(stats)} steps, {time.perf_counter() - t0:.1f} s, Newton {stats[:, 0].mean():.2f} per "
+              f"step ({stats[:, 0].max()} at most), steps with a particle inside or through: {bad}, block velocity "
+              f"{P.v[:, 0].mean():+.2f} m/s at the end; {sim.integrator.report()[0].split('; ')[-1]}", flush=True)
+
+
 def inside_tetrahedra(points: np.ndarray, x: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Which points lie strictly inside some tetrahedron (signed volumes of the point with each
     face all of the tetrahedron's sign)."""
@@ -468,6 +514,8 @@ def main() -> None:
                     help="the 1D model of particle quadrature against B-spline knots instead (column orders)")
     ap.add_argument("--contact3d", action="store_true",
                     help="the 3D barrier's cost per Newton iteration instead (broad phase, assembly, CCD)")
+    ap.add_argument("--impact2d", type=float, nargs="+", metavar="F",
+                    help="the tests' 20 m/s block on a held wall in 2D at dt = F x the crossing time, whole impact")
     ap.add_argument("--impact3d", type=float, nargs="+", metavar="F",
                     help="a 20 m/s cube on a held slab in 3D at dt = F x the crossing time, over the whole impact")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
@@ -481,6 +529,9 @@ def main() -> None:
         return
     if args.quadrature:
         quadrature_study()
+        return
+    if args.impact2d:
+        impact2d_study(args.impact2d)
         return
     if args.impact3d:
         impact3d_study(args.impact3d)

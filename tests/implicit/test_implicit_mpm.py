@@ -203,31 +203,16 @@ def test_rings_conserve_momentum_and_no_particle_ever_enters_the_fem_ring(transf
 
 
 # ------------------------------------------------------------------------ any time step
-@pytest.mark.parametrize("fraction", [1e-1, 1e-2, 1e-3, 1e-4])
+@pytest.mark.parametrize("fraction", [1e-1, 1e-2, 1e-3])
 def test_a_fast_mpm_block_never_crosses_an_fem_wall_at_any_time_step(fraction):
-    """An MPM block at 20 m/s at a thin held FEM wall, time steps from 1e-4 to 1e-1 of the
-    time the block needs to cross the wall (T = 2.6 ms; the outermost particles start 2 mm
-    off the wall, dhat 1 mm; at most 400 steps): no particle inside the wall at any
-    step, none beyond the wall's held back face (no tunnelling), and the block stopped and
-    turned back."""
-    T = (0.002 + 0.05) / 20.0
-    d = {
-        "title": "fast block", "units": "SI", "analysis": "plane_strain",
-        "grid": {"cell_size": 0.02, "domain": {"min": [-0.3, -0.2], "max": [0.3, 0.2]}},
-        "shape_function": "bspline2", "update": {"scheme": "apic"},
-        "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
-        "bodies": [
-            {"name": "wall", "shape": "rectangle", "min": [-0.003, -0.15], "max": [0.047, 0.15], "material": "m",
-             "discretization": "fem", "element_size": 0.025,
-             "constraints": [{"region": {"min": [0.04, -1.0], "max": [1.0, 1.0]}}]},
-            {"name": "block", "shape": "rectangle", "min": [-0.1, -0.05], "max": [-0.004, 0.05],
-             "material": "m", "velocity": [20.0, 0.0]},
-        ],
-        "integrator": "implicit",
-        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "newton_tolerance": 1e-6},
-        "time": {"end": min(3.0 * T, 400 * fraction * T), "dt": fraction * T},
-    }
-    sim = simulation(d)
+    """An MPM block at 20 m/s at a thin held FEM wall (bench/implicit.py fast_block_deck; the
+    outermost particles start 2 mm off the wall, dhat 1 mm, adaptive kappa), time steps 1e-1 to
+    1e-3 of the time the block needs to cross the wall (T = 2.6 ms), each over 3 T, the whole
+    impact: no particle inside the wall at any step, none beyond the wall's held back face (no
+    tunnelling), and the block stopped and turned back (measured: 10.7, 3.86, 2.96 Newton
+    iterations per step). At 1e-4 T (30000 steps, `python bench/implicit.py --impact2d 1e-4`,
+    not in the suite) the same holds (docs/bfemp.md)."""
+    sim = simulation(bench_implicit().fast_block_deck(fraction))
     st = sim.state
     P, f = st.particles, st.fem
     front = -1.0
@@ -237,8 +222,7 @@ def test_a_fast_mpm_block_never_crosses_an_fem_wall_at_any_time_step(fraction):
         assert P.x[:, 0].max() < 0.047, f"through the wall at t = {st.t}"  # its held back face
         front = max(front, P.x[:, 0].max())
     assert front > -0.003 - 1e-3  # the block reached the barrier (within dhat of the wall's face)
-    if fraction >= 1e-2:
-        assert P.v[:, 0].mean() < 0.0  # stopped and turned back
+    assert P.v[:, 0].mean() < -10.0  # stopped and turned back (measured -13.2, -15.6, -15.7 m/s)
 
 
 def test_the_thickness_scales_masses_forces_and_the_barrier_alike():
