@@ -329,6 +329,8 @@ class ImplicitStep(Integrator):
         for it in range(1, self.max_iterations + 1):
             t0 = wallclock.perf_counter()
             self._sweep(y)
+            if self.adaptive and it > 1:  # after the previous iteration, on this sweep's pairs
+                self._raise_kappa(y, it - 1)
             E, g, H = self._energy(y, yt, True)
             Hf = self.pattern.matrix(*H, index, m)
             self.timers["assemble"] += wallclock.perf_counter() - t0
@@ -359,8 +361,6 @@ class ImplicitStep(Integrator):
                 halvings += 1
             self.timers["line search"] += wallclock.perf_counter() - t0
             y = trial
-            if self.adaptive:
-                self._raise_kappa(y, it)
         names = self._body_names(state)
         raise InstabilityError(
             f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: Newton did not converge in "
@@ -395,8 +395,9 @@ class ImplicitStep(Integrator):
             term.relag(y)
 
     def _raise_kappa(self, y, iteration: int) -> None:
-        """After a Newton iteration: IPC's raise (a closest distance below 1e-9 of the scene that
-        keeps shrinking), and ours: every STALL iterations of one solve in contact."""
+        """After a Newton iteration (y its result, swept): IPC's raise (a closest distance below
+        1e-9 of the scene that keeps shrinking), and ours: every STALL iterations of one solve in
+        contact."""
         barrier = self.barrier_term
         d = barrier.min_distance(y)
         _, kmax, diagonal = self.kappa_bounds

@@ -170,8 +170,9 @@ class BarrierContact(Potential):
         return len(self.current.edge) > 0
 
     def min_distance(self, y) -> float:
-        """The smallest point-edge distance of the pairs within dhat at y (inf if none)."""
-        pairs = self.pairs(y, np.zeros_like(y)).edge
+        """The smallest point-edge distance over the pairs of the last sweep, taken at y (inf if
+        none)."""
+        pairs = self.current.edge
         return min_pair_distance(self.points.positions(y), y[:self.fem.n], self.fem.facets, pairs) if len(pairs) \
             else np.inf
 

@@ -291,8 +291,9 @@ class SurfaceBarrier(BarrierContact):
         return len(self.current.point) > 0
 
     def min_distance(self, y) -> float:
-        """The smallest point-triangle distance of the pairs within dhat at y (inf if none)."""
-        pairs = self.pairs(y, np.zeros_like(y)).pairs
+        """The smallest point-triangle distance over the pairs of the last sweep, taken at y (inf
+        if none)."""
+        pairs = self.current.pairs
         return min_pair_distance(self.points.positions(y), y[:self.fem.n], self.surface.triangles, pairs) \
             if len(pairs) else np.inf
 
