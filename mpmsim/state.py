@@ -112,6 +112,7 @@ class State:
     step: int = 0
     wave_max: float = 0.0  # max(c + |v|) over particles from the last stress update
     reaction: np.ndarray = None  # (6 + n_rigid, dim) force walls/rigid bodies exert on material
+    impulse: np.ndarray = None  # (6 + n_rigid, dim) the same, integrated over the steps since t = 0
     energy0: float = 0.0  # mechanical energy at the start of the run
     interface_energy: float = 0.0  # imperfect interfaces, end of the last step
     work_in: float = 0.0  # signed work done on the material by walls, rigid materials, gravity
@@ -165,6 +166,7 @@ class State:
                     threads=threads, nchunk=max(1, 4 * threads), entry_offsets=None, contact=None, loads=None,
                     damping=0.0)
         state.reaction = np.zeros((6 + len(mats.rigid), dim))
+        state.impulse = np.zeros_like(state.reaction)
         return state
 
     @classmethod
@@ -199,6 +201,7 @@ class State:
             damping=run.damping,
         )
         state.reaction = np.zeros((6 + nr, dim))
+        state.impulse = np.zeros_like(state.reaction)
         if run.output.energy_ledger:
             state.ledger = np.zeros(4)  # tasks/ledger.py LOSSES
         state.particle_bounds = scene.grid.particle_bounds

@@ -5,7 +5,8 @@ they touch (a velocity condition); in mode `contact` they enter the contact laws
 material of infinite mass. Their motion is per rigid *material*: `v_start`/`v_end` are the
 prescribed velocities at the start and end of the current step, `disp` the displacement
 since t = 0 (history columns u_<material>_<axis>), and the reaction the material feels from
-each rigid material is in `state.reaction[6 + r]` (history columns F_<material>_<axis>).
+each rigid material is in `state.reaction[6 + r]` (history columns F_<material>_<axis>), its
+impulse since t = 0 in `state.impulse[6 + r]` (J_<material>_<axis>).
 """
 
 from __future__ import annotations
@@ -56,13 +57,14 @@ class RigidParticles(BodySet):
         cols = []
         for r in self.names:
             cols += [(f"F_{r}_{a}", units.force) for a in "xyz"[:dim]]
+            cols += [(f"J_{r}_{a}", units.momentum.split(" (")[0]) for a in "xyz"[:dim]]
             cols += [(f"u_{r}_{a}", units.length) for a in "xyz"[:dim]]
         return cols
 
     def history_values(self, state) -> list[float]:
         row = []
         for r in range(len(self.names)):
-            row += list(state.reaction[6 + r]) + list(self.disp[r])
+            row += list(state.reaction[6 + r]) + list(state.impulse[6 + r]) + list(self.disp[r])
         return row
 
     def vtu_pieces(self, state) -> list[tuple[str, dict]]:

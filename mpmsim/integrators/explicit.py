@@ -1,6 +1,7 @@
 """Explicit integration: one step is the task list of mpmsim/tasks, built once from the scene
 (the MPM step for particle bodies, velocity Verlet with augury contact for FEM bodies); each
-task is timed for the run's table."""
+task is timed for the run's table. After the tasks, the step's reactions (walls, rigid
+materials) are added to their impulses since t = 0."""
 
 from __future__ import annotations
 
@@ -43,4 +44,5 @@ class ExplicitMPM(Integrator):
             t0 = wallclock.perf_counter()
             task.run(state)
             timers[task.name] += wallclock.perf_counter() - t0
+        state.impulse += state.reaction * dt  # the walls' and rigid materials' impulse since t = 0
         return dt

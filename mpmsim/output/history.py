@@ -11,16 +11,18 @@ history adds them up and adds the run's accounts. Columns, in order:
 - the volume-weighted Cauchy stress average over deformable material, kinetic and strain
   energy, the work put in (walls, rigid bodies, gravity, loads), internal energy (with
   Mie–Grüneisen or artificial viscosity), linear momentum p<axis>, angular momentum about
-  the origin (L, or Lx, Ly, Lz in 3D; with APIC's affine part), interface energy;
+  the origin (L, or Lx, Ly, Lz in 3D; with APIC's affine part), spin (angular momentum about
+  the centre of mass, L - c x p: spin, or spinx, spiny, spinz in 3D), interface energy;
 - particle velocity noise (and its null-space part when asked for);
 - with output.energy_ledger: transfer_loss, contact_loss, condition_loss, force_gap_loss and
   energy_residual (mpmsim/tasks/ledger.py);
 - reaction forces of constrained faces (what the face exerts on the material, from the last
-  step: instantaneous, not averaged);
+  step: instantaneous, not averaged), F_<face>_<axis>, each followed by its impulse since t = 0,
+  J_<face>_<axis> (the sum of force x dt over every step: a body's momentum balance closes with it);
 - each body kind's own columns (rigid materials: reaction force and displacement);
 - chosen materials' own average stress (output.material_stress): s<ij>_mat_<material>;
-- per body, when the scene has two or more bodies with mass: ke_, se_, p<axis>_, L_ and the
-  centre of mass c<axis>_, followed by the body's name;
+- per body, when the scene has two or more bodies with mass: ke_, se_, p<axis>_, L_, spin_ and
+  the centre of mass c<axis>_, followed by the body's name;
 - per deformable material, when two or more have mass: ke_mat_, se_mat_, p<axis>_mat_
   followed by the material's name (sums of its bodies' rows);
 - per ordered pair of deformable material groups meeting through grid contact (explicit
@@ -52,6 +54,10 @@ STRESS_NAMES = ("sxx", "syy", "szz", "sxy", "syz", "sxz")
 
 def angular_names(dim: int) -> list[str]:
     return ["L"] if dim == 2 else ["Lx", "Ly", "Lz"]
+
+
+def spin_names(dim: int) -> list[str]:
+    return ["spin"] if dim == 2 else ["spinx", "spiny", "spinz"]
 
 
 def plain(name: str) -> str:
@@ -87,6 +93,7 @@ class History:
         self.columns += [(f"p{a}", momentum) for a in axes]
         self._angular = [2] if dim == 2 else [0, 1, 2]
         self.columns += [(n, f"{momentum} {u.length}") for n in angular_names(dim)]
+        self.columns += [(n, f"{momentum} {u.length}") for n in spin_names(dim)]
         self._interface = state.contact is not None and state.contact.spec.has_interface
         if self._interface:
             self.columns += [("interface_energy", u.energy)]
@@ -99,10 +106,12 @@ class History:
         self._ledger = run.output.energy_ledger
         if self._ledger:
             self.columns += [(n, u.energy) for n in (*LOSSES, "energy_residual")]
-        faces = state.grid.face_type[: 2 * dim] if state.grid is not None else np.zeros(2 * dim)
+        walls = state.grid is not None and run.integrator == "explicit"  # implicit runs hold nodes, no reactions
+        faces = state.grid.face_type[: 2 * dim] if walls else np.zeros(2 * dim)
         self._faces = [f for f, t in zip(FACES[: 2 * dim], faces) if t != 0]
         for f in self._faces:
             self.columns += [(f"F_{f}_{a}", u.force) for a in axes]
+            self.columns += [(f"J_{f}_{a}", momentum) for a in axes]
         for body in state.bodies:
             self.columns += [(plain(n), unit) for n, unit in body.history_columns(u, dim)]
         names = state.materials.deformable
@@ -117,6 +126,7 @@ class History:
                 self.columns += [(f"ke_{name}", u.energy), (f"se_{name}", u.energy)]
                 self.columns += [(f"p{a}_{name}", momentum) for a in axes]
                 self.columns += [(f"{n}_{name}", f"{momentum} {u.length}") for n in angular_names(dim)]
+                self.columns += [(f"{n}_{name}", f"{momentum} {u.length}") for n in spin_names(dim)]
                 self.columns += [(f"c{a}_{name}", u.length) for a in axes]
         # per material: each massive body's row goes to its material's
         body_mat = [info.material for _, info in massive]  # (None: a body kind of no deck body)
@@ -155,6 +165,7 @@ class History:
             row.append(s[INTERNAL])
         row += list(s[MOMENTUM][:dim])
         row += [s[ANGULAR][a] for a in self._angular]
+        row += self._spin(s, dim)
         if self._interface:
             row.append(state.interface_energy)
         if self._noise:
@@ -166,7 +177,7 @@ class History:
             row.append(energy_residual(state))
         face_index = {f: i for i, f in enumerate(FACES)}
         for f in self._faces:
-            row += list(state.reaction[face_index[f]])
+            row += list(state.reaction[face_index[f]]) + list(state.impulse[face_index[f]])
         for body in state.bodies:
             row += body.history_values(state)
         P = state.particles
@@ -177,6 +188,7 @@ class History:
         per_body = np.concatenate([part.per_body for part in sums]) if self._per_body else np.zeros((0, 0))
         for b in per_body:
             row += [b[KINETIC], b[STRAIN]] + list(b[MOMENTUM][:dim]) + [b[ANGULAR][a] for a in self._angular]
+            row += self._spin(b, dim)
             row += list(b[FIRST_MOMENT][:dim] / b[MASS])
         if self._materials:
             mat = np.zeros((len(self._materials), 2 + dim))
@@ -191,6 +203,18 @@ class History:
                     row += [float(v) for v in arr[a, b, :dim]]
         self.rows.append(row)
         self.flush()
+
+    def _spin(self, sums, dim: int) -> list[float]:
+        """Angular momentum about the centre of mass of `sums` (a body's or the scene's):
+        L - c x p with c = first moment / mass (zero without mass)."""
+        mass = sums[MASS]
+        c = np.zeros(3)
+        if mass > 0.0:
+            c[:dim] = sums[FIRST_MOMENT][:dim] / mass
+        p = np.zeros(3)
+        p[:dim] = sums[MOMENTUM][:dim]
+        spin = np.asarray(sums[ANGULAR][:3], dtype=float) - np.cross(c, p)
+        return [float(spin[a]) for a in self._angular]
 
     def frame(self):
         """The rows recorded so far as a pandas DataFrame (the CSV's columns)."""
