@@ -99,6 +99,62 @@ def test_paraview_script(results, tmp_path):
     assert count(left, PALETTE[0]) > 5000 and count(left, PALETTE[1]) > 5000  # soft, hard
     assert count(left, PALETTE[2]) == 0 and count(left, PALETTE[3]) == 0  # rigid ones are not coloured
     assert count(pixels, (0.6, 0.6, 0.6)) > 2000  # grey platens
+    # the legend lists the platens in the grey they are drawn in, the deformable ones in theirs
+    colours = np.reshape(report["colours"], (-1, 3))
+    assert np.allclose(colours[:2], PALETTE[:2]) and np.allclose(colours[2:], 0.6)
+    assert report["stress_title"] == "stress yy (MPa)"  # the deck's mm-g-ms unit
+    # the data in the left 75% of each view, the colour bars in the strip right of it
+    assert report["data_box"][1] <= 0.75 + 1e-9 and report["bar_at"][0] >= 0.8
+    strip = np.asarray(Image.open(shot).convert("RGB"))[:, int(0.76 * 800):int(0.83 * 800)].reshape(-1, 3).astype(int)
+    assert count(strip, PALETTE[0]) == 0 and count(strip, PALETTE[1]) == 0  # no data there
+    # a time off every frame by more than half their interval (frames every 0.1) is an error
+    off = subprocess.run(cmd + [str(script), "--time", "0.58"], capture_output=True, text=True, timeout=300)
+    assert off.returncode == 2, off.stdout[-2000:] + off.stderr[-2000:]
+    assert "no output frame at --time 0.58: the nearest are 0.400054 and 0.5" in off.stderr
+    near = subprocess.run(cmd + [str(script), "--time", "0.44", "--report"], capture_output=True, text=True,
+                          timeout=300)
+    assert near.returncode == 0 and parse_report(near.stdout)["time"] == pytest.approx(0.400054, abs=1e-6)
+
+
+DECK_3D = {
+    "title": "two blocks 3D", "units": "mm-g-ms", "analysis": "3d",
+    "grid": {"cell_size": 2.0, "boundaries": {"ymin": "fixed"}}, "shape_function": "gimp",
+    "particles_per_direction": 2,
+    "materials": {"lower": {"type": "linear_elastic", "E": 1000.0, "nu": 0.3, "density": 0.001},
+                  "upper": {"type": "linear_elastic", "E": 1000.0, "nu": 0.3, "density": 0.001}},
+    "bodies": [{"shape": "box", "min": [0.0, 0.0, 0.0], "max": [8.0, 6.0, 8.0], "material": "lower"},
+               {"shape": "box", "min": [0.0, 6.0, 0.0], "max": [8.0, 12.0, 8.0], "material": "upper",
+                "velocity": [0.0, -50.0, 0.0]}],
+    "contact": {"normal": "logistic_regression", "default": {"law": "coulomb", "friction": 0.2}},
+    "time": {"end": 0.02}, "output": {"vtu_interval": 0.01},
+}
+
+
+def test_paraview_script_in_3d_cuts_through_the_contact(tmp_path):
+    """3D: an oblique left view, and the stress view of the half below the middle z plane seen
+    from its cut face (the contact plane y = 6 runs across it); --view puts the left camera on an
+    axis."""
+    import yaml
+
+    deck = tmp_path / "blocks3d.yaml"
+    deck.write_text(yaml.safe_dump(DECK_3D))
+    out = tmp_path / "res"
+    result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet", "--threads", "1"])
+    assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(app, ["paraview", str(out)])
+    assert result.exit_code == 0, result.output
+    cmd = pvbatch()
+    if cmd is None:
+        assert not os.environ.get("MPMSIM_REQUIRE_PARAVIEW"), "pvbatch not found"
+        pytest.skip("ParaView (pvbatch) is not installed")
+    script = out / "blocks3d_paraview.py"
+    for extra, view in (([], "iso"), (["--view", "x"], "x")):
+        run = subprocess.run(cmd + [str(script), "--report"] + extra, capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+        report = parse_report(run.stdout)
+        assert report["view"] == view and report["cut"] == "z"
+        # 4 particle layers of 8 in z: the crinkle clip keeps those below the middle, half
+        assert report["shown_points"] == report["points"] // 2
 
 
 def test_paraview_script_with_fem_bodies(tmp_path):
