@@ -341,7 +341,9 @@ def _timing_table(result, sim) -> Table:
     what = "particle+element" if n_p and n_e else ("element" if n_e else "particle")
     counts = ", ".join(s for s in (f"{n_p} particles" if n_p or not n_e else "", f"{n_e} elements" if n_e else "") if s)
     steps = max(result.timed_steps, 1)
-    table = Table(title=f"{result.steps} steps (timed: all but the first), {counts}, {result.wall_time:.2f} s wall, "
+    first = min(sim.first_step_seconds, result.wall_time)
+    table = Table(title=f"{result.steps} steps (timed: all but the first), {counts}, {result.wall_time:.2f} s wall: "
+                        f"{first:.2f} s first step (with compiling), {result.wall_time - first:.2f} s the rest; "
                         f"{result.rate / 1e6:.2f} M {what}-steps/s")
     for col in ("task", "time (s)", "%", "us/step", f"M {what}-steps/s"):
         table.add_column(col, justify="left" if col == "task" else "right")
