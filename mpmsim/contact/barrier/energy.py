@@ -29,11 +29,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ...energy import Derivatives, Potential, Scatter, StepStart, triplets
+from ...energy import Blocks, Derivatives, Potential, Scatter, StepStart
 from ...shapes.cpdi import corner_signs
 from .broadphase import (box_pairs, correction_nodes, point_boxes, point_edge_candidates, point_node_candidates,
                          simplex_boxes)
-from .ccd import point_edge_ccd_pairs
+from .ccd import CCD_ETA, point_edge_ccd_pairs
 from .closest import point_triangle_distance
 from .distance import point_edge_distance, point_edge_friction_frame
 from .friction import point_edge_friction
@@ -70,16 +70,14 @@ class ContactPoints(NamedTuple):
 
     def pair_terms(self, point, others, gl, Hl, d) -> tuple[Scatter, object]:
         """Local gradients gl (k, (1 + s) d) and Hessians Hl over (point, s FEM nodes `others`
-        (k, s)), the point's part mapped to the unknowns through its weights: (Scatter, Triplets)."""
+        (k, s)), the point's part mapped to the unknowns through its weights: (Scatter, Blocks)."""
         K = self.node.shape[1]
         k, s = others.shape
         nodes = np.concatenate([self.node[point], others], axis=1)  # (k, K + s)
         wts = np.concatenate([self.w[point], np.ones((k, s))], axis=1)
         block = np.r_[np.zeros(K, np.int64), 1 + np.arange(s)]
         G = gl.reshape(k, 1 + s, d)[:, block, :] * wts[:, :, None]
-        H4 = Hl.reshape(k, 1 + s, d, 1 + s, d)[:, block][:, :, :, block]  # (k, K+s, d, K+s, d)
-        H4 = H4 * (wts[:, :, None, None, None] * wts[:, None, None, :, None])
-        return Scatter(nodes, G), triplets(nodes, H4.reshape(k, (K + s) * d, (K + s) * d), d)
+        return Scatter(nodes, G), Blocks(nodes, Hl, wts, block)
 
 
 def boundary_weights(x: np.ndarray, facets: np.ndarray, boundary: np.ndarray) -> np.ndarray:
@@ -206,7 +204,8 @@ class BarrierContact(Potential):
         if not len(pe):
             return 1.0
         pts, nf = self.points, self.fem.n
-        return point_edge_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.fem.facets, pe)
+        return point_edge_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.fem.facets, pe, CCD_ETA,
+                                    1.0)  # every argument given: numba's dispatch of defaults is slow
 
     def corrected_share(self, z, x, pairs) -> np.ndarray:
         """The (deg - 1) correction in the friction's normal forces: a pair whose closest point
