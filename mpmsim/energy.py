@@ -33,7 +33,8 @@ import numpy as np
 
 class Triplets(NamedTuple):
     """A sparse matrix as (rows, cols, values) over the unknowns' DOFs (node d + component),
-    duplicates to be summed."""
+    duplicates to be summed. The integrator's pattern holds whole d x d node blocks: a triplet
+    brings its node pair's block in (energy.triplets gives whole blocks anyway)."""
 
     rows: np.ndarray
     cols: np.ndarray

@@ -278,7 +278,7 @@ class Assembler:
         self.version = 0
         self.rebuilds = 0
 
-    def _build(self, hessians, index, n_free) -> None:
+    def _build(self, hessians, index) -> None:
         d = self.d
         n_nodes = len(index) // d
         pairs = [_pairs_of(h, d) for h in hessians]
@@ -311,7 +311,7 @@ class Assembler:
         keys = [_key(h) for h in hessians]
         if (self.index is None or len(keys) != len(self.keys) or not np.array_equal(self.index, index)
                 or not all(_same(a, b) for a, b in zip(keys, self.keys))):
-            self._build(hessians, index, int((index >= 0).sum()))
+            self._build(hessians, index)
             self.index = index
         self.keys = keys
         indptr, indices = self.pattern
