@@ -95,3 +95,17 @@ def test_linear_solver_cholmod_without_scikit_sparse_is_a_deck_error(monkeypatch
     with pytest.raises(DeckError, match="implicit.linear_solver"):
         Simulation(build_scene(deck_from(with_overrides(RINGS, {"implicit.linear_solver": "cholmod"}),
                                          ROOT / "inputs")), out_dir=None, threads=1)
+
+
+def test_a_factorisation_that_is_not_positive_definite_is_solved_by_superlu():
+    """CHOLMOD's LDL^T of an indefinite matrix meets a D entry <= 0: SuperLU solves it."""
+    import scipy.sparse as sp
+
+    need_cholmod()
+    A = sp.csc_matrix(np.array([[1.0, 3.0, 0.0], [3.0, 1.0, 1.0], [0.0, 1.0, 2.0]]))
+    b = np.array([1.0, 2.0, 3.0])
+    solver = NewtonSolver(cholesky=True)
+    x = solver.solve(sp.tril(A).tocsc(), b, version=1)
+    assert np.allclose(A @ x, b, rtol=0, atol=1e-14)
+    assert solver.counts == {"cholmod": 0, "splu": 1, "analyses": 1, "fallbacks": 1}
+    assert "1 not positive definite, solved by SuperLU" in solver.report()
