@@ -54,6 +54,8 @@ class NewtonSolver:
 
     def solve(self, A: sp.csc_matrix, b: np.ndarray, version: int) -> np.ndarray:
         """x with A x = b; A's pattern is the same while `version` is."""
+        if not len(b):  # every unknown held
+            return np.zeros(0)
         if self.cholesky:
             try:
                 if self.factor is None or version != self.version:

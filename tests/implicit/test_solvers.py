@@ -109,3 +109,5 @@ def test_a_factorisation_that_is_not_positive_definite_is_solved_by_superlu():
     assert np.allclose(A @ x, b, rtol=0, atol=1e-14)
     assert solver.counts == {"cholmod": 0, "splu": 1, "analyses": 1, "fallbacks": 1}
     assert "1 not positive definite, solved by SuperLU" in solver.report()
+    empty = sp.csc_matrix((0, 0))  # every unknown held: nothing to solve
+    assert solver.solve(empty, np.zeros(0), version=2).shape == (0,)
