@@ -46,7 +46,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..contact.barrier.energy import BarrierContact, LaggedFriction, check_initial_gaps
+from ..contact.barrier.energy import BarrierContact, LaggedFriction, check_initial_gaps, interpolate
 from ..contact.barrier.stiffness import STALL, initial_stiffness, raised_stiffness, stiffness_bounds
 from ..contact.barrier.surface import SurfaceBarrier, SurfaceFriction
 from ..energy import StepStart
@@ -236,7 +236,7 @@ class ImplicitStep(Integrator):
         nf, grid = self.fem.n, self.grid
         size = float(np.abs(p[:nf]).max()) if nf else 0.0
         if grid is not None:
-            size = max(size, float(np.abs(np.einsum("pk,pkc->pc", grid.S, p[nf:][grid.nodes])).max()))
+            size = max(size, float(np.abs(interpolate(grid.S, grid.nodes, p[nf:])).max()))
         return size
 
     # ----------------------------------------------------------------------------- the step

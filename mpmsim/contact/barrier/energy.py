@@ -50,6 +50,22 @@ class Pairs(NamedTuple):
 NO_PAIRS = Pairs(np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64))
 
 
+@njit(cache=True)
+def interpolate(w, node, y):
+    """out[q] = sum_k w[q, k] y[node[q, k]] (n, d), summed in k order (numpy's einsum
+    "qk,qkc->qc" of y[node] to the bit, without the (n, K, d) gather)."""
+    n, K = w.shape
+    d = y.shape[1]
+    out = np.empty((n, d))
+    for q in range(n):
+        for c in range(d):
+            s = 0.0
+            for k in range(K):
+                s += w[q, k] * y[node[q, k], c]
+            out[q, c] = s
+    return out
+
+
 class ContactPoints(NamedTuple):
     """The points that meet FEM boundary edges through the barrier, for one step. A point's
     position is sum_k w[q, k] y[node[q, k]] + offset[q] over the unknowns y."""
@@ -63,10 +79,10 @@ class ContactPoints(NamedTuple):
     mat: np.ndarray  # (n,) material (friction)
 
     def positions(self, y: np.ndarray) -> np.ndarray:
-        return np.einsum("qk,qkc->qc", self.w, y[self.node]) + self.offset
+        return interpolate(self.w, self.node, y) + self.offset
 
     def moves(self, p: np.ndarray) -> np.ndarray:
-        return np.einsum("qk,qkc->qc", self.w, p[self.node])
+        return interpolate(self.w, self.node, p)
 
     def pair_terms(self, point, others, gl, Hl, d) -> tuple[Scatter, object]:
         """Local gradients gl (k, (1 + s) d) and Hessians Hl over (point, s FEM nodes `others`
