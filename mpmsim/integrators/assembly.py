@@ -20,6 +20,8 @@ matrix different from the triplets' (explicit zeros change SuperLU's column orde
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
@@ -157,6 +159,17 @@ def dof_pattern(nptr, nidx, index, d, lower):
     return indptr, indices[:t].copy(), offset, before
 
 
+class DofPattern(NamedTuple):
+    """What a slot lookup reads: the free unknowns' CSC pattern (dof_pattern) over its node
+    pattern."""
+
+    index: np.ndarray  # (n_nodes d,) each DOF's free number (-1: eliminated)
+    indptr: np.ndarray  # (m + 1,) CSC column starts
+    offset: np.ndarray  # (node entries,) free DOFs ahead of the entry's row node in its column
+    before: np.ndarray  # (n_nodes, d) free components of node i ahead of c (-1: c eliminated)
+    diag_entry: np.ndarray  # (n_nodes,) each node's own entry (its diagonal block)
+
+
 @njit(cache=True, inline="always")
 def _slot(i, c, j, e, entry, diag_entry, d, index, indptr, offset, before, lower):
     """CSC slot of (row DOF i d + c, column DOF j d + e), node pair entry `entry` (-1: not
@@ -172,9 +185,11 @@ def _slot(i, c, j, e, entry, diag_entry, d, index, indptr, offset, before, lower
 
 
 @njit(cache=True)
-def block_slots(nodes, entries, d, diag_entry, index, indptr, offset, before, lower):
+def block_slots(nodes, entries, pattern, lower):
     """Slot map (g, k d, k d) of groups over node lists nodes (g, k), node pair entries
-    `entries` (g k k,) in block_pairs order."""
+    `entries` (g k k,) in block_pairs order, on `pattern` (DofPattern)."""
+    index, indptr, offset, before, diag_entry = pattern
+    d = before.shape[1]
     g, k = nodes.shape
     out = np.empty((g, k * d, k * d), np.int64)
     t = 0
@@ -191,8 +206,11 @@ def block_slots(nodes, entries, d, diag_entry, index, indptr, offset, before, lo
 
 
 @njit(cache=True)
-def triplet_slots(rows, cols, entries, d, diag_entry, index, indptr, offset, before, lower):
-    """Slot map (k, 1, 1) of DOF triplets (rows, cols), node pair entries `entries`."""
+def triplet_slots(rows, cols, entries, pattern, lower):
+    """Slot map (k, 1, 1) of DOF triplets (rows, cols), node pair entries `entries`, on
+    `pattern` (DofPattern)."""
+    index, indptr, offset, before, diag_entry = pattern
+    d = before.shape[1]
     out = np.empty((len(rows), 1, 1), np.int64)
     for t in range(len(rows)):
         out[t, 0, 0] = _slot(rows[t] // d, rows[t] % d, cols[t] // d, cols[t] % d, entries[t], diag_entry, d, index,
@@ -288,7 +306,7 @@ class Assembler:
         nptr, nidx, entry = csc_slots(rows, cols, every, n_nodes)
         diag_entry = entry[len(rows) - n_nodes:]
         indptr, indices, offset, before = dof_pattern(nptr, nidx, index, d, self.lower)
-        args = (d, diag_entry, index, indptr, offset, before, self.lower)
+        args = (DofPattern(index, indptr, offset, before, diag_entry), self.lower)
         self.slots, start = [], 0
         for h, (r, _) in zip(hessians, pairs):
             ent = entry[start:start + len(r)]
