@@ -191,7 +191,7 @@ def block_slots(nodes, entries, pattern, lower):
     index, indptr, offset, before, diag_entry = pattern
     d = before.shape[1]
     g, k = nodes.shape
-    out = np.empty((g, k * d, k * d), np.int64)
+    out = np.empty((g, k * d, k * d), np.int32)  # CSC slots (indptr is int32 too)
     t = 0
     for q in range(g):
         for a in range(k):
@@ -211,7 +211,7 @@ def triplet_slots(rows, cols, entries, pattern, lower):
     `pattern` (DofPattern)."""
     index, indptr, offset, before, diag_entry = pattern
     d = before.shape[1]
-    out = np.empty((len(rows), 1, 1), np.int64)
+    out = np.empty((len(rows), 1, 1), np.int32)
     for t in range(len(rows)):
         out[t, 0, 0] = _slot(rows[t] // d, rows[t] % d, cols[t] // d, cols[t] % d, entries[t], diag_entry, d, index,
                              indptr, offset, before, lower)
