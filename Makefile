@@ -14,7 +14,9 @@ $(STAMP): pyproject.toml
 		{ echo "mpmsim needs Python 3.11 or newer ($(PYTHON) is older)"; exit 1; }
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,cholmod]' 2>/dev/null || \
+		{ echo "scikit-sparse (CHOLMOD) did not install: the implicit step will use SuperLU (apt install libsuitesparse-dev for CHOLMOD)"; \
+		  $(BIN)/python -m pip install --quiet -e '.[test]'; }
 	@touch $(STAMP)
 
 run: $(STAMP)

@@ -1,6 +1,6 @@
 """The implicit step with barrier contact: cost per step (`make bench`).
 
-    python bench/implicit.py [--h 0.025] [--rings-end 0.1] [--threads 1 2]
+    python bench/implicit.py [--h 0.025] [--rings-end 0.1] [--threads 1 2] [--cpu] [--tree OLD_CHECKOUT]
     python bench/implicit.py --column       # MPM column settling on an FEM floor: refinement
     python bench/implicit.py --buckling     # stacked semicircular rings, three ring-ring mu
     python bench/implicit.py --solvers      # Newton's matrices: splu against CHOLMOD (cholespy, extra `bench`)
@@ -26,7 +26,10 @@ import numpy as np
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+if "--tree" in sys.argv:  # time another checkout's mpmsim (old and new alternated in one sitting)
+    sys.path.insert(0, str(Path(sys.argv[sys.argv.index("--tree") + 1]).resolve()))
+else:
+    sys.path.insert(0, str(ROOT))
 
 from mpmsim.deck import load_deck_text  # noqa: E402
 from mpmsim.contact.barrier.energy import particles_inside  # noqa: E402
@@ -34,14 +37,17 @@ from mpmsim.scene import build_scene  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
 
 
+CLOCK = time.perf_counter  # --cpu: time.process_time
+
+
 def timed_run(sim) -> tuple[float, list]:
     """Step `sim` to its end after its first (compiling) step: (seconds, the timed steps' Newton stats)."""
     sim.reset_timers()
     first = len(sim.integrator.stats)
-    t0 = time.perf_counter()
+    t0 = CLOCK()
     while sim.state.t < sim.end * (1 - 1e-9):
         sim.step()
-    return time.perf_counter() - t0, sim.integrator.stats[first:]
+    return CLOCK() - t0, sim.integrator.stats[first:]
 
 
 def measure(name: str, d: dict, threads: int = 1) -> None:
@@ -66,6 +72,7 @@ def measure(name: str, d: dict, threads: int = 1) -> None:
           f"iteration), {threads} thread(s)")
     for part, sec in sim.integrator.timers.items():
         print(f"  {part:12s} {sec / steps * 1e3:8.2f} ms/step  {100 * sec / wall:5.1f}%")
+    print("  " + "; ".join(sim.integrator.report()[1:]) if len(sim.integrator.report()) > 1 else "  SuperLU (splu)")
 
 
 def column_deck(h: float, per_direction: int, steps: int = 12, E: float = 1e7, contact: str = "corners",
@@ -274,32 +281,36 @@ def buckling_study(figure: Path) -> None:
 
 
 def newton_matrices(name: str, end: float, keep: int = 6) -> list:
-    """Up to `keep` of Newton's matrices (free unknowns) from the deck's run to `end`, every
-    third from the first: the step's sparse LU is wrapped to copy them."""
-    import mpmsim.integrators.implicit as implicit
+    """Up to `keep` of Newton's matrices (free unknowns, full) from the deck's run to `end` with
+    SuperLU, every third from the first: the step's solve is wrapped to copy them."""
+    from mpmsim.integrators.solvers import NewtonSolver
 
     seen, kept = [], []
-    original = implicit.splu
+    original = NewtonSolver.solve
 
-    def grab(A, *args, **kwargs):
+    def grab(self, A, *args, **kwargs):
         seen.append(1)
         if len(seen) % 3 == 1 and len(kept) < keep:
             kept.append(A.copy())
-        return original(A, *args, **kwargs)
+        return original(self, A, *args, **kwargs)
 
     deck = ROOT / "inputs" / name
     d = yaml.safe_load(deck.read_text())
     d["time"]["end"] = end
-    implicit.splu = grab
+    d["implicit"]["linear_solver"] = "lu"
+    NewtonSolver.solve = grab
     try:
         Simulation(build_scene(load_deck_text(yaml.safe_dump(d), deck)), threads=1).run()
     finally:
-        implicit.splu = original
+        NewtonSolver.solve = original
     return kept
 
 
 def solver_study() -> None:
+    import scipy.sparse as sp
     from scipy.sparse.linalg import splu
+
+    from mpmsim.integrators.solvers import analyze
 
     try:
         from cholespy import CholeskySolverD, MatrixType
@@ -332,9 +343,20 @@ def solver_study() -> None:
 
             runs = [best(lambda: splu(A).solve(b)), best(lambda: splu(A, permc_spec="MMD_AT_PLUS_A").solve(b)),
                     best(cholmod)]
+            refactor = ""
+            if analyze is not None:  # what the step does: analysis once per pattern, then refactorise
+                L = sp.tril(A).tocsc()
+                factor = analyze(L, mode="simplicial")
+
+                def again():
+                    factor.cholesky_inplace(L)
+                    return factor(b)
+
+                runs.append(best(again))
+                refactor = f", CHOLMOD refactorisation (scikit-sparse, simplicial) {runs[3][0] * 1e3:6.2f} ms"
             res = [np.linalg.norm(A @ x - b) / np.linalg.norm(b) for _, x in runs]
             print(f"  {name:28s} n {n:5d} nnz {A.nnz:6d}: splu (COLAMD) {runs[0][0] * 1e3:6.2f} ms, splu (MMD A'+A) "
-                  f"{runs[1][0] * 1e3:6.2f} ms, CHOLMOD {runs[2][0] * 1e3:6.2f} ms; residuals "
+                  f"{runs[1][0] * 1e3:6.2f} ms, CHOLMOD {runs[2][0] * 1e3:6.2f} ms{refactor}; residuals "
                   + " ".join(f"{r:.1e}" for r in res))
 
 
@@ -519,8 +541,20 @@ def main() -> None:
     ap.add_argument("--impact3d", type=float, nargs="+", metavar="F",
                     help="a 20 m/s cube on a held slab in 3D at dt = F x the crossing time, over the whole impact")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time by this process's CPU time, not the wall clock (a shared, busy machine)")
+    ap.add_argument("--tree", metavar="PATH", help="time the mpmsim of another checkout (e.g. the old commit's)")
+    ap.add_argument("--no-blocks", action="store_true", help="the rings only")
     args = ap.parse_args()
     numba.set_num_threads(1)
+    if args.cpu:
+        import types
+
+        import mpmsim.integrators.implicit as implicit
+
+        global CLOCK
+        CLOCK = time.process_time
+        implicit.wallclock = types.SimpleNamespace(perf_counter=time.process_time)  # the step's part timers
     if args.column:
         column_study()
         return
@@ -550,8 +584,10 @@ def main() -> None:
     rings = yaml.safe_load((ROOT / "inputs" / "implicit_rings_2d.yaml").read_text())
     rings["time"]["end"] = args.rings_end
     rings["output"] = {"history_interval": args.rings_end}
+    print(f"mpmsim from {sys.path[0]}")
     for threads in args.threads:
-        measure(f"implicit blocks, h = {args.h:g}", d, threads)
+        if not args.no_blocks:
+            measure(f"implicit blocks, h = {args.h:g}", d, threads)
         measure("implicit rings (MPM ring against FEM ring)", rings, threads)
 
 

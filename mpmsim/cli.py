@@ -427,7 +427,7 @@ def _check(scene) -> None:
     if scene.has_particles and d.integrator == "implicit":
         out.print(f"cost: {steps} Newton solves over {P.n} particles' grid nodes"
                   + (f" and {state.fem.n} FEM nodes" if state.fem is not None else "")
-                  + "; each takes a few iterations (docs/bfemp.md: ~50 ms per iteration for 1000 particles "
+                  + "; each takes a few iterations (docs/bfemp.md: ~10 ms per iteration for 1000 particles "
                   "on one thread)", highlight=False)
     elif scene.has_particles:
         from .cost import step_microseconds, task_costs

@@ -13,7 +13,8 @@ over the unknowns y (n, d) and knows each term only through the interface below;
     value(y)               Phi_term(y) (inf where y is infeasible: an inverted element, a touch)
     derivatives(y, force)  after value(y): adds its nodal forces (minus a dense gradient) into
                            `force` (n, d) and returns Derivatives: local gradients to scatter and
-                           the PSD-projected Hessian as triplets, both unscaled
+                           the PSD-projected Hessian as local blocks (Blocks) or triplets, both
+                           unscaled
     step_bound(y, p)       the largest alpha in (0, 1] that keeps y + alpha p feasible
     relag(y)               lagged terms only (lagged = True): re-evaluate the lagged quantities
                            at y; returns whether the term is still active
@@ -31,11 +32,30 @@ import numpy as np
 
 
 class Triplets(NamedTuple):
-    """A sparse matrix as (rows, cols, values), duplicates to be summed."""
+    """A sparse matrix as (rows, cols, values) over the unknowns' DOFs (node d + component),
+    duplicates to be summed. The integrator's pattern holds whole d x d node blocks: a triplet
+    brings its node pair's block in (energy.triplets gives whole blocks anyway)."""
 
     rows: np.ndarray
     cols: np.ndarray
     vals: np.ndarray
+
+
+class Blocks(NamedTuple):
+    """Local Hessians of g groups of unknowns: group q couples the k unknowns nodes[q] (rows of
+    y); its matrix local[q] is node-major ((n d) square over n local nodes). Unweighted
+    (weights None): n = k and the (a, b) d x d block of the global matrix gets local[q]'s (a, b)
+    block. Weighted: unknown a stands for local node block[a] with weight weights[q, a] (a
+    contact point interpolated from grid nodes), and the (a, b) block gets weights[q, a]
+    weights[q, b] times local[q]'s (block[a], block[b]) block. The integrator keeps the matrix
+    pattern (and its symbolic factorisation) while every bundle's node lists stay the same:
+    return the same array object for node lists that do not change, and never modify one in
+    place."""
+
+    nodes: np.ndarray  # (g, k) int
+    local: np.ndarray  # (g, n d, n d)
+    weights: np.ndarray | None = None  # (g, k)
+    block: np.ndarray | None = None  # (k,) int
 
 
 class Scatter(NamedTuple):
@@ -48,7 +68,7 @@ class Scatter(NamedTuple):
 
 class Derivatives(NamedTuple):
     local: tuple  # Scatter, ...
-    hessian: tuple  # Triplets, ...
+    hessian: tuple  # Blocks or Triplets, ...
 
 
 NONE = Derivatives((), ())

@@ -547,6 +547,10 @@ class Implicit(Strict):
         "converges, the friction's normal forces and sliding frames are taken again at the new positions and "
         "Newton reruns, until it converges at once or this many lags were taken. 1: lagged once, at the step's "
         "start.")
+    linear_solver: Literal["auto", "cholmod", "lu"] = Field(
+        default="auto", description="The Newton step's sparse solve. cholmod: CHOLMOD's Cholesky factorisation "
+        "(scikit-sparse, the extra `cholmod`), its analysis reused while the matrix pattern holds; lu: scipy's "
+        "SuperLU; auto: cholmod when installed, else lu. The run log names the one used.")
     particle_contact: Literal["centres", "corners"] = Field(
         default="centres", description="Where a particle meets FEM boundary edges. centres: at the particle "
         "(the paper's formulation; the load enters half a particle inside the body, first-order accurate). "

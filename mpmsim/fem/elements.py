@@ -280,6 +280,28 @@ def project_psd(H):
 
 
 @njit(cache=True, inline="always")
+def positive_definite(C, L):
+    """Whether the symmetric matrix C is numerically positive definite: its Cholesky
+    factorisation (into the scratch L, C's shape) meets only positive pivots. A cheap test
+    before project_psd: a matrix that passes has no eigenvalue below -PSD_TOL max|w| (its
+    computed eigenvalues are >= -eps |C|), so project_psd would leave it unchanged."""
+    n = C.shape[0]
+    for j in range(n):
+        s = C[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not (s > 0.0):
+            return False
+        L[j, j] = np.sqrt(s)
+        for i in range(j + 1, n):
+            t = C[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / L[j, j]
+    return True
+
+
+@njit(cache=True, inline="always")
 def _local_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, hessian, project, out, start, stop):
     """Each element's nodal forces (out (m, d + 1, d)) or, with `hessian`, its energy's Hessian
     (out (m, (d+1) d, (d+1) d), PSD-projected with `project`)."""
@@ -288,6 +310,7 @@ def _local_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, hessian, project
     work = np.empty((3, d, d))
     F, P, Finv = work[0], work[1], work[2]
     C = np.empty((d * d, d * d))
+    L = np.empty((d * d, d * d))
     T = np.empty((d * d, k))
     g = np.empty((d + 1, d))
     bad = -1
@@ -298,7 +321,8 @@ def _local_chunk(x, cells, Dm_inv, vol0, cell_mat, code, props, hessian, project
         if hessian:
             J = stress_tangent(code[mt], props[mt], F, C, Finv)
             local_hessian(C, g, vol0[e], T, out[e])
-            if project:
+            # a positive definite tangent makes the Hessian g^T C g PSD: no eigenproblem
+            if project and not positive_definite(C, L):
                 project_psd(out[e])
         else:
             J = first_piola(code[mt], props[mt], F, P, Finv)
@@ -595,27 +619,45 @@ def point_forces(u, nodes, G, F0, vol0, mat, code, props, f):
 
 
 @njit(cache=True)
-def point_hessians(u, nodes, G, F0, vol0, mat, code, props, project, out):
-    """Local Hessians out[p] (K d, K d) of each particle's energy over its grid nodes
-    (node-major). With `project` the stress tangent dP/dF is projected to PSD first (a d^2
-    square eigenproblem instead of a (K d)^2 one: 4 x 4 against 18 x 18 in 2D), which makes the
-    Hessian PSD; it equals the exact Hessian wherever the tangent is already PSD. Returns the
-    first particle with J <= 0."""
+def _point_hessians_chunk(u, nodes, G, F0, vol0, mat, code, props, project, out, start, stop):
     d = u.shape[1]
     K = nodes.shape[1]
     work = np.empty((2, d, d))
     F, Finv = work[0], work[1]
     C = np.empty((d * d, d * d))
+    L = np.empty((d * d, d * d))
     T = np.empty((d * d, K * d))
     bad = -1
-    for p in range(nodes.shape[0]):
+    for p in range(start, stop):
         J = _point_form(u, nodes, G, F0, p, code[mat[p]], props[mat[p]], F, C, Finv, True)
         if not (J > 0.0) and bad < 0:
             bad = p
-        if project:  # the tangent, (d d) square, not the (K d) square Hessian: G^T C+ G is PSD
+        # the tangent, (d d) square, not the (K d) square Hessian: G^T C+ G is PSD
+        if project and not positive_definite(C, L):
             project_psd(C)
         local_hessian(C, G[p], vol0[p], T, out[p])
     return bad
+
+
+@njit(cache=True, parallel=True)
+def point_hessians(u, nodes, G, F0, vol0, mat, code, props, project, out):
+    """Local Hessians out[p] (K d, K d) of each particle's energy over its grid nodes
+    (node-major). With `project` the stress tangent dP/dF is projected to PSD first (a d^2
+    square eigenproblem instead of a (K d)^2 one: 4 x 4 against 18 x 18 in 2D), which makes the
+    Hessian PSD; it equals the exact Hessian wherever the tangent is already PSD. In chunks over
+    the threads from PARALLEL_MIN particles, as the element kernels (each particle's own: the
+    same results on any thread count; on the rings deck's 948 particles 2 threads of the shared
+    2-core machine were slower, 129 against 55 ms per step). Returns the first particle with
+    J <= 0."""
+    n = nodes.shape[0]
+    nchunk = n_chunks(n)
+    if nchunk == 1:
+        return _point_hessians_chunk(u, nodes, G, F0, vol0, mat, code, props, project, out, 0, n)
+    bad = np.full(nchunk, -1, dtype=np.int64)
+    for c in prange(nchunk):
+        start, stop = chunk_bounds(c, nchunk, n)
+        bad[c] = _point_hessians_chunk(u, nodes, G, F0, vol0, mat, code, props, project, out, start, stop)
+    return first_bad(bad)
 
 
 @njit(cache=True)

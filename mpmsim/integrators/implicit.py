@@ -22,9 +22,10 @@ step in contact, raised after Newton iterations where contacts keep closing or a
 
 Projected Newton: the terms' Hessians (PSD) and M make H = M + c sum_terms H_term on the free
 degrees of freedom (held components move to their target and are eliminated; the local
-Hessians' triplets go straight into CSC over the free unknowns, csc_slots/csc_values, the pattern
-kept while the triplets' places stay the same), solved with scipy's
-sparse LU (splu). Line search: alpha = the smallest of the terms' step bounds (additive CCD
+Hessians are scattered by compiled kernels straight into the CSC values over the free unknowns,
+on a pattern kept while the bundles' node lists stay the same: assembly.py), solved by CHOLMOD's
+Cholesky factorisation with the analysis reused while the pattern holds, or by SuperLU
+(solvers.py; implicit.linear_solver). Line search: alpha = the smallest of the terms' step bounds (additive CCD
 keeps every contact point at least 10% of its distance from every edge; the inversion bounds
 keep det F > 0 for triangles and particles), then halved until E decreases. Stop when the
 largest move of an FEM node or a particle, max |p| / dt, is below newton_tolerance; that last
@@ -44,108 +45,21 @@ import time as wallclock
 from types import SimpleNamespace
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
-from numba import njit
-
-from ..contact.barrier.energy import BarrierContact, LaggedFriction, check_initial_gaps
+from ..contact.barrier.energy import BarrierContact, LaggedFriction, check_initial_gaps, interpolate
 from ..contact.barrier.stiffness import STALL, initial_stiffness, raised_stiffness, stiffness_bounds
 from ..contact.barrier.surface import SurfaceBarrier, SurfaceFriction
 from ..energy import StepStart
 from ..errors import InstabilityError
 from . import Integrator
+from .assembly import Assembler
 from .implicit_mpm import GridUnknowns
+from .solvers import CHOLMOD_AVAILABLE, NewtonSolver
 from .terms import FemStrain, Gravity, ParticleStrain
 
 SCHEMES = {"backward_euler": (1.0, 0.5, 1.0), "newmark": (0.5, 0.25, 0.5)}
-PARTS = ("assemble", "solve", "ccd", "line search")
+PARTS = ("derivatives", "assemble", "solve", "ccd", "line search")  # derivatives: sweep, values, gradients, local Hessians
 SPRING_START, SPRING_MAX = 1e2, 1e12  # prescribed-motion spring stiffness relative to the inertia term
-
-
-@njit(cache=True)
-def csc_slots(rows, cols, index, n):
-    """The pattern of the triplets (rows, cols) restricted to the unknowns k with index[k] >= 0
-    and renumbered by index, n of them: canonical CSC arrays (indptr, indices) (rows sorted
-    within each column, no duplicates) and each triplet's slot in them (-1: eliminated). One
-    pass buckets the entries by column, a second gives each column's distinct rows their slots
-    through a row marker and sorts its (few) rows."""
-    start = np.zeros(n + 1, np.int64)
-    for k in range(len(rows)):
-        i, j = index[rows[k]], index[cols[k]]
-        if i >= 0 and j >= 0:
-            start[j + 1] += 1
-    for j in range(n):
-        start[j + 1] += start[j]
-    fill = start[:n].copy()
-    r = np.empty(start[n], np.int32)
-    who = np.empty(start[n], np.int64)  # the triplet of each bucketed entry
-    for k in range(len(rows)):
-        i, j = index[rows[k]], index[cols[k]]
-        if i >= 0 and j >= 0:
-            r[fill[j]] = i
-            who[fill[j]] = k
-            fill[j] += 1
-    slot = np.full(len(rows), -1, np.int64)
-    where = np.full(n, -1, np.int64)  # slot of row i in the column being built (stale: < first)
-    indptr = np.zeros(n + 1, np.int32)
-    indices = np.empty(start[n], np.int32)
-    moved = np.empty(start[n], np.int64)
-    nnz = 0
-    for j in range(n):
-        first = nnz
-        for q in range(start[j], start[j + 1]):
-            i = r[q]
-            if where[i] < first:
-                where[i] = nnz
-                indices[nnz] = i
-                nnz += 1
-            slot[who[q]] = where[i]
-        order = np.argsort(indices[first:nnz])
-        indices[first:nnz] = indices[first:nnz][order]
-        for t in range(nnz - first):
-            moved[first + order[t]] = first + t
-        for q in range(start[j], start[j + 1]):
-            slot[who[q]] = moved[slot[who[q]]]
-        indptr[j + 1] = nnz
-    return indptr, indices[:nnz].copy(), slot
-
-
-@njit(cache=True)
-def csc_values(slot, vals, nnz):
-    """The CSC values of triplet values vals on the pattern `slot` (csc_slots): duplicates
-    summed in triplet order."""
-    data = np.zeros(nnz)
-    for k in range(len(slot)):
-        if slot[k] >= 0:
-            data[slot[k]] += vals[k]
-    return data
-
-
-def free_csc(rows, cols, vals, index, n):
-    """The sparse matrix of the triplets (rows, cols, vals) (duplicates summed) restricted to
-    the unknowns k with index[k] >= 0 and renumbered by index, n of them, as canonical CSC
-    arrays (indptr, indices, data)."""
-    indptr, indices, slot = csc_slots(rows, cols, index, n)
-    return indptr, indices, csc_values(slot, vals, len(indices))
-
-
-class CscPattern:
-    """The Newton matrix's pattern, kept while the triplets' (rows, cols) and the free unknowns
-    stay the same (between contact-pair changes): then only the values are scattered."""
-
-    def __init__(self):
-        self.key = None
-        self.pattern = None
-
-    def matrix(self, rows, cols, vals, index, n) -> sp.csc_matrix:
-        key = self.key
-        if key is None or not (len(key[0]) == len(rows) and np.array_equal(key[2], index)
-                               and np.array_equal(key[0], rows) and np.array_equal(key[1], cols)):
-            self.key = (rows, cols, index)
-            self.pattern = csc_slots(rows, cols, index, n)
-        indptr, indices, slot = self.pattern
-        return sp.csc_matrix((csc_values(slot, vals, len(indices)), indices, indptr), shape=(n, n))
 
 
 def empty_fem(dim: int) -> SimpleNamespace:
@@ -189,7 +103,16 @@ class ImplicitStep(Integrator):
         if dhat is not None:
             check_initial_gaps(scene, dhat, barrier.particle_contact == "corners")
         what = "FEM bodies" if self.grid is None else ("particle bodies" if not n_fem else "FEM and particle bodies")
-        self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, sparse LU"),
+        choice = imp.linear_solver
+        if choice == "cholmod" and not CHOLMOD_AVAILABLE:
+            from ..deck.loader import raise_at
+
+            raise_at([(("implicit", "linear_solver"), "cholmod needs scikit-sparse on SuiteSparse's CHOLMOD "
+                       "(apt install libsuitesparse-dev, then pip install -e '.[cholmod]'); or use lu or auto")],
+                     scene.loaded)
+        self.solver = NewtonSolver(cholesky=choice != "lu")
+        self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, "
+                                f"{self.solver.name}"),
                      ("barrier contact", f"log barrier on FEM boundary {'edges' if scene.dim == 2 else 'triangles'}, "
                       f"dhat {dhat:g}, kappa {'adaptive' if barrier.kappa is None else f'{barrier.kappa:g}'}"
                       + (f", particles at their {barrier.particle_contact}" if self.grid is not None else "")
@@ -201,7 +124,7 @@ class ImplicitStep(Integrator):
         self.terms = []
         self.added: list = []  # terms given by add_term, after the built-in ones
         self.spring = None  # (moving components, their targets, stiffness) during a step
-        self.pattern = CscPattern()
+        self.assembler = None  # the Newton matrix's assembly (its pattern kept), once the dimension is known
         self.barrier_term = None
         self.adaptive = self.contact and barrier.kappa is None
         self.kappa_bounds = None  # adaptive kappa: (kappa_min, kappa_max, bounding-box diagonal)
@@ -225,6 +148,7 @@ class ImplicitStep(Integrator):
         initial state)."""
         dim = state.dim
         self.dim = dim
+        self.assembler = Assembler(dim, lower=self.solver.lower)
         fem = state.fem if state.fem is not None else empty_fem(dim)
         self.fem = fem
         m = state.materials
@@ -266,8 +190,9 @@ class ImplicitStep(Integrator):
 
     def _energy(self, y, yt, want_derivatives):
         """E(y) (inf if an element or particle inverted or a pair touched), and when asked its
-        gradient (n*d,) and PSD-projected Hessian (triplets rows, cols, values; duplicates to
-        be summed: free_csc). The terms' sum is taken in their order."""
+        gradient (n*d,) and PSD-projected Hessian: the terms' Hessian bundles (Blocks,
+        Triplets; to be scaled by c) and the diagonal (n*d,) added unscaled (assembly.Assembler).
+        The terms' sum is taken in their order."""
         c, d = self.c, self.dim
         dx = (y - yt).ravel()
         total = 0.0
@@ -293,11 +218,7 @@ class ImplicitStep(Integrator):
         diag = self.M + (ks * self.M * moving.ravel() if spring is not None else 0.0)
         if spring is not None:
             g += ks * self.M * off
-        every = np.arange(y.size)
-        rows = np.concatenate([h.rows for h in hessians] + [every])
-        cols = np.concatenate([h.cols for h in hessians] + [every])
-        vals = np.concatenate([c * h.vals for h in hessians] + [diag])
-        return E, g, (rows, cols, vals)
+        return E, g, (hessians, diag)
 
     def _step_bound(self, y, p) -> tuple[float, bool]:
         """Largest alpha in (0, 1] the terms allow (CCD, det F > 0) and whether a collision
@@ -315,7 +236,7 @@ class ImplicitStep(Integrator):
         nf, grid = self.fem.n, self.grid
         size = float(np.abs(p[:nf]).max()) if nf else 0.0
         if grid is not None:
-            size = max(size, float(np.abs(np.einsum("pk,pkc->pc", grid.S, p[nf:][grid.nodes])).max()))
+            size = max(size, float(np.abs(interpolate(grid.S, grid.nodes, p[nf:])).max()))
         return size
 
     # ----------------------------------------------------------------------------- the step
@@ -323,20 +244,21 @@ class ImplicitStep(Integrator):
         """Projected Newton from y on the free DOFs; returns (y, iterations, halvings, CCD-limited)."""
         halvings = 0
         ccd_limited = False
-        m = int(free.sum())
         index = np.full(free.size, -1, np.int64)  # DOF -> free unknown (-1: eliminated)
-        index[free] = np.arange(m)
+        index[free] = np.arange(int(free.sum()))
         for it in range(1, self.max_iterations + 1):
             t0 = wallclock.perf_counter()
             self._sweep(y)
             if self.adaptive and it > 1:  # after the previous iteration, on this sweep's pairs
                 self._raise_kappa(y, it - 1)
-            E, g, H = self._energy(y, yt, True)
-            Hf = self.pattern.matrix(*H, index, m)
-            self.timers["assemble"] += wallclock.perf_counter() - t0
+            E, g, (hessians, diag) = self._energy(y, yt, True)
+            t1 = wallclock.perf_counter()
+            self.timers["derivatives"] += t1 - t0
+            Hf = self.assembler.matrix(hessians, diag, self.c, index)
+            self.timers["assemble"] += wallclock.perf_counter() - t1
             t0 = wallclock.perf_counter()
             p = np.zeros(y.size)
-            p[free] = splu(Hf).solve(-g[free])
+            p[free] = self.solver.solve(Hf, -g[free], self.assembler.version)
             p = p.reshape(y.shape)
             self.timers["solve"] += wallclock.perf_counter() - t0
             if self._step_size(p) / dt < self.tolerance:
@@ -518,4 +440,4 @@ class ImplicitStep(Integrator):
             kmin, kmax, _ = self.kappa_bounds
             line += (f"; adaptive kappa {self.barrier_term.kappa:.4g} (range {kmin:.3g} to {kmax:.3g}"
                      + ("" if self.kappa_set else ", no contact yet") + ")")
-        return [line]
+        return [line, self.solver.report()]

@@ -72,6 +72,23 @@ def particle_update(nodes, S, x, X, u, v_new, v_old, a_new, flip, apic, xp, vp, 
             ap[p, c] = ai
 
 
+@njit(cache=True)
+def point_deformation(u, nodes, G, F0):
+    """F_p = F0_p + sum_k u[nodes[p, k]] G[p, k]^T (n, d, d), the sum in k order (numpy's einsum
+    "pka,pkb->pab" of u[nodes] and G to the bit, without the gather)."""
+    n, K = nodes.shape
+    d = u.shape[1]
+    out = np.empty((n, d, d))
+    for p in range(n):
+        for a in range(d):
+            for b in range(d):
+                s = 0.0
+                for k in range(K):
+                    s += u[nodes[p, k], a] * G[p, k, b]
+                out[p, a, b] = F0[p, a, b] + s
+    return out
+
+
 def walls(ijk: np.ndarray, face_type: np.ndarray, wall_index: np.ndarray, d: int) -> np.ndarray:
     """(n, d) bool: components of the nodes (i, j, k) held by a constrained face (on and beyond
     its grid line; FIXED all components, ROLLER the normal one)."""
@@ -201,7 +218,7 @@ class GridUnknowns:
 
     def deformation(self, u) -> np.ndarray:
         """F_p(y) (n, d, d)."""
-        return self.F0 + np.einsum("pka,pkb->pab", u[self.nodes], self.G)
+        return point_deformation(u, self.nodes, self.G, self.F0)
 
     def finish(self, state, u, v_new, a_new) -> None:
         P = state.particles

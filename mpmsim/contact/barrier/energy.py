@@ -29,11 +29,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ...energy import Derivatives, Potential, Scatter, StepStart, triplets
+from ...energy import Blocks, Derivatives, Potential, Scatter, StepStart
 from ...shapes.cpdi import corner_signs
 from .broadphase import (box_pairs, correction_nodes, point_boxes, point_edge_candidates, point_node_candidates,
                          simplex_boxes)
-from .ccd import point_edge_ccd_pairs
+from .ccd import CCD_ETA, point_edge_ccd_pairs
 from .closest import point_triangle_distance
 from .distance import point_edge_distance, point_edge_friction_frame
 from .friction import point_edge_friction
@@ -50,6 +50,22 @@ class Pairs(NamedTuple):
 NO_PAIRS = Pairs(np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64))
 
 
+@njit(cache=True)
+def interpolate(w, node, y):
+    """out[q] = sum_k w[q, k] y[node[q, k]] (n, d), summed in k order (numpy's einsum
+    "qk,qkc->qc" of y[node] to the bit, without the (n, K, d) gather)."""
+    n, K = w.shape
+    d = y.shape[1]
+    out = np.empty((n, d))
+    for q in range(n):
+        for c in range(d):
+            s = 0.0
+            for k in range(K):
+                s += w[q, k] * y[node[q, k], c]
+            out[q, c] = s
+    return out
+
+
 class ContactPoints(NamedTuple):
     """The points that meet FEM boundary edges through the barrier, for one step. A point's
     position is sum_k w[q, k] y[node[q, k]] + offset[q] over the unknowns y."""
@@ -63,23 +79,21 @@ class ContactPoints(NamedTuple):
     mat: np.ndarray  # (n,) material (friction)
 
     def positions(self, y: np.ndarray) -> np.ndarray:
-        return np.einsum("qk,qkc->qc", self.w, y[self.node]) + self.offset
+        return interpolate(self.w, self.node, y) + self.offset
 
     def moves(self, p: np.ndarray) -> np.ndarray:
-        return np.einsum("qk,qkc->qc", self.w, p[self.node])
+        return interpolate(self.w, self.node, p)
 
     def pair_terms(self, point, others, gl, Hl, d) -> tuple[Scatter, object]:
         """Local gradients gl (k, (1 + s) d) and Hessians Hl over (point, s FEM nodes `others`
-        (k, s)), the point's part mapped to the unknowns through its weights: (Scatter, Triplets)."""
+        (k, s)), the point's part mapped to the unknowns through its weights: (Scatter, Blocks)."""
         K = self.node.shape[1]
         k, s = others.shape
         nodes = np.concatenate([self.node[point], others], axis=1)  # (k, K + s)
         wts = np.concatenate([self.w[point], np.ones((k, s))], axis=1)
         block = np.r_[np.zeros(K, np.int64), 1 + np.arange(s)]
         G = gl.reshape(k, 1 + s, d)[:, block, :] * wts[:, :, None]
-        H4 = Hl.reshape(k, 1 + s, d, 1 + s, d)[:, block][:, :, :, block]  # (k, K+s, d, K+s, d)
-        H4 = H4 * (wts[:, :, None, None, None] * wts[:, None, None, :, None])
-        return Scatter(nodes, G), triplets(nodes, H4.reshape(k, (K + s) * d, (K + s) * d), d)
+        return Scatter(nodes, G), Blocks(nodes, Hl, wts, block)
 
 
 def boundary_weights(x: np.ndarray, facets: np.ndarray, boundary: np.ndarray) -> np.ndarray:
@@ -206,7 +220,8 @@ class BarrierContact(Potential):
         if not len(pe):
             return 1.0
         pts, nf = self.points, self.fem.n
-        return point_edge_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.fem.facets, pe)
+        return point_edge_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.fem.facets, pe, CCD_ETA,
+                                    1.0)  # every argument given: numba's dispatch of defaults is slow
 
     def corrected_share(self, z, x, pairs) -> np.ndarray:
         """The (deg - 1) correction in the friction's normal forces: a pair whose closest point

@@ -304,7 +304,7 @@ class SurfaceBarrier(BarrierContact):
         phi = 0.0
         if k:
             phi = surface_barrier_groups(self.points.positions(y), y[:self.fem.n], grp.point, grp.start, grp.simplex,
-                                         grp.coef, grp.nodes, self.dhat, self.kappa, self.points.weight, gl, Hl)
+                                         grp.coef, grp.nodes, self.dhat, self.kappa, self.points.weight, gl, Hl, True)
         self._local = (gl, Hl)
         return phi
 
@@ -320,7 +320,8 @@ class SurfaceBarrier(BarrierContact):
         if not len(pairs):
             return 1.0
         pts, nf = self.points, self.fem.n
-        return point_triangle_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.surface.triangles, pairs)
+        return point_triangle_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.surface.triangles, pairs,
+                                        1.0)  # every argument given: numba's dispatch of defaults is slow
 
 
 @njit(cache=True)
@@ -420,7 +421,7 @@ class SurfaceFriction(LaggedFriction):
         gl, Hl = np.zeros((k, 3 * (1 + s))), np.zeros((k, 3 * (1 + s), 3 * (1 + s)))
         z = pts.positions(y)
         surface_barrier_groups(z, y[:fem.n], grp.point, grp.start, grp.simplex, grp.coef, grp.nodes, c.dhat,
-                               c.kappa, pts.weight, gl, Hl)
+                               c.kappa, pts.weight, gl, Hl, True)
         tri, G, mu_lambda = np.zeros((k, 3), np.int64), np.zeros((k, 12, 2)), np.zeros(k)
         first = grp.simplex[grp.start[:-1], 0]  # a node of the point's first triangle (its body)
         mu = self.mu[pts.mat[grp.point], fem.node_mat[first]]
