@@ -405,6 +405,13 @@ def edge_barrier_groups(verts, rest, edge, start, simplex, kind, nodes, dhat, ka
 
 
 @njit(cache=True)
+def project_all(hessians):
+    """Each of the Hessians (g, n, n) projected to PSD, in place."""
+    for k in range(hessians.shape[0]):
+        project_psd(hessians[k])
+
+
+@njit(cache=True)
 def edge_edge_ccd_pairs(verts, dverts, edges, pairs, t_max=1.0):
     """Largest common step in [0, t_max] for all (edge, edge) pairs (edge_edge_ccd)."""
     y = np.empty(12)
@@ -444,6 +451,30 @@ def edge_candidates(x: np.ndarray, dx: np.ndarray, edges: np.ndarray, edge_body:
     if len(pairs):
         pairs = pairs[edge_body[pairs[:, 0]] != edge_body[pairs[:, 1]]]
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if len(pairs) else pairs
+
+
+def surface_gaps(x: np.ndarray, triangles: np.ndarray, node_body: np.ndarray, reach: float) -> dict:
+    """{(a, b): gap} for the pairs of FEM bodies a < b whose boundary surfaces come within
+    `reach`: the smallest node-triangle or edge-edge distance between them (3D)."""
+    nodes = np.unique(triangles)
+    pairs = point_edge_candidates(x[nodes], np.zeros((len(nodes), 3)), x, np.zeros_like(x), triangles, reach, nodes)
+    out = {}
+
+    def note(a, b, d):
+        key = (min(a, b), max(a, b))
+        out[key] = min(out.get(key, np.inf), d)
+
+    tri_body = node_body[triangles[:, 0]]
+    for i, t in pairs:
+        a, b = node_body[nodes[i]], tri_body[t]
+        if a != b:
+            note(a, b, min_pair_distance(x[nodes[i:i + 1]], x, triangles, np.array([[0, t]], np.int64)))
+    S = surface_topology(triangles, len(x))
+    edge_body = node_body[S.edges[:, 0]]
+    ee = edge_candidates(x, np.zeros_like(x), S.edges, edge_body, reach)
+    for i, j in ee[ee[:, 0] < ee[:, 1]] if len(ee) else ():
+        note(edge_body[i], edge_body[j], min_edge_distance(x, S.edges, np.array([[i, j]], np.int64)))
+    return out
 
 
 class SurfaceBarrier(BarrierContact):
@@ -532,8 +563,9 @@ class SurfaceBarrier(BarrierContact):
         k, s = eg.nodes.shape
         ge, He = np.zeros((k, 3 * s)), np.zeros((k, 3 * s, 3 * s))
         if k:
+            # projected in derivatives(): the line search's evaluations need only the value
             phi += edge_barrier_groups(y[:self.fem.n], self.fem.X, eg.edge, eg.start, eg.simplex, eg.kind, eg.nodes,
-                                       self.dhat, self.kappa, self.edge_weight, ge, He)
+                                       self.dhat, self.kappa, self.edge_weight, ge, He, False)
         self._edge_local = (ge, He)
         return phi
 
@@ -546,6 +578,7 @@ class SurfaceBarrier(BarrierContact):
             hessians.append(h)
         if len(eg.edge):
             ge, He = self._edge_local
+            project_all(He)
             k, s = eg.nodes.shape
             scatters.append(Scatter(eg.nodes, ge.reshape(k, s, 3)))
             hessians.append(triplets(eg.nodes, He, 3))
