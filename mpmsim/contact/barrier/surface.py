@@ -490,11 +490,13 @@ class SurfaceBarrier(BarrierContact):
         self.surface = S = surface_topology(fem.facets, fem.n)
         self.triangle_body = fem.node_body[fem.facets[:, 0]]
         # FEM nodes meet only other FEM bodies, both ways round and together with the edge-edge
-        # terms: half weights (module docstring)
-        self.boundary_weight = 0.5 * triangle_weights(fem.X, fem.facets, fem.boundary)
+        # terms: half weights (module docstring). With one FEM body they meet nothing and their
+        # weights only enter adaptive kappa's mean weight, kept as it was.
+        self.edge_contact = self.n_fem_bodies > 1
+        share = 0.5 if self.edge_contact else 1.0
+        self.boundary_weight = share * triangle_weights(fem.X, fem.facets, fem.boundary)
         self.edge_body = fem.node_body[S.edges[:, 0]]
         self.edge_weight = 0.5 * edge_weights(fem.X, S.triangles, S.triangle_edges, len(S.edges))
-        self.edge_contact = self.n_fem_bodies > 1
         self.points = None
         self.current = NO_GROUPS
         self.edge_current = NO_EDGE_GROUPS
