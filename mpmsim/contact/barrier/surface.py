@@ -1,5 +1,6 @@
 """3D barrier contact: contact points (FEM boundary nodes, MPM particles) against the boundary
-triangles of other FEM bodies, and its lagged friction (BFEMP Eq. 32; docs/bfemp.md).
+triangles of other FEM bodies, edge-edge terms between FEM bodies, and lagged friction (BFEMP
+Eq. 32; docs/bfemp.md).
 
 Potential of one point p (weight w_p, an area: kappa is a pressure):
 
@@ -18,9 +19,30 @@ the correction terms (negative barriers) never leave Newton's matrix indefinite 
 is PSD (a flat or convex surface) the Hessian is exact. This extends the 2D kernel's
 PSD(H1 + H2 - Hv) - H1 - H2 at a boundary vertex (potential.point_node_barrier_pairs).
 
-Contact areas: an FEM boundary node carries a third of its triangles' areas; a particle the
+Contact areas: an FEM boundary node carries a third of its triangles' areas (half that when there
+are other FEM bodies: below); a particle the
 largest cross-section pi r^2 of the sphere of its volume (the paper's choice), or with
 `particle_contact: corners` each of its 8 corners a quarter of a face, l^2/4.
+
+FEM-FEM contact: the boundary nodes of each FEM body are points against the other bodies'
+triangles (both ways round), and boundary edges of different FEM bodies meet through edge-edge
+terms with IPC's mollifier m (potential.mollified_edge_edge_barrier; eps_x from rest lengths).
+Grouped per edge a (weight w_a):
+
+    Phi_a = w_a [ sum_b m_ab b(d_ab) - sum_p (sum_{e at p} m_a,e - 1) b(d_pa) ]
+
+over the edges b of other bodies and their ends p within reach, d_pa the point-edge distance of p
+to a. Where p's closest point on a is inside a and p is the nearest point of its n edges, the n
+pair terms equal b(d_pa) and the correction leaves one; nearly parallel pairs enter with their
+mollifier in both places. This is the IPC toolkit's IMPROVED_MAX_APPROX collision set (ipctk 1.6,
+area weighting: vertex-face 1/4 of the vertex area, edge-edge 1/4 of the two edge areas, each
+edge-edge correction 1/4 of a's), and the whole FEM-FEM potential is twice it: node weights half
+their area share (a third of their triangles' areas), w_a half the edge's (a third of its two
+triangles' areas). In 2D the two directions of point-edge contact likewise sum to twice the
+one-sided integral; an MPM particle's weight (one side only) stays its full area. Each group's
+Hessian is summed unprojected and projected to PSD once (in derivatives(): the line search asks
+only for values). Step bound: edge-edge additive CCD over the candidate pairs, with the
+point-triangle one. Friction acts on the node-triangle terms only.
 
 Friction (SurfaceFriction): per point, lagged at the step's start on its nearest triangle: the
 normal force lambda = |dPhi_p/dp| (the whole group's force on the point, corrections included),
@@ -198,6 +220,18 @@ def _term_distance(y, n_nodes, g, H):
     return point_triangle_distance_hessian(y, g, H, kind)
 
 
+@njit(cache=True, inline="always")
+def _add_local(grad, hess, slot, m, g12, H12):
+    """Add a term's gradient g12 and Hessian H12 over its first m vertices into a group's grad
+    and hess, vertex A going to the group's node slot[A]."""
+    for A in range(m):
+        for a in range(3):
+            grad[3 * slot[A] + a] += g12[3 * A + a]
+            for B in range(m):
+                for b in range(3):
+                    hess[3 * slot[A] + a, 3 * slot[B] + b] += H12[3 * A + a, 3 * B + b]
+
+
 @njit(cache=True)
 def surface_barrier_groups(points, verts, point, start, simplex, coef, nodes, dhat, kappa, weights, grads,
                            hessians, project=True):
@@ -234,12 +268,7 @@ def surface_barrier_groups(points, verts, point, start, simplex, coef, nodes, dh
                     y[3 + 3 * c + a] = verts[v, a]
             d = _term_distance(y, m, g12, H12)
             total += _chain(d, g12, H12, dhat, kappa * weights[i] * coef[term], False)
-            for A in range(1 + m):
-                for a in range(3):
-                    grads[grp, 3 * slot[A] + a] += g12[3 * A + a]
-                    for B in range(1 + m):
-                        for b in range(3):
-                            hessians[grp, 3 * slot[A] + a, 3 * slot[B] + b] += H12[3 * A + a, 3 * B + b]
+            _add_local(grads[grp], hessians[grp], slot, 1 + m, g12, H12)
         if project:
             project_psd(hessians[grp])
     return total
@@ -393,12 +422,7 @@ def edge_barrier_groups(verts, rest, edge, start, simplex, kind, nodes, dhat, ka
                 else:
                     e = _mollified_chain(y, d, g12, H12, edge_edge_mollifier_threshold(yr), dhat, -w, gx, Hx)
             total += e
-            for A in range(4):
-                for a in range(3):
-                    grads[grp, 3 * slot[A] + a] += g12[3 * A + a]
-                    for B in range(4):
-                        for b in range(3):
-                            hessians[grp, 3 * slot[A] + a, 3 * slot[B] + b] += H12[3 * A + a, 3 * B + b]
+            _add_local(grads[grp], hessians[grp], slot, 4, g12, H12)
         if project:
             project_psd(hessians[grp])
     return total
