@@ -424,15 +424,42 @@ def edge_barrier_groups(verts, rest, edge, start, simplex, kind, nodes, dhat, ka
             total += e
             _add_local(grads[grp], hessians[grp], slot, 4, g12, H12)
         if project:
-            project_psd(hessians[grp])
+            project_active(hessians[grp])
     return total
 
 
 @njit(cache=True)
+def project_active(H):
+    """Project the symmetric H to PSD in place through its block on the rows that are not all
+    zero (the same result: the zero rows and columns split off with eigenvalues 0). An edge's
+    stencil holds every node its terms could reach over the sweep; most terms are beyond dhat
+    at any one evaluation, and a smaller eigenproblem is much cheaper."""
+    n = H.shape[0]
+    idx = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        for j in range(n):
+            if H[i, j] != 0.0:
+                idx[m] = i
+                m += 1
+                break
+    if m == 0:
+        return
+    sub = np.empty((m, m))
+    for a in range(m):
+        for b in range(m):
+            sub[a, b] = H[idx[a], idx[b]]
+    project_psd(sub)
+    for a in range(m):
+        for b in range(m):
+            H[idx[a], idx[b]] = sub[a, b]
+
+
+@njit(cache=True)
 def project_all(hessians):
-    """Each of the Hessians (g, n, n) projected to PSD, in place."""
+    """Each of the Hessians (g, n, n) projected to PSD (project_active), in place."""
     for k in range(hessians.shape[0]):
-        project_psd(hessians[k])
+        project_active(hessians[k])
 
 
 @njit(cache=True)
