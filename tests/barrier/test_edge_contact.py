@@ -13,7 +13,6 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from mpmsim.contact.barrier.potential import barrier
 from mpmsim.contact.barrier.surface import SurfaceBarrier, edge_barrier_groups, surface_barrier_groups
 from mpmsim.energy import StepStart
 from mpmsim.fem import mesh as femmesh
@@ -35,10 +34,6 @@ def surface_box(h, R=np.eye(3), shift=np.zeros(3)):
     index = np.full(len(m.points), -1)
     index[used] = np.arange(len(used))
     return m.points[used] @ R.T + shift, index[m.facets]
-
-
-def lowest(V, axis=1):
-    return V[:, axis].min()
 
 
 def scene(which, gap):

@@ -57,9 +57,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ...energy import Derivatives
+from ...energy import Derivatives, Scatter, triplets
 from ...fem.elements import project_psd
-from ...energy import Scatter, triplets
 from .broadphase import box_pairs, point_edge_candidates, simplex_boxes
 from .ccd import edge_edge_ccd, point_triangle_ccd
 from .closest import (EE_EA0_EB0, EE_EA1_EB0, EE_EA_EB0, PT_P_E0, PT_P_T0, PT_P_T1, edge_edge_distance2,
