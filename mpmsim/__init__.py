@@ -1,6 +1,13 @@
 """mpmsim: material point method simulator for multimaterial contact mechanics."""
 
+import os
 from importlib.metadata import PackageNotFoundError, version
+
+# mpmsim's threads are numba's: BLAS threads on top of them (numpy's eigh/solve in the implicit
+# step's small dense problems) oversubscribe the cores and slowed a 3D contact test 20x. A
+# user's own setting wins; numpy imported before mpmsim keeps whatever it loaded with.
+for _blas in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_blas, "1")
 
 try:
     __version__ = version("mpmsim")

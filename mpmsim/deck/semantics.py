@@ -62,9 +62,6 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             add(["implicit", "dhat"], "bodies meet through the barrier: give implicit.dhat")
         if deck.contact.augury is not None:
             add(["contact", "augury"], "augury contact is explicit; implicit integration uses the barrier")
-        if deck.dim == 3 and len(fem) > 1:
-            add(["integrator"], "implicit barrier contact between FEM bodies is 2D for now (3D meets particles "
-                                "with FEM bodies only: edge-edge terms are not built)")
     elif deck.implicit is not None:
         add(["implicit"], "settings for integrator: implicit, but the deck's integrator is explicit")
     if deck.output.energy_ledger and (deck.integrator != "explicit" or fem or not particle_bodies):

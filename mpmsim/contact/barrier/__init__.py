@@ -11,7 +11,8 @@ then value, gradient and Hessian on the stacked coordinate vector of the pair):
               closest-point parameter and tangents
   closest     3D point-triangle and edge-edge distances as closest-point problems (one formula
               for every type: the implicit function theorem at the closest points)
-  potential   b(d) = -kappa dhat (u - 1)^2 ln u and the pair energies with gradient/Hessian
+  potential   b(d) = -kappa dhat (u - 1)^2 ln u and the pair energies with gradient/Hessian;
+              IPC's edge-edge mollifier for nearly parallel edges
   (PSD projection of the local Hessians: mpmsim.fem.elements.project_psd, LAPACK eigh)
   friction    smoothed friction mollifier f0/f1/f2 and the lagged friction pseudo-potential
   ccd         additive CCD (eta = 0.1) for point-edge and point-point linear motion (2D) and
@@ -43,7 +44,8 @@ from .friction import (friction_f0, friction_f1, friction_f1_over_y, friction_f2
 from .inversion import (DET_FRACTION, det_step_bound, det_step_bound_2x2, det_step_bound_3x3, first_nonpositive_in_unit,
                         triangle_step_bound)
 from .potential import (barrier, barrier_first_derivative, barrier_normal_force, barrier_second_derivative,
-                        edge_edge_barrier, point_edge_barrier, point_edge_barrier_pairs, point_point_barrier,
+                        edge_edge_barrier, edge_edge_cross2_hessian, edge_edge_mollifier, edge_edge_mollifier_threshold,
+                        mollified_edge_edge_barrier, point_edge_barrier, point_edge_barrier_pairs, point_point_barrier,
                         point_triangle_barrier)
 from ...fem.elements import project_psd
 
@@ -51,8 +53,9 @@ __all__ = [
     "CCD_ETA", "DET_FRACTION", "PE_P_E", "PE_P_E0", "PE_P_E1",
     "barrier", "barrier_first_derivative", "barrier_normal_force", "barrier_second_derivative",
     "boundary_vertex_degree", "box_pairs", "correction_nodes", "det_step_bound", "det_step_bound_2x2",
-    "det_step_bound_3x3", "edge_edge_barrier", "edge_edge_ccd", "edge_edge_distance2", "edge_edge_distance2_hessian",
-    "edge_edge_distance_hessian", "edge_edge_distance_type", "first_nonpositive_in_unit", "friction_f0",
+    "det_step_bound_3x3", "edge_edge_barrier", "edge_edge_ccd", "edge_edge_cross2_hessian", "edge_edge_distance2", "edge_edge_distance2_hessian",
+    "edge_edge_distance_hessian", "edge_edge_distance_type", "edge_edge_mollifier", "edge_edge_mollifier_threshold",
+    "first_nonpositive_in_unit", "mollified_edge_edge_barrier", "friction_f0",
     "friction_f1", "friction_f1_over_y",
     "friction_f2", "friction_f2_y_minus_f1_over_y3", "lagged_friction", "point_boxes", "point_edge_barrier",
     "point_edge_barrier_pairs", "point_edge_candidates", "point_edge_ccd", "point_edge_ccd_pairs",

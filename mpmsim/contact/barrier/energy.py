@@ -414,14 +414,20 @@ def check_initial_gaps(scene, dhat: float, corners: bool = False) -> None:
         return
     dim = fem.points.shape[1]
     problems = []
-    n = len(fem.infos) if dim == 2 else 0  # 3D FEM bodies do not meet each other (deck check)
-    for a in range(n):
-        for b in range(a + 1, n):
-            gap = boundary_gap(fem.points, fem.facets, fem.node_body, a, b)
-            if gap <= dhat:
-                problems.append((("implicit", "dhat"), f"bodies '{fem.infos[a].name}' and '{fem.infos[b].name}' "
-                                 f"start {gap:.4g} apart, not farther than dhat = {dhat:g}: move them apart "
-                                 "or lower dhat"))
+    n = len(fem.infos)
+    gaps = {}
+    if dim == 2:
+        for a in range(n):
+            for b in range(a + 1, n):
+                gaps[a, b] = boundary_gap(fem.points, fem.facets, fem.node_body, a, b)
+    elif n > 1:
+        from .surface import surface_gaps
+        gaps = surface_gaps(fem.points, fem.facets, fem.node_body, dhat)
+    for (a, b), gap in sorted(gaps.items()):
+        if gap <= dhat:
+            problems.append((("implicit", "dhat"), f"bodies '{fem.infos[a].name}' and '{fem.infos[b].name}' "
+                             f"start {gap:.4g} apart, not farther than dhat = {dhat:g}: move them apart "
+                             "or lower dhat"))
     seed = scene.deformable if scene.has_particles else None
     if seed is not None and len(seed.x) and len(fem.cells):
         inside = particles_inside(seed.x, fem.points, fem.cells)

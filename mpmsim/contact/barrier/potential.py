@@ -115,9 +115,114 @@ def point_triangle_barrier(y, dhat, kappa, g, H, project=False, dtype=-1):
 @njit(cache=True)
 def edge_edge_barrier(y, dhat, kappa, g, H, project=False, dtype=-1):
     """Barrier energy b(d) of the 3D edge-edge pair y = (a0, a1, b0, b1) (12,), without IPC's
-    mollifier for near-parallel edges; fills g (12,) and H (12, 12)."""
+    mollifier for near-parallel edges (mollified_edge_edge_barrier); fills g (12,) and H (12, 12)."""
     d = edge_edge_distance_hessian(y, g, H, dtype)
     return _chain(d, g, H, dhat, kappa, project)
+
+
+# ---------------------------------------------------------------- edge-edge mollifier (3D)
+MOLLIFIER_SCALE = 1e-3  # IPC's eps_x = 1e-3 |ea|^2 |eb|^2 at rest
+
+
+@njit(cache=True)
+def edge_edge_mollifier_threshold(rest):
+    """eps_x = 1e-3 |a0 - a1|^2 |b0 - b1|^2 of the edges' rest positions rest = (a0, a1, b0, b1)
+    (12,) (IPC, Li et al. 2020, doi:10.1145/3386569.3392425, Sec. 4.3)."""
+    la = 0.0
+    lb = 0.0
+    for a in range(3):
+        la += (rest[3 + a] - rest[a]) ** 2
+        lb += (rest[9 + a] - rest[6 + a]) ** 2
+    return MOLLIFIER_SCALE * la * lb
+
+
+@njit(cache=True)
+def edge_edge_cross2_hessian(y, g, H):
+    """x = |(a1 - a0) x (b1 - b0)|^2 of y = (a0, a1, b0, b1) (12,) with its gradient g (12,) and
+    Hessian H (12, 12). With u = a1 - a0, v = b1 - b0, c = u x v: dx/du = 2 v x c, dx/dv =
+    2 c x u (from the cross product: no cancellation for nearly parallel edges), and from
+    x = |u|^2 |v|^2 - (u.v)^2: d2x/du2 = 2 |v|^2 I - 2 v v^T, d2x/dv2 = 2 |u|^2 I - 2 u u^T,
+    d2x/du dv = 4 u v^T - 2 v u^T - 2 (u.v) I."""
+    u = y[3:6] - y[0:3]
+    v = y[9:12] - y[6:9]
+    c = np.cross(u, v)
+    gu = 2.0 * np.cross(v, c)
+    gv = 2.0 * np.cross(c, u)
+    uu, vv, uv = u @ u, v @ v, u @ v
+    sign = (-1.0, 1.0)
+    for i in range(2):
+        for a in range(3):
+            g[3 * i + a] = sign[i] * gu[a]
+            g[6 + 3 * i + a] = sign[i] * gv[a]
+    for a in range(3):
+        for e in range(3):
+            eye = 1.0 if a == e else 0.0
+            huu = 2.0 * vv * eye - 2.0 * v[a] * v[e]
+            hvv = 2.0 * uu * eye - 2.0 * u[a] * u[e]
+            huv = 4.0 * u[a] * v[e] - 2.0 * v[a] * u[e] - 2.0 * uv * eye
+            for i in range(2):
+                for j in range(2):
+                    s = sign[i] * sign[j]
+                    H[3 * i + a, 3 * j + e] = s * huu
+                    H[6 + 3 * i + a, 6 + 3 * j + e] = s * hvv
+                    H[3 * i + a, 6 + 3 * j + e] = s * huv
+                    H[6 + 3 * j + e, 3 * i + a] = s * huv
+    return c @ c
+
+
+@njit(cache=True)
+def edge_edge_mollifier(x, eps_x, order=0):
+    """IPC's m(x) = -x^2/eps_x^2 + 2 x/eps_x for x < eps_x, else 1 (order 0), or its first or
+    second derivative in x (order 1, 2)."""
+    if x >= eps_x:
+        return 1.0 if order == 0 else 0.0
+    if order == 0:
+        r = x / eps_x
+        return (2.0 - r) * r
+    if order == 1:
+        return 2.0 / eps_x * (1.0 - x / eps_x)
+    return -2.0 / (eps_x * eps_x)
+
+
+@njit(cache=True, inline="always")
+def _mollified_chain(y, d, g, H, eps_x, dhat, kappa, gx, Hx):
+    """Turn (d, grad d, hess d) in g, H of an edge pair y (12,) into m(x) b(d), x the pair's
+    squared cross norm, with its gradient and Hessian (product rule; gx, Hx scratch):
+    grad = b grad m + m b' grad d, hess = b hess m + b' (grad m grad d^T + grad d grad m^T)
+    + m (b'' grad d grad d^T + b' hess d), grad m = m' grad x, hess m = m' hess x + m'' grad x grad x^T."""
+    if d >= dhat or d <= 0.0:
+        return _chain(d, g, H, dhat, kappa, False)
+    x = edge_edge_cross2_hessian(y, gx, Hx)
+    if x >= eps_x:
+        return _chain(d, g, H, dhat, kappa, False)
+    b0 = barrier(d, dhat, kappa)
+    b1 = barrier_first_derivative(d, dhat, kappa)
+    b2 = barrier_second_derivative(d, dhat, kappa)
+    m = edge_edge_mollifier(x, eps_x, 0)
+    m1 = edge_edge_mollifier(x, eps_x, 1)
+    m2 = edge_edge_mollifier(x, eps_x, 2)
+    n = g.shape[0]
+    for a in range(n):
+        for c in range(n):
+            H[a, c] = (b0 * (m1 * Hx[a, c] + m2 * gx[a] * gx[c]) + b1 * m1 * (gx[a] * g[c] + g[a] * gx[c])
+                       + m * (b2 * g[a] * g[c] + b1 * H[a, c]))
+    for a in range(n):
+        g[a] = b0 * m1 * gx[a] + m * b1 * g[a]
+    return m * b0
+
+
+@njit(cache=True)
+def mollified_edge_edge_barrier(y, eps_x, dhat, kappa, g, H, project=False, dtype=-1):
+    """IPC's mollified edge-edge barrier m(x) b(d) of y = (a0, a1, b0, b1) (12,): x = |(a1 - a0) x
+    (b1 - b0)|^2, m the mollifier with threshold eps_x (edge_edge_mollifier_threshold of the
+    rest positions), d the edge-edge distance (type dtype, -1: classified). m = 1 unless the
+    edges are nearly parallel (sin^2 of their angle below 1e-3 at rest lengths), where it takes
+    the barrier smoothly to 0 as they become parallel. Fills g (12,), H (12, 12)."""
+    d = edge_edge_distance_hessian(y, g, H, dtype)
+    e = _mollified_chain(y, d, g, H, eps_x, dhat, kappa, np.empty(12), np.empty((12, 12)))
+    if project:
+        project_psd(H)
+    return e
 
 
 @njit(cache=True)

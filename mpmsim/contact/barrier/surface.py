@@ -1,5 +1,6 @@
 """3D barrier contact: contact points (FEM boundary nodes, MPM particles) against the boundary
-triangles of other FEM bodies, and its lagged friction (BFEMP Eq. 32; docs/bfemp.md).
+triangles of other FEM bodies, edge-edge terms between FEM bodies, and lagged friction (BFEMP
+Eq. 32; docs/bfemp.md).
 
 Potential of one point p (weight w_p, an area: kappa is a pressure):
 
@@ -18,9 +19,30 @@ the correction terms (negative barriers) never leave Newton's matrix indefinite 
 is PSD (a flat or convex surface) the Hessian is exact. This extends the 2D kernel's
 PSD(H1 + H2 - Hv) - H1 - H2 at a boundary vertex (potential.point_node_barrier_pairs).
 
-Contact areas: an FEM boundary node carries a third of its triangles' areas; a particle the
+Contact areas: an FEM boundary node carries a third of its triangles' areas (half that when there
+are other FEM bodies: below); a particle the
 largest cross-section pi r^2 of the sphere of its volume (the paper's choice), or with
 `particle_contact: corners` each of its 8 corners a quarter of a face, l^2/4.
+
+FEM-FEM contact: the boundary nodes of each FEM body are points against the other bodies'
+triangles (both ways round), and boundary edges of different FEM bodies meet through edge-edge
+terms with IPC's mollifier m (potential.mollified_edge_edge_barrier; eps_x from rest lengths).
+Grouped per edge a (weight w_a):
+
+    Phi_a = w_a [ sum_b m_ab b(d_ab) - sum_p (sum_{e at p} m_a,e - 1) b(d_pa) ]
+
+over the edges b of other bodies and their ends p within reach, d_pa the point-edge distance of p
+to a. Where p's closest point on a is inside a and p is the nearest point of its n edges, the n
+pair terms equal b(d_pa) and the correction leaves one; nearly parallel pairs enter with their
+mollifier in both places. This is the IPC toolkit's IMPROVED_MAX_APPROX collision set (ipctk 1.6,
+area weighting: vertex-face 1/4 of the vertex area, edge-edge 1/4 of the two edge areas, each
+edge-edge correction 1/4 of a's), and the whole FEM-FEM potential is twice it: node weights half
+their area share (a third of their triangles' areas), w_a half the edge's (a third of its two
+triangles' areas). In 2D the two directions of point-edge contact likewise sum to twice the
+one-sided integral; an MPM particle's weight (one side only) stays its full area. Each group's
+Hessian is summed unprojected and projected to PSD once (in derivatives(): the line search asks
+only for values). Step bound: edge-edge additive CCD over the candidate pairs, with the
+point-triangle one. Friction acts on the node-triangle terms only.
 
 Friction (SurfaceFriction): per point, lagged at the step's start on its nearest triangle: the
 normal force lambda = |dPhi_p/dp| (the whole group's force on the point, corrections included),
@@ -35,14 +57,15 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ...energy import Derivatives
+from ...energy import Blocks, Derivatives, Scatter
 from ...fem.elements import project_psd
-from .broadphase import point_edge_candidates
-from .ccd import point_triangle_ccd
-from .closest import PT_P_E0, PT_P_T0, PT_P_T1, point_triangle_distance_hessian
+from .broadphase import box_pairs, point_edge_candidates, simplex_boxes
+from .ccd import edge_edge_ccd, point_triangle_ccd
+from .closest import (EE_EA0_EB0, EE_EA1_EB0, EE_EA_EB0, PT_P_E0, PT_P_T0, PT_P_T1, edge_edge_distance2,
+                      edge_edge_distance_hessian, point_triangle_distance_hessian)
 from .energy import BarrierContact, ContactPoints, LaggedFriction, min_pair_distance
 from .friction import lagged_friction
-from .potential import _chain
+from .potential import _chain, _mollified_chain, edge_edge_mollifier_threshold
 
 
 class Surface(NamedTuple):
@@ -53,6 +76,8 @@ class Surface(NamedTuple):
     triangle_edges: np.ndarray  # (m, 3) edge ids of each triangle
     edge_coef: np.ndarray  # (E,) -(deg_e - 1)
     vertex_coef: np.ndarray  # (n,) 1 at surface-interior vertices, else 0
+    vertex_start: np.ndarray  # (n + 1,) the edges at vertex v: vertex_edges[vertex_start[v]:vertex_start[v + 1]]
+    vertex_edges: np.ndarray  # (2 E,)
 
 
 def surface_topology(triangles: np.ndarray, n_verts: int) -> Surface:
@@ -67,8 +92,22 @@ def surface_topology(triangles: np.ndarray, n_verts: int) -> Surface:
     on_surface = np.zeros(n_verts, bool)
     on_surface[triangles.ravel()] = True
     vertex_coef = (on_surface & ~open_vertex).astype(float)
+    ends = edges.ravel()
+    order = np.argsort(ends, kind="stable")
+    vertex_start = np.r_[0, np.cumsum(np.bincount(ends, minlength=n_verts))].astype(np.int64)
     return Surface(np.ascontiguousarray(triangles, np.int64), np.ascontiguousarray(edges, np.int64),
-                   np.ascontiguousarray(inverse, np.int64), -(deg - 1.0), vertex_coef)
+                   np.ascontiguousarray(inverse, np.int64), -(deg - 1.0), vertex_coef, vertex_start,
+                   (order // 2).astype(np.int64))
+
+
+def edge_weights(x: np.ndarray, triangles: np.ndarray, triangle_edges: np.ndarray, n_edges: int) -> np.ndarray:
+    """(E,) a third of the summed area of each edge's triangles (the IPC toolkit's edge area)."""
+    a, b, c = (x[triangles[:, k]] for k in range(3))
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    w = np.zeros(n_edges)
+    for k in range(3):
+        np.add.at(w, triangle_edges[:, k], area / 3.0)
+    return w
 
 
 def triangle_weights(x: np.ndarray, triangles: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -180,6 +219,18 @@ def _term_distance(y, n_nodes, g, H):
     return point_triangle_distance_hessian(y, g, H, kind)
 
 
+@njit(cache=True, inline="always")
+def _add_local(grad, hess, slot, m, g12, H12):
+    """Add a term's gradient g12 and Hessian H12 over its first m vertices into a group's grad
+    and hess, vertex A going to the group's node slot[A]."""
+    for A in range(m):
+        for a in range(3):
+            grad[3 * slot[A] + a] += g12[3 * A + a]
+            for B in range(m):
+                for b in range(3):
+                    hess[3 * slot[A] + a, 3 * slot[B] + b] += H12[3 * A + a, 3 * B + b]
+
+
 @njit(cache=True)
 def surface_barrier_groups(points, verts, point, start, simplex, coef, nodes, dhat, kappa, weights, grads,
                            hessians, project=True):
@@ -216,12 +267,7 @@ def surface_barrier_groups(points, verts, point, start, simplex, coef, nodes, dh
                     y[3 + 3 * c + a] = verts[v, a]
             d = _term_distance(y, m, g12, H12)
             total += _chain(d, g12, H12, dhat, kappa * weights[i] * coef[term], False)
-            for A in range(1 + m):
-                for a in range(3):
-                    grads[grp, 3 * slot[A] + a] += g12[3 * A + a]
-                    for B in range(1 + m):
-                        for b in range(3):
-                            hessians[grp, 3 * slot[A] + a, 3 * slot[B] + b] += H12[3 * A + a, 3 * B + b]
+            _add_local(grads[grp], hessians[grp], slot, 1 + m, g12, H12)
         if project:
             project_psd(hessians[grp])
     return total
@@ -248,6 +294,239 @@ def point_triangle_ccd_pairs(points, dpoints, verts, dverts, triangles, pairs, t
     return t
 
 
+# ------------------------------------------------------------------------------ edge-edge (FEM-FEM)
+EE_PAIR, EE_MINUS, EE_PLUS = 0, 1, 2  # kinds of edge terms (EdgeGroups.kind)
+
+
+class EdgeGroups(NamedTuple):
+    """The edge-edge terms of one evaluation, grouped by FEM boundary edge (module docstring)."""
+
+    edge: np.ndarray  # (g,) the group's edge a
+    start: np.ndarray  # (g + 1,) its terms: simplex[start[i]:start[i + 1]]
+    simplex: np.ndarray  # (t, 4) (a0, a1, b0, b1): EE_PAIR the edge b; EE_MINUS (p, q) an edge at p;
+    #                      EE_PLUS (p, p)
+    kind: np.ndarray  # (t,) EE_PAIR, EE_MINUS, EE_PLUS
+    nodes: np.ndarray  # (g, s) the group's FEM nodes, a0 and a1 first (padded with a0)
+    pairs: np.ndarray  # (k, 2) the candidate (edge, edge) pairs, each unordered pair once (CCD)
+
+
+NO_EDGE_GROUPS = EdgeGroups(np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros((0, 4), np.int64),
+                            np.zeros(0, np.int64), np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64))
+
+
+@njit(cache=True)
+def group_edge_terms(pairs, bounds, edges, vertex_start, vertex_edges):
+    """Terms per edge a from candidate (a, b) pairs sorted by a, group g being the pairs
+    bounds[g]:bounds[g + 1]: each pair (EE_PAIR), and for each end p of the b's, once, the
+    point-edge term of p (EE_PLUS) and one EE_MINUS term per edge (p, q) at p. Returns (edge,
+    start, simplex, kind, nodes) of EdgeGroups."""
+    k = pairs.shape[0]
+    n_groups = bounds.shape[0] - 1
+    maxdeg = 1
+    for v in range(vertex_start.shape[0] - 1):
+        maxdeg = max(maxdeg, vertex_start[v + 1] - vertex_start[v])
+    cap = k + 2 * k * (1 + maxdeg)
+    simplex = np.empty((cap, 4), np.int64)
+    kind = np.empty(cap, np.int64)
+    edge = np.empty(n_groups, np.int64)
+    start = np.zeros(n_groups + 1, np.int64)
+    smax = 2
+    for g in range(n_groups):
+        smax = max(smax, 2 + 2 * (bounds[g + 1] - bounds[g]) * (1 + maxdeg))
+    nodes = np.empty((n_groups, smax), np.int64)
+    pbuf = np.empty(2 * k + 1, np.int64)
+    t = 0
+    s_used = 2
+    for g in range(n_groups):
+        a = pairs[bounds[g], 0]
+        a0, a1 = edges[a, 0], edges[a, 1]
+        edge[g] = a
+        nodes[g, 0] = a0
+        nodes[g, 1] = a1
+        ns = 2
+        npt = 0
+        for q in range(bounds[g], bounds[g + 1]):
+            b = pairs[q, 1]
+            simplex[t, 0], simplex[t, 1], simplex[t, 2], simplex[t, 3] = a0, a1, edges[b, 0], edges[b, 1]
+            kind[t] = EE_PAIR
+            t += 1
+            for c in range(2):
+                npt = _add_unique(pbuf, npt, edges[b, c])
+        for r in range(npt):
+            p = pbuf[r]
+            ns = _add_unique(nodes[g], ns, p)
+            simplex[t, 0], simplex[t, 1], simplex[t, 2], simplex[t, 3] = a0, a1, p, p
+            kind[t] = EE_PLUS
+            t += 1
+            for j in range(vertex_start[p], vertex_start[p + 1]):
+                e = vertex_edges[j]
+                other = edges[e, 1] if edges[e, 0] == p else edges[e, 0]
+                simplex[t, 0], simplex[t, 1], simplex[t, 2], simplex[t, 3] = a0, a1, p, other
+                kind[t] = EE_MINUS
+                t += 1
+                ns = _add_unique(nodes[g], ns, other)
+        for q in range(ns, smax):
+            nodes[g, q] = a0
+        s_used = max(s_used, ns)
+        start[g + 1] = t
+    return edge, start, simplex[:t], kind[:t], np.ascontiguousarray(nodes[:, :s_used])
+
+
+@njit(cache=True)
+def edge_barrier_groups(verts, rest, edge, start, simplex, kind, nodes, dhat, kappa, weights, grads, hessians,
+                        project=True):
+    """Phi = sum over edges a of w_a [sum_b m_ab b(d_ab) - sum_p (sum_{(p, q)} m_a,pq - 1) b(d_pa)]
+    (module docstring); fills each group's gradient grads (g, 3 s) and Hessian hessians (g, 3 s,
+    3 s) over nodes[g], projected to PSD if `project`. m the mollifier at rest threshold,
+    weights (E,) w_a. Returns the total (inf if a pair touches)."""
+    y = np.empty(12)
+    yr = np.empty(12)
+    g12 = np.empty(12)
+    H12 = np.empty((12, 12))
+    gx = np.empty(12)
+    Hx = np.empty((12, 12))
+    s = nodes.shape[1]
+    slot = np.empty(4, np.int64)
+    total = 0.0
+    for grp in range(edge.shape[0]):
+        grads[grp, :] = 0.0
+        hessians[grp, :, :] = 0.0
+        w = kappa * weights[edge[grp]]
+        for term in range(start[grp], start[grp + 1]):
+            for c in range(4):
+                v = simplex[term, c]
+                for q in range(s):
+                    if nodes[grp, q] == v:
+                        slot[c] = q
+                        break
+                for a in range(3):
+                    y[3 * c + a] = verts[v, a]
+                    yr[3 * c + a] = rest[v, a]
+            kd = kind[term]
+            if kd == EE_PAIR:
+                d = edge_edge_distance_hessian(y, g12, H12, -1)
+                e = _mollified_chain(y, d, g12, H12, edge_edge_mollifier_threshold(yr), dhat, w, gx, Hx)
+            else:
+                # the point p = b0 against the edge a, typed as the point-edge distance
+                num = 0.0
+                den = 0.0
+                for a in range(3):
+                    ea = y[3 + a] - y[a]
+                    num += (y[6 + a] - y[a]) * ea
+                    den += ea * ea
+                dtype = EE_EA0_EB0 if num < 0.0 else (EE_EA1_EB0 if num > den else EE_EA_EB0)
+                d = edge_edge_distance_hessian(y, g12, H12, dtype)
+                if kd == EE_PLUS:
+                    e = _chain(d, g12, H12, dhat, w, False)
+                else:
+                    e = _mollified_chain(y, d, g12, H12, edge_edge_mollifier_threshold(yr), dhat, -w, gx, Hx)
+            total += e
+            _add_local(grads[grp], hessians[grp], slot, 4, g12, H12)
+        if project:
+            project_active(hessians[grp])
+    return total
+
+
+@njit(cache=True)
+def project_active(H):
+    """Project the symmetric H to PSD in place through its block on the rows that are not all
+    zero (the same result: the zero rows and columns split off with eigenvalues 0). An edge's
+    stencil holds every node its terms could reach over the sweep; most terms are beyond dhat
+    at any one evaluation, and a smaller eigenproblem is much cheaper."""
+    n = H.shape[0]
+    idx = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        for j in range(n):
+            if H[i, j] != 0.0:
+                idx[m] = i
+                m += 1
+                break
+    if m == 0:
+        return
+    sub = np.empty((m, m))
+    for a in range(m):
+        for b in range(m):
+            sub[a, b] = H[idx[a], idx[b]]
+    project_psd(sub)
+    for a in range(m):
+        for b in range(m):
+            H[idx[a], idx[b]] = sub[a, b]
+
+
+@njit(cache=True)
+def project_all(hessians):
+    """Each of the Hessians (g, n, n) projected to PSD (project_active), in place."""
+    for k in range(hessians.shape[0]):
+        project_active(hessians[k])
+
+
+@njit(cache=True)
+def edge_edge_ccd_pairs(verts, dverts, edges, pairs, t_max=1.0):
+    """Largest common step in [0, t_max] for all (edge, edge) pairs (edge_edge_ccd)."""
+    y = np.empty(12)
+    dy = np.empty(12)
+    t = t_max
+    for k in range(pairs.shape[0]):
+        for c in range(4):
+            v = edges[pairs[k, c // 2], c % 2]
+            for a in range(3):
+                y[3 * c + a] = verts[v, a]
+                dy[3 * c + a] = dverts[v, a]
+        t = min(t, edge_edge_ccd(y, dy, t_max=t))
+        if t == 0.0:
+            break
+    return t
+
+
+@njit(cache=True)
+def min_edge_distance(verts, edges, pairs):
+    """The smallest distance over (edge, edge) pairs."""
+    y = np.empty(12)
+    best = np.inf
+    for k in range(pairs.shape[0]):
+        for c in range(4):
+            v = edges[pairs[k, c // 2], c % 2]
+            for a in range(3):
+                y[3 * c + a] = verts[v, a]
+        best = min(best, edge_edge_distance2(y))
+    return np.sqrt(best)
+
+
+def edge_candidates(x: np.ndarray, dx: np.ndarray, edges: np.ndarray, edge_body: np.ndarray, dhat: float) -> np.ndarray:
+    """(k, 2) the (edge, edge) pairs of different bodies whose swept boxes come within dhat,
+    both orders, sorted by the first."""
+    lo, hi = simplex_boxes(x, dx, edges, 0.0)
+    pairs = box_pairs(lo - dhat, hi + dhat, lo, hi, np.full(len(edges), -1, np.int64), edges)
+    if len(pairs):
+        pairs = pairs[edge_body[pairs[:, 0]] != edge_body[pairs[:, 1]]]
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if len(pairs) else pairs
+
+
+def surface_gaps(x: np.ndarray, triangles: np.ndarray, node_body: np.ndarray, reach: float) -> dict:
+    """{(a, b): gap} for the pairs of FEM bodies a < b whose boundary surfaces come within
+    `reach`: the smallest node-triangle or edge-edge distance between them (3D)."""
+    nodes = np.unique(triangles)
+    pairs = point_edge_candidates(x[nodes], np.zeros((len(nodes), 3)), x, np.zeros_like(x), triangles, reach, nodes)
+    out = {}
+
+    def note(a, b, d):
+        key = (min(a, b), max(a, b))
+        out[key] = min(out.get(key, np.inf), d)
+
+    tri_body = node_body[triangles[:, 0]]
+    for i, t in pairs:
+        a, b = node_body[nodes[i]], tri_body[t]
+        if a != b:
+            note(a, b, min_pair_distance(x[nodes[i:i + 1]], x, triangles, np.array([[0, t]], np.int64)))
+    S = surface_topology(triangles, len(x))
+    edge_body = node_body[S.edges[:, 0]]
+    ee = edge_candidates(x, np.zeros_like(x), S.edges, edge_body, reach)
+    for i, j in ee[ee[:, 0] < ee[:, 1]] if len(ee) else ():
+        note(edge_body[i], edge_body[j], min_edge_distance(x, S.edges, np.array([[i, j]], np.int64)))
+    return out
+
+
 class SurfaceBarrier(BarrierContact):
     """The log barrier between the contact points and the FEM boundary triangles of other bodies
     (3D; the module docstring)."""
@@ -258,12 +537,21 @@ class SurfaceBarrier(BarrierContact):
         self.thickness = 1.0
         self.particle_contact = particle_contact
         self.n_fem_bodies = len(fem.infos)
-        self.surface = surface_topology(fem.facets, fem.n)
+        self.surface = S = surface_topology(fem.facets, fem.n)
         self.triangle_body = fem.node_body[fem.facets[:, 0]]
-        self.boundary_weight = triangle_weights(fem.X, fem.facets, fem.boundary)
+        # FEM nodes meet only other FEM bodies, both ways round and together with the edge-edge
+        # terms: half weights (module docstring). With one FEM body they meet nothing and their
+        # weights only enter adaptive kappa's mean weight, kept as it was.
+        self.edge_contact = self.n_fem_bodies > 1
+        share = 0.5 if self.edge_contact else 1.0
+        self.boundary_weight = share * triangle_weights(fem.X, fem.facets, fem.boundary)
+        self.edge_body = fem.node_body[S.edges[:, 0]]
+        self.edge_weight = 0.5 * edge_weights(fem.X, S.triangles, S.triangle_edges, len(S.edges))
         self.points = None
         self.current = NO_GROUPS
+        self.edge_current = NO_EDGE_GROUPS
         self._local = None
+        self._edge_local = None
 
     def particle_weights(self, vol0: np.ndarray, owner: np.ndarray, corners: bool) -> np.ndarray:
         if corners:  # a quarter of a face of the particle's cube
@@ -286,16 +574,33 @@ class SurfaceBarrier(BarrierContact):
         return Groups(*group_terms(pairs, group_bounds(pairs[:, 0]), tris, s.triangle_edges, s.edges, s.edge_coef,
                                    s.vertex_coef), pairs)
 
+    def edge_pairs(self, y: np.ndarray, p: np.ndarray) -> EdgeGroups:
+        """The edge-edge terms between boundary edges of different FEM bodies whose swept boxes
+        over y -> y + p come within dhat, grouped by edge (both orders)."""
+        if not self.edge_contact:
+            return NO_EDGE_GROUPS
+        nf, S = self.fem.n, self.surface
+        pairs = edge_candidates(y[:nf], p[:nf], S.edges, self.edge_body, self.dhat)
+        if not len(pairs):
+            return NO_EDGE_GROUPS
+        terms = group_edge_terms(pairs, group_bounds(pairs[:, 0]), S.edges, S.vertex_start, S.vertex_edges)
+        return EdgeGroups(*terms, pairs[pairs[:, 0] < pairs[:, 1]])
+
+    def sweep(self, y, p):
+        self.current = self.pairs(y, p)
+        self.edge_current = self.edge_pairs(y, p)
+
     @property
     def in_contact(self) -> bool:
-        return len(self.current.point) > 0
+        return len(self.current.point) > 0 or len(self.edge_current.edge) > 0
 
     def min_distance(self, y) -> float:
-        """The smallest point-triangle distance over the pairs of the last sweep, taken at y (inf
-        if none)."""
-        pairs = self.current.pairs
-        return min_pair_distance(self.points.positions(y), y[:self.fem.n], self.surface.triangles, pairs) \
+        """The smallest point-triangle or edge-edge distance over the pairs of the last sweep,
+        taken at y (inf if none)."""
+        pairs, ee = self.current.pairs, self.edge_current.pairs
+        d = min_pair_distance(self.points.positions(y), y[:self.fem.n], self.surface.triangles, pairs) \
             if len(pairs) else np.inf
+        return min(d, min_edge_distance(y[:self.fem.n], self.surface.edges, ee)) if len(ee) else d
 
     def value(self, y):
         grp = self.current
@@ -306,22 +611,41 @@ class SurfaceBarrier(BarrierContact):
             phi = surface_barrier_groups(self.points.positions(y), y[:self.fem.n], grp.point, grp.start, grp.simplex,
                                          grp.coef, grp.nodes, self.dhat, self.kappa, self.points.weight, gl, Hl, True)
         self._local = (gl, Hl)
+        eg = self.edge_current
+        k, s = eg.nodes.shape
+        ge, He = np.zeros((k, 3 * s)), np.zeros((k, 3 * s, 3 * s))
+        if k:
+            # projected in derivatives(): the line search's evaluations need only the value
+            phi += edge_barrier_groups(y[:self.fem.n], self.fem.X, eg.edge, eg.start, eg.simplex, eg.kind, eg.nodes,
+                                       self.dhat, self.kappa, self.edge_weight, ge, He, False)
+        self._edge_local = (ge, He)
         return phi
 
     def derivatives(self, y, force):
-        grp = self.current
-        if not len(grp.point):
-            return Derivatives((), ())
-        s, h = self.points.pair_terms(grp.point, grp.nodes, *self._local, 3)
-        return Derivatives((s,), (h,))
+        grp, eg = self.current, self.edge_current
+        scatters, hessians = [], []
+        if len(grp.point):
+            s, h = self.points.pair_terms(grp.point, grp.nodes, *self._local, 3)
+            scatters.append(s)
+            hessians.append(h)
+        if len(eg.edge):
+            ge, He = self._edge_local
+            project_all(He)
+            k, s = eg.nodes.shape
+            scatters.append(Scatter(eg.nodes, ge.reshape(k, s, 3)))
+            hessians.append(Blocks(eg.nodes, He))
+        return Derivatives(tuple(scatters), tuple(hessians))
 
     def step_bound(self, y, p):
-        pairs = self.current.pairs
-        if not len(pairs):
-            return 1.0
+        pairs, ee = self.current.pairs, self.edge_current.pairs
         pts, nf = self.points, self.fem.n
-        return point_triangle_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.surface.triangles, pairs,
-                                        1.0)  # every argument given: numba's dispatch of defaults is slow
+        t = 1.0
+        if len(pairs):  # every argument given: numba's dispatch of defaults is slow
+            t = point_triangle_ccd_pairs(pts.positions(y), pts.moves(p), y[:nf], p[:nf], self.surface.triangles, pairs,
+                                         1.0)
+        if len(ee) and t > 0.0:
+            t = edge_edge_ccd_pairs(y[:nf], p[:nf], self.surface.edges, ee, t)
+        return t
 
 
 @njit(cache=True)
@@ -440,4 +764,4 @@ class SurfaceFriction(LaggedFriction):
 
 
 __all__ = ["SurfaceBarrier", "SurfaceFriction", "ContactPoints", "surface_topology", "group_terms", "group_bounds",
-           "surface_barrier_groups"]
+           "surface_barrier_groups", "group_edge_terms", "edge_barrier_groups", "edge_candidates", "edge_weights"]
