@@ -98,6 +98,7 @@ class Potential:
     name = "potential"
     ccd = False
     lagged = False
+    contact = False  # a force between bodies (its work is the history's contact work)
 
     def begin(self, step: StepStart) -> None:
         pass

@@ -60,6 +60,7 @@ class FemBodies(BodySet):
     check_crossing: bool = True  # stop when a boundary node ends inside another body
     check_every: int = 10
     crossing_depth: float = CROSSING_DEPTH  # barycentric depth a boundary node may sit inside another body
+    particle_contact_work: float = 0.0  # implicit runs: work of the contact forces on the particle bodies
 
     kind = "fem"
     has_mass = True
@@ -165,7 +166,7 @@ class FemBodies(BodySet):
         return [(f"contact_work_{b.name}", units.energy) for b in self.infos] + [("contact_dissipated", units.energy)]
 
     def history_values(self, state) -> list[float]:
-        return list(self.contact_work) + [-float(self.contact_work.sum())]
+        return list(self.contact_work) + [-float(self.contact_work.sum()) - self.particle_contact_work]
 
     def vtu_pieces(self, state) -> list[tuple[str, dict]]:
         mats, dim = state.materials, self.x.shape[1]

@@ -408,6 +408,8 @@ class ImplicitStep(Integrator):
             _, g, _ = self._energy(y, yt, True)
             force = g.reshape(y.shape) / self.c
             state.work_in += float(np.sum(np.where(moving, force * (y - yn), 0.0)))
+        if self.contact:
+            self._contact_work(y, yn)
         a_new = (y - yt) / self.c
         a_new[held] = 0.0
         v_new = vn + dt * ((1.0 - self.gamma) * an + self.gamma * a_new)
@@ -422,6 +424,27 @@ class ImplicitStep(Integrator):
             state.work_in += float(np.sum(P.mass[:, None] * self.gravity[None, :] * (P.x - x_before)))
         self.stats.append((its, halvings, int(ccd_limited), lags + 1))
         return dt
+
+    def _contact_work(self, y, yn) -> None:
+        """The contact terms' work over the step (their forces at the step's end, as the
+        implicit step applies them, times the move): per FEM body into fem.contact_work, on
+        the particles' grid unknowns into fem.particle_contact_work (the history's
+        contact_work_<body> and contact_dissipated, minus their sum: friction's dissipation
+        and the barrier's stored energy)."""
+        force = np.zeros_like(y)
+        still = np.zeros_like(y)
+        for term in self.terms:
+            if not term.contact:
+                continue
+            term.sweep(y, still)
+            term.value(y)
+            parts = term.derivatives(y, force)
+            for s in parts.local:  # gradients of the pair stencils: minus their force
+                np.add.at(force, s.nodes, -s.G)
+        work = np.einsum("nc,nc->n", force, y - yn)
+        fem, nf = self.fem, self.fem.n
+        fem.contact_work += np.bincount(fem.node_body, work[:nf], minlength=len(fem.contact_work))
+        fem.particle_contact_work += float(work[nf:].sum())
 
     def report(self) -> list[str]:
         """The Newton table: steps, iterations per step (mean, max), line-search halvings and

@@ -109,6 +109,7 @@ class BarrierContact(Potential):
     """The log barrier between the contact points and the FEM boundary edges of other bodies."""
 
     name = "barrier contact"
+    contact = True
     ccd = True
 
     def __init__(self, fem, grid, dhat: float, kappa: float, thickness: float, particle_contact: str):
@@ -312,6 +313,7 @@ class LaggedFriction(Potential):
     """IPC's lagged, smoothed Coulomb friction on the barrier's contacts (mu per material pair)."""
 
     name = "lagged friction"
+    contact = True
     lagged = True
 
     def __init__(self, contact: BarrierContact, mu: np.ndarray, friction_velocity: float):
