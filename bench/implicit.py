@@ -2,6 +2,7 @@
 
     python bench/implicit.py [--h 0.025] [--rings-end 0.1] [--threads 1 2] [--cpu] [--tree OLD_CHECKOUT]
     python bench/implicit.py --column       # MPM column settling on an FEM floor: refinement
+    python bench/implicit.py --boxes        # BFEMP §6.5: MPM box on an FEM box, refinement at 4/9/16 per cell
     python bench/implicit.py --buckling     # stacked semicircular rings, three ring-ring mu
     python bench/implicit.py --solvers      # Newton's matrices: splu against CHOLMOD (cholespy, extra `bench`)
     python bench/implicit.py --quadrature   # 1D model: particle quadrature against B-spline knots
@@ -76,12 +77,13 @@ def measure(name: str, d: dict, threads: int = 1) -> None:
 
 
 def column_deck(h: float, per_direction: int, steps: int = 12, E: float = 1e7, contact: str = "corners",
-                shift: float = 0.0, tolerance: float = 1e-7, gap: float = 1.05e-3) -> dict:
+                shift: float = 0.0, tolerance: float = 1e-7, gap: float = 1.05e-3, quadrature: str = "domain") -> dict:
     """A 0.2 x 1 MPM column (nu = 0, E, rho 1000, g 10) `gap` above a stiff FEM floor, backward
     Euler with dt = 1 s: a few steps reach the static state. `contact`: implicit.particle_contact;
     `shift`: the grid moved up by this fraction of a cell (0: the column's ends on grid lines).
     The default gap is just above dhat = 1 mm, where the column rests (0.99 mm): it barely drops
-    onto the barrier, so its particles stay where they sat against the grid's knots."""
+    onto the barrier, so its particles stay where they sat against the grid's knots.
+    `quadrature`: implicit.particle_quadrature (domain: full order at every count)."""
     return {
         "title": "column", "units": "SI", "analysis": "plane_strain",
         "grid": {"cell_size": h, "domain": {"min": [-0.4, -0.2 + shift * h], "max": [0.4, 1.4 + shift * h]}},
@@ -95,7 +97,7 @@ def column_deck(h: float, per_direction: int, steps: int = 12, E: float = 1e7, c
                     "material": "column"}],
         "gravity": [0.0, -10.0], "integrator": "implicit",
         "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "kappa": 1e8, "newton_tolerance": tolerance,
-                     "particle_contact": contact},
+                     "particle_contact": contact, "particle_quadrature": quadrature},
         "time": {"end": float(steps), "dt": 1.0},
     }
 
@@ -134,6 +136,67 @@ def column_errors(h: float, per_direction: int, **options) -> dict:
             "com_error": (P.x[:, 1] - y_bottom).mean() - exact_com, "upper_half_error": upper}
 
 
+def boxes_deck(h: float, per_direction: int, steps: int = 12, E: float = 1e6, width: float = 0.2,
+               dhat0: float = 1e-3, tolerance: float = 1e-8, quadrature: str = "domain") -> dict:
+    """BFEMP §6.5 in 2D: a soft MPM box (`width` x 0.2, E, nu 0.3, rho 1000) stacked on a soft
+    FEM box (0.4 x 0.2, the same material, its bottom held vertically and its bottom centre
+    horizontally), gravity 10; grid cell = FEM element size = h, and dhat = dhat0 (h / 0.1)^2
+    refined with it (a barrier gap of order h^2); the MPM box starts 1.05 dhat above the FEM box
+    with contact at the particles' corners, backward Euler with dt = 1 s, PIC (the paper's)."""
+    dhat = dhat0 * (h / 0.1) ** 2
+    gap = 1.05 * dhat
+    return {
+        "title": "boxes", "units": "SI", "analysis": "plane_strain",
+        "grid": {"cell_size": h, "domain": {"min": [-0.6, -0.2], "max": [0.6, 0.8]}},
+        "shape_function": "bspline2", "update": {"scheme": "pic"}, "particles_per_direction": per_direction,
+        "materials": {"soft": {"type": "compressible_neo_hookean", "E": E, "nu": 0.3, "density": 1000.0}},
+        "bodies": [{"name": "fem_box", "shape": "rectangle", "min": [-0.2, -0.2], "max": [0.2, -gap],
+                    "material": "soft", "discretization": "fem", "element_size": h,
+                    "constraints": [{"region": {"min": [-1.0, -0.21], "max": [1.0, -0.19]}, "axes": ["y"]},
+                                    {"region": {"min": [-1e-3, -0.21], "max": [1e-3, -0.19]}, "axes": ["x"]}]},
+                   {"name": "mpm_box", "shape": "rectangle", "min": [-0.5 * width, 0.0], "max": [0.5 * width, 0.2],
+                    "material": "soft"}],
+        "gravity": [0.0, -10.0], "integrator": "implicit",
+        "implicit": {"scheme": "backward_euler", "dhat": dhat, "kappa": 1e8, "newton_tolerance": tolerance,
+                     "particle_contact": "corners", "particle_quadrature": quadrature},
+        "time": {"end": float(steps), "dt": 1.0},
+    }
+
+
+def boxes_com(h: float, per_direction: int, **options) -> dict:
+    """Height of the centre of mass of both boxes (FEM lumped masses and particles) at rest
+    (the paper's measure), the drop of the MPM box's own centre of mass, and the run's Newton
+    iterations; `options` go to boxes_deck."""
+    d = boxes_deck(h, per_direction, **options)
+    sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "boxes.yaml")), threads=1)
+    Y = sim.state.particles.x[:, 1].copy()
+    t0 = time.perf_counter()
+    sim.run()
+    P, f = sim.state.particles, sim.state.fem
+    com = (P.mass @ P.x[:, 1] + f.mass @ f.x[:, 1]) / (P.mass.sum() + f.mass.sum())
+    return {"h": h, "per_direction": per_direction, "com": float(com), "particles": P.n, "triangles": len(f.cells),
+            "mpm_drop": float(P.mass @ (Y - P.x[:, 1]) / P.mass.sum()),
+            "speed": float(max(np.abs(P.v).max(), np.abs(f.v).max())),
+            "newton": int(sum(s[0] for s in sim.integrator.stats)), "seconds": time.perf_counter() - t0}
+
+
+def boxes_study(hs=(0.1, 0.05, 0.025), reference: float = 0.0125) -> None:
+    """§6.5's refinement (boxes_deck): errors in the height of the centre of mass of both boxes
+    against the run at h = `reference` with the same count (the paper's measure), their orders,
+    and the orders from successive differences over hs and the reference."""
+    for per_direction in (2, 3, 4):
+        rows = [boxes_com(h, per_direction) for h in hs + (reference,)]
+        c = np.array([r["com"] for r in rows])
+        e = c[:-1] - c[-1]
+        orders = np.log2(np.abs(e[:-1] / e[1:]))
+        diffs = np.diff(c)
+        successive = np.log2(np.abs(diffs[:-1] / diffs[1:]))
+        print(f"  {per_direction ** 2:2d} per cell: centre of mass {c[-1]:.12f} m at h = {reference:g}; errors "
+              + ", ".join(f"{x * 1e6:+.3f}" for x in e) + " um at h = " + ", ".join(f"{h:g}" for h in hs)
+              + "; orders " + ", ".join(f"{o:.2f}" for o in orders) + "; from successive differences "
+              + ", ".join(f"{o:.2f}" for o in successive) + f"; {sum(r['seconds'] for r in rows):.1f} s", flush=True)
+
+
 def _bspline(degree: int):
     """(N, dN/dr) of the centred B-spline of degree 2 (knots at r = +-1/2, +-3/2) or 3 (at the
     integers), r = (x - node) / h."""
@@ -156,18 +219,52 @@ def _bspline(degree: int):
     return N, dN
 
 
-def bar_model_com(h: float, per_cell: int, knot_offset: float, degree: int = 2) -> float:
-    """Centre-of-mass displacement of a 1D bar [0, 1] (E = rho = g = 1) under its weight, held
-    at x = 0 by a stiff point support at its end (the corner contact point), in the Galerkin
-    space of B-splines on nodes x_i = knot_offset h + i h with `per_cell` particles per cell of
-    [0, 1] as the quadrature (the particle lattice aligned with the body's ends). Exact: -1/3."""
+def _bspline2_domain(R, l):
+    """Averages of the quadratic B-spline N and of dN/dr over [R - l, R + l] (cell units):
+    (M(R + l) - M(R - l)) / 2l and (N(R + l) - N(R - l)) / 2l, M the integral of N."""
+    N, _ = _bspline(2)
+
+    def M(r):
+        return np.where(r <= -1.5, 0.0, np.where(r < -0.5, (r + 1.5) ** 3 / 6, np.where(
+            r < 0.5, 0.5 + 0.75 * r - r ** 3 / 3, np.where(r < 1.5, 1 - (1.5 - r) ** 3 / 6, 1.0))))
+    return (M(R + l) - M(R - l)) / (2 * l), (N(R + l) - N(R - l)) / (2 * l)
+
+
+def bar_quadrature(h: float, per_cell: int, knot_offset: float = 0.0, degree: int = 2, rule: str = "points"):
+    """A 1D bar [0, 1] with `per_cell` particles per cell (the lattice aligned with its ends) on
+    B-spline nodes x_i = knot_offset h + i h: (nodes, particle volumes, weights S (n, nodes),
+    gradients G). rule: points (N_i and N_i' at the particles, MPM's quadrature) or domain
+    (their averages over the particles' domains, quadratic only: implicit_mpm.domain_weights)."""
     N, dN = _bspline(degree)
     n = int(round(1.0 / h))
     xp = (np.arange(n * per_cell) + 0.5) * (h / per_cell)
     vp = np.full_like(xp, h / per_cell)
     nodes = knot_offset * h + np.arange(-3, n + 4) * h
     R = (xp[:, None] - nodes[None, :]) / h
-    S, G = N(R), dN(R) / h
+    if rule == "domain":
+        S, G = _bspline2_domain(R, 0.5 / per_cell)
+        return nodes, vp, S, G / h
+    return nodes, vp, N(R), dN(R) / h
+
+
+def bar_row_errors(h: float, per_cell: int, rule: str = "points", knot_offset: float = 0.0):
+    """Per node of the bar: (node / h, error of sum_p v_p N_i(x_p) / h, error of sum_p v_p N_i'(x_p))
+    against the exact integrals over the bar (quadratic B-splines)."""
+    N, _ = _bspline(2)
+    nodes, vp, S, G = bar_quadrature(h, per_cell, knot_offset, 2, rule)
+    exact_S, _ = _bspline2_domain((0.5 - nodes) / h, 0.5 / h)  # the average over [0, 1] times its length 1
+    exact_G = N((1.0 - nodes) / h) - N(-nodes / h)
+    return nodes / h, (vp @ S - exact_S) / h, vp @ G - exact_G
+
+
+def bar_model_com(h: float, per_cell: int, knot_offset: float, degree: int = 2, rule: str = "points") -> float:
+    """Centre-of-mass displacement of a 1D bar [0, 1] (E = rho = g = 1) under its weight, held
+    at x = 0 by a stiff point support at its end (the corner contact point), in the Galerkin
+    space of B-splines on nodes x_i = knot_offset h + i h with `per_cell` particles per cell of
+    [0, 1] as the quadrature (bar_quadrature's rule). Exact: -1/3."""
+    N, _ = _bspline(degree)
+    nodes, vp, S, G = bar_quadrature(h, per_cell, knot_offset, degree, rule)
+    S, G = np.where(S > 1e-10, S, 0.0), np.where(S > 1e-10, G, 0.0)  # implicit_mpm.WEIGHT_FLOOR
     K = (G * vp[:, None]).T @ G + 1e10 * np.outer(N(-nodes / h), N(-nodes / h))
     f = -(S * vp[:, None]).sum(axis=0)
     act = np.abs(K).sum(axis=1) > 0
@@ -177,18 +274,28 @@ def bar_model_com(h: float, per_cell: int, knot_offset: float, degree: int = 2) 
 
 
 def quadrature_study() -> None:
-    """Why 9 particles per cell (3 per direction) converge at first order where 4 and 16 converge
-    at second: the particle quadrature passes the patch test (integrates the basis gradients
-    exactly) only when every knot of the B-splines lies on a boundary between particle domains.
-    A 1D bar held at its end, as the MPM column on the barrier with corner contact points."""
+    """Why 9 particles per cell (3 per direction) converge at first order with the particles'
+    own weights where 4 and 16 converge at second, and how the domain averages fix it: the rows
+    of the basis functions cut off by the bar's end, and a 1D bar held at its end, as the MPM
+    column on the barrier with corner contact points."""
+    print("Quadrature errors per row, h = 0.1, the bar's end at x = 0 on a node: node / h: "
+          "error of int N_i / h, error of int N_i'")
+    for rule in ("points", "domain"):
+        for per in (2, 3, 4):
+            at, eS, eG = bar_row_errors(0.1, per, rule)
+            rows = ", ".join(f"{a:+.0f}: {s:+.2e}, {g:+.2e}" for a, s, g in zip(at, eS, eG) if -2 <= a <= 2)
+            inside = (at > 1.5) & (at < round(1 / 0.1) - 1.5)
+            print(f"  {rule:6s} {per} per cell: {rows}; rows whose support lies inside the bar: at most "
+                  f"{np.abs(eS[inside]).max():.1e}, {np.abs(eG[inside]).max():.1e}")
     hs = [0.1, 0.05, 0.025, 0.0125]
-    print("| basis | nodes offset from the body's end | per cell | COM errors at h = " + ", ".join(map(str, hs))
-          + " | orders |\n|---|---|---|---|---|")
-    cases = [(2, offset) for offset in (0.0, 0.25, 0.5)] + [(3, 0.0), (3, 0.5)]
-    for (degree, offset), per in ((case, per) for case in cases for per in (2, 3, 4, 40)):
-        err = [abs(bar_model_com(h, per, offset, degree) + 1.0 / 3.0) for h in hs]
+    print("| rule | basis | nodes offset from the body's end | per cell | COM errors at h = " + ", ".join(map(str, hs))
+          + " | orders |\n|---|---|---|---|---|---|")
+    cases = [("points", 2, offset) for offset in (0.0, 0.25, 0.5)] + [("points", 3, 0.0), ("points", 3, 0.5)] \
+        + [("domain", 2, offset) for offset in (0.0, 0.25, 0.5)]
+    for (rule, degree, offset), per in ((case, per) for case in cases for per in (2, 3, 4, 40)):
+        err = [abs(bar_model_com(h, per, offset, degree, rule) + 1.0 / 3.0) for h in hs]
         orders = [np.log2(err[i] / err[i + 1]) for i in range(len(err) - 1)]
-        print(f"| {'quadratic' if degree == 2 else 'cubic'} | {offset:g} h | {per} | "
+        print(f"| {rule} | {'quadratic' if degree == 2 else 'cubic'} | {offset:g} h | {per} | "
               + ", ".join(f"{e:.2e}" for e in err) + " | " + ", ".join(f"{o:.2f}" for o in orders) + " |")
 
 
@@ -529,6 +636,8 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.025, help="element size of the blocks (default 0.025)")
     ap.add_argument("--rings-end", type=float, default=0.1, help="end time of the rings run (default 0.1 s)")
     ap.add_argument("--column", action="store_true", help="the column refinement study instead")
+    ap.add_argument("--boxes", action="store_true",
+                    help="BFEMP §6.5: a soft MPM box on a soft FEM box, refined with dhat, against a fine reference")
     ap.add_argument("--buckling", action="store_true",
                     help="the buckling rings for three friction coefficients instead (docs/figures/bfemp_buckling.png)")
     ap.add_argument("--solvers", action="store_true", help="splu against CHOLMOD on Newton's matrices instead")
@@ -557,6 +666,9 @@ def main() -> None:
         implicit.wallclock = types.SimpleNamespace(perf_counter=time.process_time)  # the step's part timers
     if args.column:
         column_study()
+        return
+    if args.boxes:
+        boxes_study()
         return
     if args.solvers:
         solver_study()

@@ -96,7 +96,7 @@ class ImplicitStep(Integrator):
         self.timers = {p: 0.0 for p in PARTS}
         self.stats: list[tuple[int, int, int, int]] = []  # per step: Newton iterations, halvings, CCD-limited, lags
         n_fem = len(scene.fem.infos) if scene.fem is not None else 0
-        self.grid = GridUnknowns(run.update.scheme) if scene.has_particles else None
+        self.grid = GridUnknowns(run.update.scheme, imp.particle_quadrature) if scene.has_particles else None
         bodies = n_fem + (1 if self.grid is not None else 0)
         dhat = barrier.dhat
         self.contact = dhat is not None and n_fem >= 1 and bodies > 1

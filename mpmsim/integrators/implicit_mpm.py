@@ -8,8 +8,15 @@ weights w_ip and gradients grad w_ip frozen at the step's start (their positions
     particle        x_p(y) = x_p^n + sum_i w_ip (y_i - X_i),
                     F_p(y) = F_p^n + sum_i (y_i - X_i) (F_p^nT grad w_ip)^T   (fem.elements point_*)
 
-with D_p = sum_i w_ip (X_i - x_p)(X_i - x_p)^T from the same weights (h^2/4 I for quadratic
-B-splines), so the APIC transfers conserve angular momentum for any tensor shape function.
+with D_p = sum_i w_ip (X_i - x_p)(X_i - x_p)^T from the same weights, so the APIC transfers
+conserve angular momentum for any tensor shape function.
+
+Quadrature: with quadratic B-splines the weights and gradients are the averages of N_i and
+grad N_i over each particle's domain (domain_weights), not their values at x_p. The particle
+sums then integrate every row exactly over the body, including the rows of basis functions cut
+off by a body's end, where the point values miss the kink of N_i' inside a domain that
+contains a knot (3 particles per cell direction: first-order convergence; docs/bfemp.md,
+"Refinement"). A domain containing a knot reaches 4 nodes along that axis.
 After the Newton solve the grid's new velocity and acceleration go back to the particles:
 PIC v_p = sum w v_i; FLIP v_p += sum w (v_i - v_i^n); APIC also B_p = sum w v_i (X_i - x_p)^T;
 a_p = sum w a_i; positions and F follow the grid's motion.
@@ -31,8 +38,134 @@ from ..errors import InstabilityError
 from ..fem import elements
 from ..shapes import ShapeData
 from ..shapes.cpdi import corner_signs
+from ..shapes.grid_functions import BSPLINE2, _bspline2
 
 WEIGHT_FLOOR = 1e-10  # grid weights below this are dropped (begin)
+KNOT_TOLERANCE = 1e-9  # a domain end this close to a B-spline knot (cell units) ends on it
+SLIVER_WEIGHT = 1e-8  # a domain's 1D weight on a 4th node below this is folded into the others
+
+
+@njit(cache=True, inline="always")
+def _bspline2_integral(r):
+    """int_{-inf}^r N(s) ds of the quadratic B-spline N (knots at +-1/2, +-3/2)."""
+    if r <= -1.5:
+        return 0.0
+    if r < -0.5:
+        t = r + 1.5
+        return t * t * t / 6.0
+    if r < 0.5:
+        return 0.5 + 0.75 * r - r * r * r / 3.0
+    if r < 1.5:
+        t = 1.5 - r
+        return 1.0 - t * t * t / 6.0
+    return 1.0
+
+
+@njit(cache=True)
+def domain_weights(x, F, semi, origin, h, shape, nodes, S, G, wide):
+    """Quadratic B-splines averaged over each particle's domain (GIMP's integration, Bardenhagen
+    & Kober 2004, doi:10.3970/cmes.2004.005.477, applied to B-splines): along axis a the domain is
+    [x_a - l_a, x_a + l_a], l_a = semi_a |F_aa| (the undeformed half-length stretched by F's
+    diagonal; at most half a cell), and
+
+        w_i = (M(r+) - M(r-)) / (2 l),   dw_i/dx = (N(r+) - N(r-)) / (2 l h),   r+- = (x +- l)/h - i
+
+    (M the integral of N): the exact averages of N_i and N_i' over the domain. A domain that
+    contains a knot reaches 4 nodes along that axis (the point rule's 3 miss the kink). Fills
+    nodes, S (n, 4^d) and G (n, 4^d, d) (the tensor products: the exact domain averages of N_i and
+    grad N_i over the box), and wide[p, a] (the 4th node along a carries weight); returns the
+    first particle whose nodes leave the grid, or -1."""
+    n, d = x.shape
+    w = np.zeros((3, 4))
+    dw = np.zeros((3, 4))
+    base = np.zeros(3, np.int64)
+    bad = -1
+    for p in range(n):
+        out = False
+        for a in range(3):
+            for k in range(4):
+                w[a, k] = 1.0 if a >= d and k == 0 else 0.0
+                dw[a, k] = 0.0
+            base[a] = 0
+        for a in range(d):
+            xi = (x[p, a] - origin[a]) / h[a]
+            ln = min(semi[a] * abs(F[p, a, a]) / h[a], 0.5)
+            lo = int(np.floor(xi - ln - 1.5 + KNOT_TOLERANCE)) + 1  # first node whose support meets the domain
+            hi = int(np.ceil(xi + ln + 1.5 - KNOT_TOLERANCE)) - 1
+            base[a] = lo
+            for k in range(min(hi - lo + 1, 4)):
+                r = xi - (lo + k)
+                if ln > 1e-12:
+                    w[a, k] = (_bspline2_integral(r + ln) - _bspline2_integral(r - ln)) / (2.0 * ln)
+                    dw[a, k] = (_bspline2(r + ln)[0] - _bspline2(r - ln)[0]) / (2.0 * ln * h[a])
+                else:  # a collapsed domain: the point values
+                    w[a, k], dw[a, k] = _bspline2(r)
+                    dw[a, k] /= h[a]
+            if hi - lo >= 3:  # four nodes: the domain contains a knot
+                # a node that only a sliver of the domain reaches (its support ends within
+                # about 0.01 cell of the domain's end: weight ~ s^3, gradient ~ s^2) would be an
+                # almost free unknown, pulled by stresses and held by a stiffness ~ s^4: its
+                # weight and gradient go to the next two nodes by linear extrapolation (2, -1),
+                # which keeps sum w = 1, sum w X = x, sum dw = 0 and sum dw X = 1 exact
+                for e, n1, n2 in ((0, 1, 2), (3, 2, 1)):
+                    if w[a, e] < SLIVER_WEIGHT:
+                        w[a, n1] += 2.0 * w[a, e]
+                        w[a, n2] -= w[a, e]
+                        dw[a, n1] += 2.0 * dw[a, e]
+                        dw[a, n2] -= dw[a, e]
+                        w[a, e] = 0.0
+                        dw[a, e] = 0.0
+                if w[a, 0] == 0.0:  # the first node folded away: shift the stencil
+                    for k in range(3):
+                        w[a, k] = w[a, k + 1]
+                        dw[a, k] = dw[a, k + 1]
+                    w[a, 3] = 0.0
+                    dw[a, 3] = 0.0
+                    base[a] += 1
+            wide[p, a] = w[a, 3] != 0.0
+            if base[a] < 0 or base[a] + (3 if wide[p, a] else 2) >= shape[a]:
+                out = True
+        if out and bad < 0:
+            bad = p
+        k = 0
+        for c in range(4 if d == 3 else 1):
+            for b in range(4):
+                for a in range(4):
+                    if out:
+                        nodes[p, k] = 0
+                    else:
+                        i0 = min(base[0] + a, shape[0] - 1)
+                        i1 = min(base[1] + b, shape[1] - 1)
+                        i2 = min(base[2] + c, shape[2] - 1)
+                        nodes[p, k] = i0 + shape[0] * (i1 + shape[1] * i2)
+                    S[p, k] = 0.0 if out else w[0, a] * w[1, b] * w[2, c]
+                    G[p, k, 0] = 0.0 if out else dw[0, a] * w[1, b] * w[2, c]
+                    G[p, k, 1] = 0.0 if out else w[0, a] * dw[1, b] * w[2, c]
+                    if d == 3:
+                        G[p, k, 2] = 0.0 if out else w[0, a] * w[1, b] * dw[2, c]
+                    k += 1
+    return bad
+
+
+def averaged_shape_data(x, F, semi, view) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """(nodes, S, G, first particle off the grid or -1) of domain_weights, with the 4th node of
+    an axis kept only where some particle's domain reaches it (4 per axis for the particles of
+    a body with an odd count per cell on the grid's lattice; 3, the point rule's stencil, with
+    an even count, where no domain contains a knot)."""
+    n, d = x.shape
+    K = 4**d
+    nodes = np.zeros((n, K), np.int64)
+    S, G = np.zeros((n, K)), np.zeros((n, K, d))
+    wide = np.zeros((n, 3), np.bool_)
+    shape = np.asarray(view.shape, np.int64)
+    bad = domain_weights(x, F, np.asarray(semi, float), np.asarray(view.origin, float), np.asarray(view.h, float),
+                         shape, nodes, S, G, wide)
+    keep = tuple(slice(None) if wide[:, a].any() else slice(0, 3) for a in reversed(range(d)))
+    box = (n,) + (4,) * d
+    nodes = nodes.reshape(box)[(slice(None),) + keep].reshape(n, -1)
+    S = S.reshape(box)[(slice(None),) + keep].reshape(n, -1)
+    G = G.reshape(box + (d,))[(slice(None),) + keep].reshape(n, -1, d)
+    return nodes, S, G, bad
 
 
 def kept_weights(S: np.ndarray, keep: np.ndarray) -> np.ndarray:
@@ -113,8 +246,9 @@ class GridUnknowns:
     active nodes, grid masses and velocities), read by the integrator's energy, and closed by
     `finish` (particles updated from the solved grid motion)."""
 
-    def __init__(self, transfer: str):
+    def __init__(self, transfer: str, quadrature: str = "domain"):
         self.transfer = transfer
+        self.quadrature = quadrature  # domain: B-splines averaged over the particles' domains; points: at centres
         self.a = None  # (n, d) particle accelerations (Newmark's a^n, interpolated back each step)
 
     def begin(self, state) -> None:
@@ -128,13 +262,21 @@ class GridUnknowns:
                 f"'{P.infos[P.local_body[bad]].name}' at {np.round(P.x[bad], 6).tolist()} left the grid "
                 "(make grid.domain larger)", state.t, state.step)
         sd = state.sd
+        nodes, S, G = sd.nodes, sd.S, sd.G
+        if shape.grid_kind == BSPLINE2 and self.quadrature == "domain":
+            nodes, S, G, bad = averaged_shape_data(P.x, P.F, P.semi, grid.view)
+            if bad >= 0:
+                raise InstabilityError(
+                    f"stopped at step {state.step + 1}, t = {state.t:.6g}: a particle of "
+                    f"'{P.infos[P.local_body[bad]].name}' at {np.round(P.x[bad], 6).tolist()} reaches past the grid "
+                    "(make grid.domain larger)", state.t, state.step)
         # entries of negligible weight (a particle almost 1.5 cells from a B-spline node) would
         # make nodes of ~zero mass and an ill-conditioned Newton system: drop them, then restore
         # sum_k w = 1 and sum_k grad w = 0 (momentum and rigid motions stay exact)
-        S = kept_weights(sd.S, sd.S > WEIGHT_FLOOR)
-        grad = np.where(S[:, :, None] != 0.0, sd.G, 0.0)
+        S = kept_weights(S, S > WEIGHT_FLOOR)
+        grad = np.where(S[:, :, None] != 0.0, G, 0.0)
         grad -= S[:, :, None] * grad.sum(axis=1, keepdims=True)
-        flat = sd.nodes
+        flat = nodes
         active = np.unique(flat[S != 0.0])
         local = np.searchsorted(active, flat)
         local[S == 0.0] = 0
@@ -177,7 +319,7 @@ class GridUnknowns:
         signs = corner_signs(d)
         x = (P.x[:, None, :] + np.einsum("pab,cb->pca", P.F, signs * P.semi[:d])).reshape(-1, d)
         F = np.repeat(P.F, len(signs), axis=0)
-        sd = ShapeData.empty(len(x), self.S.shape[1], d)
+        sd = ShapeData.empty(len(x), state.sd.S.shape[1], d)
         (_, _), (bad, _) = state.shape.compute(x, F, P.semi, state.grid, state.nchunk, sd)
         owner = np.repeat(np.arange(P.n), len(signs))
         if bad >= 0:
@@ -189,6 +331,9 @@ class GridUnknowns:
         local = np.minimum(np.searchsorted(self.active, sd.nodes), len(self.active) - 1)
         S = kept_weights(sd.S, (sd.S > WEIGHT_FLOOR) & (self.active[local] == sd.nodes))
         local[S == 0.0] = 0
+        pad = self.S.shape[1] - S.shape[1]  # as wide as the particles' own entries (zero weights)
+        if pad > 0:
+            local, S = np.pad(local, ((0, 0), (0, pad))), np.pad(S, ((0, 0), (0, pad)))
         offset = x - np.einsum("qk,qkc->qc", S, self.X[local])
         return owner, local, S, offset
 

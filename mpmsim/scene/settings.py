@@ -39,9 +39,12 @@ def run_settings(deck) -> RunSettings:
     g = np.zeros(deck.dim)
     if deck.gravity is not None:
         g[:] = deck.gravity
+    implicit = deck.implicit if deck.implicit is not None else Implicit()
+    if implicit.particle_quadrature == "auto":  # resolved here: domain averages where point values lose order
+        odd = deck.particles_per_direction % 2 == 1
+        implicit = implicit.model_copy(update={"particle_quadrature": "domain" if odd else "points"})
     return RunSettings(deck.title, deck.dim, deck.integrator, deck.units, deck.shape_function, deck.update, deck.time,
-                       deck.output, deck.stability,
-                       deck.implicit if deck.implicit is not None else Implicit(),
+                       deck.output, deck.stability, implicit,
                        deck.grid.boundaries if deck.grid is not None else None, g,
                        deck.damping.grid if deck.damping is not None else 0.0, list(deck.loads),
                        deck.artificial_viscosity is not None)
