@@ -49,8 +49,12 @@ def hertz(P: float) -> tuple[float, float]:
     return a, 2.0 * P / (math.pi * a)
 
 
-def deck(rh: float, end: float | None = None, damping: float | None = None, overrides: dict | None = None) -> dict:
-    """The Hertz scene at R/h = rh (a mapping for Simulation.from_deck)."""
+def deck(rh: float, end: float | None = None, damping: float | None = None, overrides: dict | None = None,
+         pair: bool = False) -> dict:
+    """The Hertz scene at R/h = rh (a mapping for Simulation.from_deck). pair: a second,
+    identical cylinder (material `upper`) stacked on the first (`lower`): their contact at
+    y = 2R carries the upper one's weight P; for two identical cylinders R* = R/2 and
+    E* = E / (2 (1 - nu^2)), so a = sqrt(4 P R* / (pi E*)) is the same as on the rigid flat."""
     h = R / rh
     c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)  # P-wave speed, mm/ms
     g = P_TARGET / (RHO * math.pi * R**2)  # gravity that gives the load P_TARGET (N/mm: thickness 1)
@@ -62,7 +66,8 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
         "title": f"Hertz cylinder on a rigid flat, R/h = {rh:g}",
         "units": "mm-g-ms",
         "analysis": "plane_strain",
-        "grid": {"cell_size": h, "domain": {"min": [-R - 2 * h, -2 * h], "max": [R + 2 * h, 2 * R + 2 * h]}},
+        "grid": {"cell_size": h, "domain": {"min": [-R - 2 * h, -2 * h],
+                                            "max": [R + 2 * h, (4 if pair else 2) * R + 2 * h]}},
         "shape_function": "gimp",
         "particles_per_direction": 2,
         "materials": {
@@ -82,6 +87,13 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
                    "checkpoint_interval": "off"},
         "stability": {},
     }
+    if pair:
+        data["title"] = f"Two Hertz cylinders on a rigid flat, R/h = {rh:g}"
+        data["materials"] = {"lower": dict(data["materials"]["cylinder"]), "upper": dict(data["materials"]["cylinder"]),
+                             "flat": data["materials"]["flat"]}
+        data["bodies"] = [{**data["bodies"][0], "material": "lower", "name": "lower"},
+                          {"name": "upper", "shape": "circle", "center": [0.0, 3 * R], "radius": R, "material": "upper"},
+                          {**data["bodies"][1], "min": [-w * 1.5, -2 * h], "max": [w * 1.5, 0.0]}]
     for key, value in (overrides or {}).items():
         node = data
         parts = key.split(".")
@@ -100,15 +112,29 @@ def pressure_profile(contact_mesh, flat_group: int | None = None) -> dict:
     f = np.asarray(pd["contact_force"])[:, :2]
     area = np.asarray(pd["contact_area"])
     keep = np.ones(len(x), dtype=bool) if flat_group is None else np.asarray(pd["partner_group"]) == flat_group
-    fy = f[keep, 1]  # the flat pushes up: the cylinder's normal force, vertical
+    fy = -np.sum(f * n, axis=1)[keep]  # the normal force, > 0 in compression
     xs = np.round(x[keep], 9)
     cols = np.unique(xs)
     F = np.array([fy[xs == c].sum() for c in cols])
     A = np.array([area[keep][xs == c].sum() for c in cols])
     p = np.divide(F, A, out=np.zeros_like(F), where=A > 0)
     pn = np.asarray(pd["contact_pressure"])[keep]
+    h = float(np.diff(cols).min()) if len(cols) > 1 else 1.0
+    big = area[keep] >= 0.1 * h  # nodes with a tenth of a column's area or more (thickness 1)
     return {"x": cols, "F": F, "A": A, "p": p, "node_p_max": float(pn.max()) if len(pn) else 0.0,
-            "node_p_max_area": float(area[keep][np.argmax(pn)]) if len(pn) else 0.0}
+            "node_p_max_area": float(area[keep][np.argmax(pn)]) if len(pn) else 0.0,
+            "node_p_max_big": float(pn[big].max()) if big.any() else 0.0}
+
+
+def particle_pressures(out: Path, files: list[str], y0: float = 0.0) -> dict:
+    """The particles' contact_pressure averaged over frames (same particles in every frame),
+    for the particles within R/2 of the contact level y0 that carry some: x (last frame), p."""
+    import meshio
+
+    ps = [meshio.read(out / f) for f in files]
+    p = np.mean([np.asarray(m.point_data["contact_pressure"]) for m in ps], axis=0)
+    on = (p > 0.0) & (np.abs(ps[-1].points[:, 1] - y0) < 0.5 * R)
+    return {"x": ps[-1].points[on, 0], "p": p[on]}
 
 
 def average_profiles(profiles: list[dict]) -> dict:
@@ -121,7 +147,8 @@ def average_profiles(profiles: list[dict]) -> dict:
         A[at] += p["A"] / len(profiles)
     top = max(profiles, key=lambda p: p["node_p_max"])
     return {"x": cols, "F": F, "A": A, "p": np.divide(F, A, out=np.zeros_like(F), where=A > 0),
-            "node_p_max": top["node_p_max"], "node_p_max_area": top["node_p_max_area"]}
+            "node_p_max": top["node_p_max"], "node_p_max_area": top["node_p_max_area"],
+            "node_p_max_big": max(p.get("node_p_max_big", np.nan) for p in profiles)}
 
 
 def measure(prof: dict, P_applied: float) -> dict:
@@ -145,7 +172,8 @@ def measure(prof: dict, P_applied: float) -> dict:
             "a_fit": a_fit, "a_fit_error": a_fit / a - 1.0, "p0_fit_error": math.sqrt(max(c[0], 0.0)) / p0 - 1.0,
             "a_extent": a_extent, "centre_p": centre, "centre_error": centre / p0 - 1.0,
             "p_max_over_p0": float(p.max() / p0), "node_p_max_over_p0": prof["node_p_max"] / p0,
-            "node_p_max_area": prof["node_p_max_area"], "profile_max_error": float(np.abs(p[inner] - ph[inner]).max() / p0)
+            "node_p_max_area": prof["node_p_max_area"],
+            "node_p_max_big_over_p0": float(prof.get("node_p_max_big", np.nan)) / p0, "profile_max_error": float(np.abs(p[inner] - ph[inner]).max() / p0)
             if inner.any() else float("nan")}
 
 
@@ -157,22 +185,24 @@ def polar_seed(seed, rh: float, ppd: int, thickness: float = 1.0):
     from mpmsim.scene.build import ParticleSeed
 
     dr = R / rh / ppd
-    xs, vols = [], []
-    for k in range(int(round(R / dr))):
-        r = (k + 0.5) * dr
-        m = max(1, int(round(2 * math.pi * r / dr)))
-        th = -0.5 * math.pi + 2 * math.pi * np.arange(m) / m
-        xs.append(np.stack([r * np.cos(th), R + r * np.sin(th)], axis=1))
-        vols.append(np.full(m, 2 * math.pi * r * dr / m * thickness))
+    xs, vols, mats, bodies = [], [], [], []
+    for b in np.unique(seed.body):  # each cylinder, centred where its grid seeding is
+        yc = float(np.average(seed.x[seed.body == b, 1], weights=seed.vol[seed.body == b]))
+        yc = R * round(yc / R)
+        for k in range(int(round(R / dr))):
+            r = (k + 0.5) * dr
+            m = max(1, int(round(2 * math.pi * r / dr)))
+            th = -0.5 * math.pi + 2 * math.pi * np.arange(m) / m
+            xs.append(np.stack([r * np.cos(th), yc + r * np.sin(th)], axis=1))
+            vols.append(np.full(m, 2 * math.pi * r * dr / m * thickness))
+            mats.append(np.full(m, int(seed.mat[seed.body == b][0])))
+            bodies.append(np.full(m, int(b)))
     x = np.concatenate(xs)
-    n = len(x)
-    body = np.full(n, int(seed.body[0]))
-    mat = np.full(n, int(seed.mat[0]))
-    return ParticleSeed(x, np.zeros_like(x), np.concatenate(vols), mat, body)
+    return ParticleSeed(x, np.zeros_like(x), np.concatenate(vols), np.concatenate(mats), np.concatenate(bodies))
 
 
 def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, end: float | None = None,
-             threads: int | None = None, seeding: str = "grid") -> dict:
+             threads: int | None = None, seeding: str = "grid", pair: bool = False) -> dict:
     """Run one resolution; returns the measurement and the profile (also saved as JSON).
     seeding: grid (the deck's circle: particles of the cells inside it, a staircase surface)
     or polar (rings that follow the surface, `polar_seed`)."""
@@ -182,8 +212,8 @@ def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, 
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
-    data = deck(rh, end=end, overrides=overrides)
-    tag = f"rh{rh:g}" + ("" if seeding == "grid" else f"_{seeding}") + "".join(
+    data = deck(rh, end=end, overrides=overrides, pair=pair)
+    tag = ("pair_" if pair else "") + f"rh{rh:g}" + ("" if seeding == "grid" else f"_{seeding}") + "".join(
         f"_{k.split('.')[-1]}-{v}" for k, v in (overrides or {}).items())
     tag = re.sub(r"[^\w.-]", "", tag)
     out = out or RESULTS / tag
@@ -202,12 +232,32 @@ def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, 
     # to land on time.end, and a contact force over that sliver of a step is not the state's)
     frames = [(float(t), f) for t, f in re.findall(r'timestep="([^"]+)"[^>]*file="([^"]+)"', pvd.read_text())
               if 0.65 * end_t <= float(t) < end_t * (1 - 1e-9)]
-    flat = sim.state.contact.spec.group_names.index("flat")
-    prof = average_profiles([pressure_profile(meshio.read(out / f), flat) for _, f in frames])
+    names = sim.state.contact.spec.group_names
+    partner = names.index("upper" if pair else "flat")
+    meshes = [meshio.read(out / f) for _, f in frames]
+    prof = average_profiles([pressure_profile(mesh, partner) for mesh in meshes])
     prof["frames"] = np.array([t for t, _ in frames])
-    m = sim.state.particles.mass.sum()
+    y0 = 2 * R if pair else 0.0
+    part = particle_pressures(out, [f.replace("_contact_", "_") for _, f in frames], y0)
+    P = sim.state.particles
+    m = P.mass[P.body == P.body.max()].sum() if pair else P.mass.sum()  # the upper cylinder's, or the one's
     g = -data["gravity"][1]
     result = measure(prof, float(m * g))
+    if pair:  # where the contact sits: the force's centroid, and its level, against the symmetry x = 0
+        xc, yc = [], []
+        for mesh in meshes:
+            pd = mesh.point_data
+            on = np.asarray(pd["partner_group"]) == partner
+            fn = -np.sum(np.asarray(pd["contact_force"])[on, :2] * np.asarray(pd["normal"])[on, :2], axis=1)
+            xc.append(float((mesh.points[on, 0] * fn).sum() / fn.sum()))
+            yc.append(float((mesh.points[on, 1] * fn).sum() / fn.sum()))
+        result["contact_x_over_h"] = float(np.max(np.abs(xc)) / (R / rh))
+        result["contact_y"] = float(np.mean(yc))
+    a_h, p0_h = result["a_hertz"], result["p0_hertz"]
+    inner = np.abs(part["x"]) < 0.8 * a_h
+    hz = p0_h * np.sqrt(np.clip(1 - (part["x"] / a_h) ** 2, 0, None))
+    result["particle_p_max_over_p0"] = float(part["p"].max() / p0_h)
+    result["particle_profile_max_error"] = float(np.abs(part["p"][inner] - hz[inner]).max() / p0_h)
     result.update({"seeding": seeding, "rh": rh, "h": R / rh, "overrides": overrides or {}, "wall_s": wall, "steps": int(hist["step"].iloc[-1]),
                    "reaction_y": float(hist["F_flat_y"].iloc[-1]), "n_particles": int(sim.state.particles.n),
                    "ke_final": float(hist["kinetic_energy"].iloc[-1]) if "kinetic_energy" in hist else None})
@@ -217,7 +267,7 @@ def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, 
     return {"result": result, "profile": prof}
 
 
-def chart(tags: list[str], path: Path) -> None:
+def chart(tags: list[str], path: Path, title: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -236,6 +286,8 @@ def chart(tags: list[str], path: Path) -> None:
     ax.set_ylabel("p / p0")
     ax.grid(alpha=0.3)
     ax.legend()
+    if title:
+        ax.set_title(title)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
 
@@ -252,34 +304,41 @@ def main(argv=None) -> int:
     ap.add_argument("--rh", type=float, nargs="+", default=[20.0, 40.0, 80.0])
     ap.add_argument("--set", nargs="*", default=[], help="deck overrides key=value (YAML values)")
     ap.add_argument("--seeding", choices=["grid", "polar"], default="grid")
+    ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
     ap.add_argument("--end", type=float, help="simulated time (default 40 R / c)")
     ap.add_argument("--threads", type=int)
     ap.add_argument("--tags", nargs="*", help="saved runs for chart/table (default rh20 rh40 rh80)")
     ap.add_argument("--out", default=str(FIGURES / "hertz_pressure.png"))
+    ap.add_argument("--title", default="")
     args = ap.parse_args(argv)
     if args.what == "run":
         for rh in args.rh:
-            r = run_case(rh, parse_set(args.set), end=args.end, threads=args.threads, seeding=args.seeding)["result"]
+            r = run_case(rh, parse_set(args.set), end=args.end, threads=args.threads, seeding=args.seeding,
+                         pair=args.pair)["result"]
             print(json.dumps(r))
             sys.stdout.flush()
         return 0
     tags = args.tags or sorted(p.parent.name for p in RESULTS.glob("*/hertz_result.json"))
     if args.what == "chart":
-        chart(tags, Path(args.out))
+        chart(tags, Path(args.out), args.title)
         print(args.out)
         return 0
     print("| run | R/h | load carried vs applied | a (ellipse fit) | a (moment) | p(0) vs p0 | max column p / p0 | "
-          "max \\|p − Hertz\\| / p0, \\|x\\| < 0.8a | max node p / p0 |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "max \\|p − Hertz\\| / p0, \\|x\\| < 0.8a | max node p / p0 | same, A_c ≥ 0.1 h | "
+          "particles: max p / p0, max \\|p − Hertz\\| / p0 |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for tag in tags:
         saved = json.loads((RESULTS / tag / "hertz_result.json").read_text())
         old, prof = saved["result"], {k: np.asarray(v) for k, v in saved["profile"].items()}
         prof.setdefault("node_p_max", np.nan)
         prof.setdefault("node_p_max_area", np.nan)
+        prof.setdefault("node_p_max_big", np.nan)
         r = measure(prof, old["load_applied"])  # measured again: every row by the same rules
         print(f"| {tag} | {old['rh']:g} | {r['load_error']:+.3%} | {r['a_fit_error']:+.1%} | "
               f"{r['a_moment_error']:+.1%} | {r['centre_error']:+.1%} | {r['p_max_over_p0']:.2f} | "
-              f"{r['profile_max_error']:.1%} | {float(r['node_p_max_over_p0']):.2f} |")
+              f"{r['profile_max_error']:.1%} | {float(r['node_p_max_over_p0']):.2f} | "
+              f"{float(r['node_p_max_big_over_p0']):.2f} | {old.get('particle_p_max_over_p0', np.nan):.2f}, "
+              f"{old.get('particle_profile_max_error', np.nan):.1%} |")
     return 0
 
 

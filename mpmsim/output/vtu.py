@@ -187,7 +187,7 @@ def add_contact_tractions(state, meshes: dict[str, meshio.Mesh]) -> None:
     cs = getattr(state, "contact", None)
     if cs is None or not cs.spec.traction or cs.slot_force is None:
         return
-    from ..contact.grid.traction import node_tractions, particle_tractions, slot_tractions
+    from ..contact.grid.traction import node_tractions, particle_tractions, slot_shares
 
     g = state.grid
     nt = node_tractions(cs)
@@ -206,8 +206,7 @@ def add_contact_tractions(state, meshes: dict[str, meshio.Mesh]) -> None:
     particles = meshes.get(MAIN_PART)
     P = state.particles
     if particles is not None and len(particles.points) >= P.n:
-        t_slot, p_slot = slot_tractions(cs, nt)
-        t, p = particle_tractions(cs, state.sd.S, g.n_nodes, t_slot, p_slot)
+        t, p = particle_tractions(cs, state.sd.S, g.n_nodes, *slot_shares(cs, nt))
         rows = len(particles.points)
         particles.point_data["contact_traction"] = np.zeros((rows, 3))
         particles.point_data["contact_traction"][: P.n] = _pad3(t)

@@ -151,7 +151,8 @@ class ContactTasks:
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
         pair_changes(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, True, cs.pair_step)
         if self.spec.traction:  # output.contact_traction: the force each slot got (what pair_changes sums)
-            record_slot_forces(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, cs.dp1, self.pass_1_counts and self.spec.passes == 2, state.dt,
+            counted = self.pass_1_counts and self.spec.passes == 2
+            record_slot_forces(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, cs.dp1, counted, state.dt,
                                cs.slot_force)
         settle_pairs(cs.pair_step, cs.pair_force, cs.pair_impulse, state.dt)
         state.interface_energy = float(sums.energy.sum())  # instantaneous total at the end of the step
