@@ -20,6 +20,7 @@ import meshio
 import numpy as np
 import pytest
 
+from mpmsim.output.paraview import find_series
 from mpmsim.solver import Simulation
 
 from ..conftest import ROOT
@@ -128,6 +129,7 @@ def test_traction_integral_is_the_rigid_reaction(tmp_path):
         ref = np.array([row["F_flat_x"], row["F_flat_y"]])
         assert ref[1] > 1.0
         assert np.allclose(integral(mesh), ref, rtol=1e-10, atol=1e-10 * abs(ref[1]))
+    assert find_series(tmp_path).name == "hz.pvd"  # `mpmsim paraview` takes the particles' series
 
 
 def test_hertz_cylinder_at_r_over_h_20(tmp_path):
