@@ -146,3 +146,12 @@ def test_hertz_cylinder_at_r_over_h_20(tmp_path):
     assert r["p_max_over_p0"] < 1.3
     # the particles' traction (a ratio of weighted sums): peak 0.99 p0, within 5.5% of Hertz
     assert r["particle_p_max_over_p0"] < 1.3 and r["particle_profile_max_error"] < 0.10
+
+
+def test_traction_output_without_contact_names_the_key():
+    from mpmsim.errors import DeckError
+
+    data = pair_deck("flip")
+    data["bodies"] = data["bodies"][:1]  # one material: no contact
+    with pytest.raises(DeckError, match=r"output\.contact_traction: .*two or more materials"):
+        Simulation.from_deck(data)
