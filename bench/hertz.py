@@ -50,14 +50,15 @@ def hertz(P: float) -> tuple[float, float]:
 
 
 def deck(rh: float, end: float | None = None, damping: float | None = None, overrides: dict | None = None,
-         pair: bool = False) -> dict:
+         pair: bool = False, a_target: float = A_TARGET) -> dict:
     """The Hertz scene at R/h = rh (a mapping for Simulation.from_deck). pair: a second,
     identical cylinder (material `upper`) stacked on the first (`lower`): their contact at
     y = 2R carries the upper one's weight P; for two identical cylinders R* = R/2 and
     E* = E / (2 (1 - nu^2)), so a = sqrt(4 P R* / (pi E*)) is the same as on the rigid flat."""
     h = R / rh
     c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)  # P-wave speed, mm/ms
-    g = P_TARGET / (RHO * math.pi * R**2)  # gravity that gives the load P_TARGET (N/mm: thickness 1)
+    load = math.pi * a_target**2 * E_STAR / (4.0 * R)  # the Hertz load of half-width a_target
+    g = load / (RHO * math.pi * R**2)  # gravity that gives it (N/mm: thickness 1)
     # the fundamental (bouncing) mode on the contact is slow; damp it near critically
     alpha = damping if damping is not None else c / R
     end = end if end is not None else 40.0 * R / c
@@ -202,7 +203,8 @@ def polar_seed(seed, rh: float, ppd: int, thickness: float = 1.0):
 
 
 def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, end: float | None = None,
-             threads: int | None = None, seeding: str = "grid", pair: bool = False) -> dict:
+             threads: int | None = None, seeding: str = "grid", pair: bool = False,
+             a_target: float = A_TARGET) -> dict:
     """Run one resolution; returns the measurement and the profile (also saved as JSON).
     seeding: grid (the deck's circle: particles of the cells inside it, a staircase surface)
     or polar (rings that follow the surface, `polar_seed`)."""
@@ -212,8 +214,9 @@ def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, 
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
-    data = deck(rh, end=end, overrides=overrides, pair=pair)
-    tag = ("pair_" if pair else "") + f"rh{rh:g}" + ("" if seeding == "grid" else f"_{seeding}") + "".join(
+    data = deck(rh, end=end, overrides=overrides, pair=pair, a_target=a_target)
+    tag = ("pair_" if pair else "") + f"rh{rh:g}" + ("" if seeding == "grid" else f"_{seeding}") + (
+        "" if a_target == A_TARGET else f"_a{a_target:g}") + "".join(
         f"_{k.split('.')[-1]}-{v}" for k, v in (overrides or {}).items())
     tag = re.sub(r"[^\w.-]", "", tag)
     out = out or RESULTS / tag
@@ -305,6 +308,7 @@ def main(argv=None) -> int:
     ap.add_argument("--set", nargs="*", default=[], help="deck overrides key=value (YAML values)")
     ap.add_argument("--seeding", choices=["grid", "polar"], default="grid")
     ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
+    ap.add_argument("--a", type=float, default=A_TARGET, help="Hertz half-width the load is set for (mm)")
     ap.add_argument("--end", type=float, help="simulated time (default 40 R / c)")
     ap.add_argument("--threads", type=int)
     ap.add_argument("--tags", nargs="*", help="saved runs for chart/table (default rh20 rh40 rh80)")
@@ -314,7 +318,7 @@ def main(argv=None) -> int:
     if args.what == "run":
         for rh in args.rh:
             r = run_case(rh, parse_set(args.set), end=args.end, threads=args.threads, seeding=args.seeding,
-                         pair=args.pair)["result"]
+                         pair=args.pair, a_target=args.a)["result"]
             print(json.dumps(r))
             sys.stdout.flush()
         return 0
