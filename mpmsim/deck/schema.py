@@ -632,6 +632,13 @@ class Output(Strict):
         "force_gap_loss and energy_residual: where the work put in goes besides kinetic and strain energy, "
         "booked where it happens in each step (explicit particle runs; three extra tasks per step; "
         "docs/validation.md, \"Energy ledger\").")
+    contact_traction: bool = Field(
+        default=False, description="Write the grid contact's tractions (docs/output.md): per contact node, "
+        "the contact force of the step (pass 2's, as the history's contact_f* sums it) over the node's contact "
+        "area A_c (stress unit; normal pressure > 0 in compression, tangential traction, normal, area, force) "
+        "as the series <stem>_contact.pvd, and per particle the traction its surface carries "
+        "(contact_traction, contact_pressure: its shape-function weights times its nodes' tractions). Explicit "
+        "runs with grid contact between two or more material groups.")
 
     @field_validator("checkpoint_interval")
     @classmethod
