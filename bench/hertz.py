@@ -50,7 +50,7 @@ def hertz(P: float) -> tuple[float, float]:
 
 
 def deck(rh: float, end: float | None = None, damping: float | None = None, overrides: dict | None = None,
-         pair: bool = False, a_target: float = A_TARGET) -> dict:
+         pair: bool = False, a_target: float = A_TARGET, seeding: str = "lattice") -> dict:
     """The Hertz scene at R/h = rh (a mapping for Simulation.from_deck). pair: a second,
     identical cylinder (material `upper`) stacked on the first (`lower`): their contact at
     y = 2R carries the upper one's weight P; for two identical cylinders R* = R/2 and
@@ -76,7 +76,8 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
             "flat": {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0]},
         },
         "bodies": [
-            {"name": "cylinder", "shape": "circle", "center": [0.0, R], "radius": R, "material": "cylinder"},
+            {"name": "cylinder", "shape": "circle", "center": [0.0, R], "radius": R, "material": "cylinder",
+             "seeding": seeding},
             {"name": "flat", "shape": "rectangle", "min": [-w, -2 * h], "max": [w, 0.0], "material": "flat"},
         ],
         "gravity": [0.0, -g],
@@ -93,7 +94,8 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
         data["materials"] = {"lower": dict(data["materials"]["cylinder"]), "upper": dict(data["materials"]["cylinder"]),
                              "flat": data["materials"]["flat"]}
         data["bodies"] = [{**data["bodies"][0], "material": "lower", "name": "lower"},
-                          {"name": "upper", "shape": "circle", "center": [0.0, 3 * R], "radius": R, "material": "upper"},
+                          {"name": "upper", "shape": "circle", "center": [0.0, 3 * R], "radius": R, "material": "upper",
+                           "seeding": seeding},
                           {**data["bodies"][1], "min": [-w * 1.5, -2 * h], "max": [w * 1.5, 0.0]}]
     for key, value in (overrides or {}).items():
         node = data
@@ -178,53 +180,26 @@ def measure(prof: dict, P_applied: float) -> dict:
             if inner.any() else float("nan")}
 
 
-def polar_seed(seed, rh: float, ppd: int, thickness: float = 1.0):
-    """The cylinder's particles seeded in rings that follow its surface (radial spacing
-    h / ppd, arc spacing as close to it as a whole number of particles per ring allows, one
-    particle at the bottom of every ring, mirror-symmetric about x = 0), each with its ring
-    sector's exact volume, in place of the grid-aligned (staircase) seeding."""
-    from mpmsim.scene.build import ParticleSeed
-
-    dr = R / rh / ppd
-    xs, vols, mats, bodies = [], [], [], []
-    for b in np.unique(seed.body):  # each cylinder, centred where its grid seeding is
-        yc = float(np.average(seed.x[seed.body == b, 1], weights=seed.vol[seed.body == b]))
-        yc = R * round(yc / R)
-        for k in range(int(round(R / dr))):
-            r = (k + 0.5) * dr
-            m = max(1, int(round(2 * math.pi * r / dr)))
-            th = -0.5 * math.pi + 2 * math.pi * np.arange(m) / m
-            xs.append(np.stack([r * np.cos(th), yc + r * np.sin(th)], axis=1))
-            vols.append(np.full(m, 2 * math.pi * r * dr / m * thickness))
-            mats.append(np.full(m, int(seed.mat[seed.body == b][0])))
-            bodies.append(np.full(m, int(b)))
-    x = np.concatenate(xs)
-    return ParticleSeed(x, np.zeros_like(x), np.concatenate(vols), np.concatenate(mats), np.concatenate(bodies))
-
-
 def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, end: float | None = None,
-             threads: int | None = None, seeding: str = "grid", pair: bool = False,
+             threads: int | None = None, seeding: str = "lattice", pair: bool = False,
              a_target: float = A_TARGET) -> dict:
     """Run one resolution; returns the measurement and the profile (also saved as JSON).
-    seeding: grid (the deck's circle: particles of the cells inside it, a staircase surface)
-    or polar (rings that follow the surface, `polar_seed`)."""
+    seeding: the circles' deck option, lattice (the grid-aligned lattice sites inside the circle,
+    a staircase surface) or rings (rings that follow the surface)."""
     import meshio
 
     from mpmsim.deck import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
-    data = deck(rh, end=end, overrides=overrides, pair=pair, a_target=a_target)
-    tag = ("pair_" if pair else "") + f"rh{rh:g}" + ("" if seeding == "grid" else f"_{seeding}") + (
+    data = deck(rh, end=end, overrides=overrides, pair=pair, a_target=a_target, seeding=seeding)
+    tag = ("pair_" if pair else "") + f"rh{rh:g}" + ("" if seeding == "lattice" else f"_{seeding}") + (
         "" if a_target == A_TARGET else f"_a{a_target:g}") + "".join(
         f"_{k.split('.')[-1]}-{v}" for k, v in (overrides or {}).items())
     tag = re.sub(r"[^\w.-]", "", tag)
     out = out or RESULTS / tag
     t0 = time.perf_counter()
     scene = build_scene(as_loaded_deck(data, "hertz", None))
-    if seeding == "polar":
-        scene.deformable = polar_seed(scene.deformable, rh, int(data.get("particles_per_direction", 2)),
-                                      scene.thickness)
     sim = Simulation(scene, out_dir=out, threads=threads)
     sim.run()
     wall = time.perf_counter() - t0
@@ -306,7 +281,7 @@ def main(argv=None) -> int:
     ap.add_argument("what", choices=["run", "chart", "table"])
     ap.add_argument("--rh", type=float, nargs="+", default=[20.0, 40.0, 80.0])
     ap.add_argument("--set", nargs="*", default=[], help="deck overrides key=value (YAML values)")
-    ap.add_argument("--seeding", choices=["grid", "polar"], default="grid")
+    ap.add_argument("--seeding", choices=["lattice", "rings"], default="lattice")
     ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
     ap.add_argument("--a", type=float, default=A_TARGET, help="Hertz half-width the load is set for (mm)")
     ap.add_argument("--end", type=float, help="simulated time (default 40 R / c)")

@@ -352,8 +352,24 @@ class Round(BodyBase):
     radius: float = Field(gt=0)
 
 
+SEEDING_DESCRIPTION = (
+    "How particles fill the body (2D decks). lattice: the sites of the grid-aligned lattice inside the shape "
+    "(its surface a staircase of particle-sized steps). rings: rings that follow the surface, one particle "
+    "spacing (cell_size / particles_per_direction) apart, each ring's particles spaced as close to it as a "
+    "whole number allows, one at the bottom of every ring, each with its ring sector's exact area (the areas "
+    "sum to the shape's); the particles' domains stay squares of the lattice spacing (the same area to within "
+    "a few percent). For curved bodies in contact: the staircase's corners bias contact pressure and width "
+    "(docs/contact.md, docs/bfemp.md). A rings body may not overlap another particle body nor be clipped; "
+    "the grid cell size must be the same along x and y.")
+
+
+def _seeding():
+    return Field(default="lattice", description=SEEDING_DESCRIPTION)
+
+
 class Circle(Round):
     shape: Literal["circle"]
+    seeding: Literal["lattice", "rings"] = _seeding()
 
 
 class Sphere(Round):
@@ -383,6 +399,7 @@ class Annulus(BodyBase):
     center: Vector
     inner_radius: float = Field(ge=0)
     outer_radius: float = Field(gt=0)
+    seeding: Literal["lattice", "rings"] = _seeding()
 
 
 class MeshFile(BodyBase):
