@@ -352,8 +352,24 @@ class Round(BodyBase):
     radius: float = Field(gt=0)
 
 
+SEEDING_DESCRIPTION = (
+    "How particles fill the body (2D decks). lattice: the sites of the grid-aligned lattice inside the shape "
+    "(its surface a staircase of particle-sized steps). rings: rings that follow the surface, one particle "
+    "spacing (cell_size / particles_per_direction) apart, each ring's particles spaced as close to it as a "
+    "whole number allows, one at the bottom of every ring, each with its ring sector's exact area (the areas "
+    "sum to the shape's); the particles' domains stay squares of the lattice spacing (the same area to within "
+    "a few percent). For curved bodies in contact: the staircase's corners bias contact pressure and width "
+    "(docs/contact.md, docs/bfemp.md). A rings body may not overlap another particle body nor be clipped; "
+    "the grid cell size must be the same along x and y.")
+
+
+def _seeding():
+    return Field(default="lattice", description=SEEDING_DESCRIPTION)
+
+
 class Circle(Round):
     shape: Literal["circle"]
+    seeding: Literal["lattice", "rings"] = _seeding()
 
 
 class Sphere(Round):
@@ -383,6 +399,7 @@ class Annulus(BodyBase):
     center: Vector
     inner_radius: float = Field(ge=0)
     outer_radius: float = Field(gt=0)
+    seeding: Literal["lattice", "rings"] = _seeding()
 
 
 class MeshFile(BodyBase):
@@ -639,6 +656,13 @@ class Output(Strict):
         "force_gap_loss and energy_residual: where the work put in goes besides kinetic and strain energy, "
         "booked where it happens in each step (explicit particle runs; three extra tasks per step; "
         "docs/validation.md, \"Energy ledger\").")
+    contact_traction: bool = Field(
+        default=False, description="Write the grid contact's tractions (docs/output.md): per contact node, "
+        "the contact force of the step (pass 2's, as the history's contact_f* sums it) over the node's contact "
+        "area A_c (stress unit; normal pressure > 0 in compression, tangential traction, normal, area, force) "
+        "as the series <stem>_contact.pvd, and per particle the traction its surface carries "
+        "(contact_traction, contact_pressure: its shape-function weights times its nodes' tractions). Explicit "
+        "runs with grid contact between two or more material groups.")
 
     @field_validator("checkpoint_interval")
     @classmethod

@@ -67,6 +67,10 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     if deck.output.energy_ledger and (deck.integrator != "explicit" or fem or not particle_bodies):
         add(["output", "energy_ledger"], "the energy ledger follows the explicit MPM step: it needs "
                                          "integrator: explicit and particle bodies only (no FEM bodies)")
+    if deck.output.contact_traction and (deck.integrator != "explicit"
+                                         or len({deck.bodies[i].material for i in particle_bodies}) < 2):
+        add(["output", "contact_traction"], "contact tractions come from the explicit step's grid contact: they need "
+                                            "integrator: explicit and particle bodies of two or more materials")
     # grid
     cs = deck.grid.cell_size if deck.grid is not None else 1.0
     if not isinstance(cs, list) and cs <= 0:

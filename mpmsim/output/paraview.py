@@ -25,7 +25,7 @@ import meshio
 import numpy as np
 
 from .atomic import write_text
-from .vtu import NAMES_FIELD, material_names
+from .vtu import NAMES_FIELD, OWN_COLLECTION, material_names
 
 COMPONENTS = ("xx", "yy", "zz", "xy", "yz", "xz")  # the order of the `stress` array
 # distinct colours (Okabe-Ito, then grey-free extras) for the categorical table
@@ -288,7 +288,7 @@ def find_series(results: Path) -> Path:
         return results
     if not results.is_dir():
         raise ResultsError(f"no results folder or .pvd file {str(results)!r}")
-    found = sorted(p for p in results.glob("*.pvd") if not p.stem.endswith("_rigid"))
+    found = sorted(p for p in results.glob("*.pvd") if not p.stem.endswith(tuple(f"_{c}" for c in OWN_COLLECTION)))
     if not found:
         raise ResultsError(f"{str(results)!r} holds no .pvd series (run a deck first: mpmsim run DECK)")
     if len(found) > 1:

@@ -23,8 +23,9 @@ import numpy as np
 from .atomic import atomic_path, write_text
 
 MAIN_PART = "particles"  # its files keep the plain <stem>_NNNNNN.vtu name
-OTHER_PARTS = ("fem", "rigid")  # parts written as <stem>_<part>_NNNNNN.vtu (body sets' vtu_pieces)
-OWN_COLLECTION = ("rigid",)  # parts listed in <stem>_<part>.pvd instead of <stem>.pvd
+OTHER_PARTS = ("fem", "rigid", "contact")  # parts written as <stem>_<part>_NNNNNN.vtu (body sets' vtu_pieces;
+# contact: the contact tractions of output.contact_traction)
+OWN_COLLECTION = ("rigid", "contact")  # parts listed in <stem>_<part>.pvd instead of <stem>.pvd
 NAMES_FIELD = "material_names"
 
 
@@ -148,7 +149,9 @@ class VtuSeries:
 
     def write(self, state) -> list[Path]:
         paths = []
-        for part, mesh in part_meshes(state).items():
+        meshes = part_meshes(state)
+        add_contact_tractions(state, meshes)
+        for part, mesh in meshes.items():
             if part not in self.parts:
                 self.parts.append(part)
             label = "" if part == MAIN_PART else f"_{part}"
@@ -174,3 +177,47 @@ class VtuSeries:
                     '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
                     f"  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n")
             write_text(path, text)
+
+
+def add_contact_tractions(state, meshes: dict[str, meshio.Mesh]) -> None:
+    """With output.contact_traction: the last step's contact targets as the part `contact`
+    (vertex cells at their grid nodes; none in a frame without contact nodes, e.g. t = 0: its
+    collection then lists only the frames that have some), and each particle's
+    contact_traction and contact_pressure added to the particles' mesh (docs/output.md)."""
+    cs = getattr(state, "contact", None)
+    if cs is None or not cs.spec.traction or cs.slot_force is None:
+        return
+    from ..contact.grid.traction import node_tractions, particle_tractions, slot_shares
+
+    g = state.grid
+    nt = node_tractions(cs)
+    if len(nt.slot):
+        shape = g.shape
+        ijk = np.stack([nt.node % shape[0], (nt.node // shape[0]) % shape[1], nt.node // (shape[0] * shape[1])], 1)
+        pts = g.origin + ijk[:, : g.dim] * g.h
+        data = {"contact_pressure": nt.pressure, "tangential_traction": _pad3(nt.tangential),
+                "traction": _pad3(nt.traction), "normal": _pad3(nt.normal), "contact_area": nt.area,
+                "contact_force": _pad3(nt.force), "group": nt.group.astype(np.int32),
+                "partner_group": nt.partner.astype(np.int32), "in_contact": nt.in_contact.astype(np.int32)}
+        mesh = meshio.Mesh(_pad3(pts), [("vertex", np.arange(len(pts), dtype=np.int64).reshape(-1, 1))],
+                           point_data=data)
+        mesh.field_data[GROUP_NAMES_FIELD] = names_field(list(cs.spec.group_names))
+        meshes["contact"] = mesh
+    particles = meshes.get(MAIN_PART)
+    P = state.particles
+    if particles is not None and len(particles.points) >= P.n:
+        t, p = particle_tractions(cs, state.sd.S, g.n_nodes, *slot_shares(cs, nt))
+        rows = len(particles.points)
+        particles.point_data["contact_traction"] = np.zeros((rows, 3))
+        particles.point_data["contact_traction"][: P.n] = _pad3(t)
+        particles.point_data["contact_pressure"] = np.zeros(rows)
+        particles.point_data["contact_pressure"][: P.n] = p
+
+
+GROUP_NAMES_FIELD = "group_names"  # the contact part's material groups (names joined by '+'), as material_names
+
+
+def _pad3(a: np.ndarray) -> np.ndarray:
+    out = np.zeros((a.shape[0], 3))
+    out[:, : a.shape[1]] = a
+    return out

@@ -24,6 +24,7 @@ from .contact import ContactModel, build_contact_model
 from .fem import FemSeed, build_fem
 from .settings import RunSettings, run_settings
 from .grid import FACE_CODES, FACES, GridSpec, plan_grid
+from .rings import ring_seed
 from .memory import CANDIDATE_BYTES, NODE_BYTES, PARTICLE_BYTES, too_big
 
 
@@ -164,9 +165,30 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
                       "a coarser grid.cell_size, fewer particles_per_direction or smaller bodies")
     if problem:
         raise_at([(("grid", "cell_size"), problem)], loaded)
-    keys, owners, mat_names = [], [], []
+    keys, owners, mat_names, where, vols = [], [], [], [], []
+    lattice_vol = np.prod(spacing) * (deck.thickness if dim == 2 else 1.0)
     problems = []
+    n_rings = 0  # ring-seeded particles so far: their keys are -1, -2, ... (no lattice site)
     for (i, body), (blo, bhi) in zip(particle_bodies, boxes):
+        if getattr(body, "seeding", "lattice") == "rings":
+            problem = _rings_problem(body, dim, h)
+            if problem:
+                problems.append((("bodies", i, "seeding"), problem))
+                continue
+            r_in = body.inner_radius if body.shape == "annulus" else 0.0
+            r_out = body.outer_radius if body.shape == "annulus" else body.radius
+            pts, vol = ring_seed(body.center, r_in, r_out, float(spacing[0]), deck.thickness)
+            if np.any((pts < grid.domain_lo) | (pts > grid.domain_hi)):
+                who = f"body '{body.name}'" if body.name else "the body"
+                problems.append((("bodies", i), f"{who} extends outside grid.domain; enlarge grid.domain or move the body"))
+                continue
+            keys.append(-1 - n_rings - np.arange(len(pts)))
+            n_rings += len(pts)
+            owners.append(np.full(len(pts), i))
+            mat_names.append(np.full(len(pts), body.material, dtype=object))
+            where.append(pts)
+            vols.append(vol)
+            continue
         klo = np.maximum(np.floor((blo - grid.origin) / spacing - 0.5).astype(int), 0)
         khi = np.minimum(np.ceil((bhi - grid.origin) / spacing - 0.5).astype(int), n_lat - 1)
         if np.any(khi < klo):
@@ -201,27 +223,34 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
         keys.append(flat)
         owners.append(np.full(len(flat), i))
         mat_names.append(np.array(names, dtype=object)[cls])
+        where.append(pts)
+        vols.append(np.full(len(flat), lattice_vol))
     if problems:
         raise_at(problems, loaded)
+    if n_rings:
+        problems = _rings_overlaps(deck, base, particle_bodies, where)
+        if problems:
+            raise_at(problems, loaded)
 
     keys = np.concatenate(keys)
     owners = np.concatenate(owners)
     mat_names = np.concatenate(mat_names)
-    # later bodies win: keep the last occurrence of each lattice site
+    x_all = np.concatenate(where)
+    vol_all = np.concatenate(vols)
+    # later bodies win: keep the last occurrence of each lattice site (ring particles' keys are unique)
     rev = slice(None, None, -1)
     _, first_in_rev = np.unique(keys[rev], return_index=True)
     keep = np.sort(len(keys) - 1 - first_in_rev)
     notices = overwritten(deck, keys, owners, keep)
-    keys, owners, mat_names = keys[keep], owners[keep], mat_names[keep]
+    keys, owners, mat_names, x, vol = keys[keep], owners[keep], mat_names[keep], x_all[keep], vol_all[keep]
 
-    kk = np.empty((len(keys), dim), dtype=int)
-    rem = keys.copy()
+    lat = keys >= 0  # gaps closed between lattice-filled bodies (ring bodies' domains end at their surface)
+    kk = np.empty((int(lat.sum()), dim), dtype=int)
+    rem = keys[lat].copy()
     for a in range(dim):
         kk[:, a] = rem % n_lat[a]
         rem //= n_lat[a]
-    x = grid.origin + (kk + 0.5) * spacing
-    notices += gaps_closed(deck, base, keys, kk, owners, x, spacing, n_lat)
-    vol = np.prod(spacing) * (deck.thickness if dim == 2 else 1.0)
+    notices += gaps_closed(deck, base, keys[lat], kk, owners[lat], x[lat], spacing, n_lat)
 
     rigid_mask = np.array([m in mats.rigid for m in mat_names], dtype=bool)
     seeds = []
@@ -251,7 +280,7 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
                     v[on] += np.array(rv.translation)
             elif body.velocity is not None:
                 v[on] = np.array(body.velocity)
-        seeds.append(ParticleSeed(xs, v, np.full(len(xs), vol), mat, own.astype(np.int64)))
+        seeds.append(ParticleSeed(xs, v, vol[sel], mat, own.astype(np.int64)))
     deformable, rigid = seeds
     if len(deformable.x) == 0 and not any(b.discretization == "fem" for b in deck.bodies):
         raise_at([(("bodies",), "no body made of a deformable material holds any particle")], loaded)
@@ -261,6 +290,32 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     if empty:
         raise_at(empty, loaded)
     return grid, deformable, rigid, 0.5 * spacing, notices
+
+
+def _rings_problem(body, dim: int, h: np.ndarray) -> str | None:
+    """Why a `seeding: rings` body cannot be seeded so (None: it can)."""
+    if dim != 2:
+        return "rings seed 2D circles and annuli only (not a 3D deck's extruded shape)"
+    if body.clip is not None:
+        return "a body seeded in rings cannot be clipped: use seeding: lattice"
+    if h[0] != h[1]:
+        return "rings need a grid cell_size that is the same along x and y"
+    return None
+
+
+def _rings_overlaps(deck, base, particle_bodies, where) -> list:
+    """A ring-seeded body takes no part in the lattice's overwriting: refuse any overlap with
+    another particle body (a particle of either inside the other's shape)."""
+    problems = []
+    for (i, bi), pi in zip(particle_bodies, where):
+        if getattr(bi, "seeding", "lattice") != "rings":
+            continue
+        for (j, bj), pj in zip(particle_bodies, where):
+            if j != i and (inside(bi, pj, base).any() or _inside_body(bj, pi, base).any()):
+                problems.append((("bodies", i, "seeding"), f"body '{body_name(bi, i)}' is seeded in rings and "
+                                 f"overlaps body '{body_name(bj, j)}': separate the shapes or use seeding: lattice"))
+                break
+    return problems
 
 
 def overwritten(deck, keys: np.ndarray, owners: np.ndarray, keep: np.ndarray) -> list[str]:

@@ -211,4 +211,5 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
                        c.warm_start, c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
                        INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
                        c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface",
-                       sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)))
+                       sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)),
+                       deck.output.contact_traction)

@@ -20,6 +20,7 @@ from .passes import (NO_BEFORE, PASS_1, PASS_3, PASS_3_RECHECK, Pass2Settings, P
                      law_kernels, pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
 from .spec import SEP_LR, SEP_VELOCITY
+from .traction import record_slot_forces
 from .workspace import ContactWorkspace
 
 _NO_ACC = np.zeros((1, 3))  # point_bond on momenta: no force to record
@@ -149,6 +150,10 @@ class ContactTasks:
                            cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
         pair_changes(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, True, cs.pair_step)
+        if self.spec.traction:  # output.contact_traction: the force each slot got (what pair_changes sums)
+            counted = self.pass_1_counts and self.spec.passes == 2
+            record_slot_forces(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, cs.dp1, counted, state.dt,
+                               cs.slot_force)
         settle_pairs(cs.pair_step, cs.pair_force, cs.pair_impulse, state.dt)
         state.interface_energy = float(sums.energy.sum())  # instantaneous total at the end of the step
         if state.n_rigid_materials:

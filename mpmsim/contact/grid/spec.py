@@ -105,6 +105,7 @@ class ContactSpec:
     opening_at_interface: bool  # interface openings carried to the interface point (else: at the node)
     separation_name: str  # the separation method's deck name
     plugin_laws: tuple = ()  # codes of laws registered outside mpmsim that the law table uses
+    traction: bool = False  # record each slot's contact force for the traction output (output.contact_traction)
 
     @property
     def normal_name(self) -> str:

@@ -126,6 +126,7 @@ class ContactWorkspace:
     pair_step: np.ndarray = None
     pair_force: np.ndarray = None
     pair_impulse: np.ndarray = None
+    slot_force: np.ndarray = None  # (cap, dim) the step's contact force on each slot (spec.traction only)
 
     def ensure(self, n_cn: int, n_slots: int, dim: int) -> None:
         """Grow the per-contact-node and per-slot arrays (doubling) to hold this step."""
@@ -156,6 +157,8 @@ class ContactWorkspace:
         self.con_ptr = z(cap + 1, dtype=np.int64)
         self.ent_a, self.ent_b, self.ent_w = z(8 * cap, dtype=np.int64), z(8 * cap, dtype=np.int64), z(8 * cap)
         self.n_con = 0
+        if self.spec.traction:
+            self.slot_force = z((cap, dim))
 
     @classmethod
     def create(cls, spec: ContactSpec, mat: np.ndarray, rigid_mat: np.ndarray, n_nodes: int, K: int,

@@ -1,0 +1,325 @@
+"""Hertz contact, plane strain: an elastic cylinder pressed on a rigid flat, frictionless LR
+contact, the pressure read from the contact traction output (output.contact_traction).
+
+    python bench/hertz.py run --rh 20 40 [--set contact.normal=average_gradient ...]
+    python bench/hertz.py chart          # docs/figures/hertz_pressure.png from saved runs
+    python bench/hertz.py table          # the docs/contact.md table from saved runs
+
+The cylinder (R = 10 mm, E = 1000 MPa, nu = 0.3, 1 g/cm^3, mm-g-ms) rests on a rigid
+contact-material flat and is loaded by a body force (gravity) ramped by the platen-free
+route: gravity is held constant and grid damping brings the cylinder to rest; the load is
+P = m g per unit thickness, chosen so that the Hertz half-width is a = 2 mm:
+a = sqrt(4 P R / (pi E*)), E* = E / (1 - nu^2) (rigid flat), p0 = 2 P / (pi a),
+p(x) = p0 sqrt(1 - x^2 / a^2).
+
+Measured from the last output frame's contact nodes (the rigid flat's contact targets):
+each grid column x_i gets the pressure p_i = sum of the normal forces of its contact nodes
+/ sum of their contact areas (the traction output's own definition, per column); the
+load carried is the sum of the normal forces; the half-width from the force's second
+moment, a_m = 2 sqrt(sum x^2 F / sum F) (= a for the Hertz distribution), and from the
+outermost loaded column; the centre pressure is p at x = 0 (a grid line).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+FIGURES = ROOT / "docs" / "figures"
+RESULTS = ROOT / "results" / "bench_hertz"
+
+R, E, NU, RHO = 10.0, 1000.0, 0.3, 0.001
+A_TARGET = 2.0
+E_STAR = E / (1.0 - NU**2)
+P_TARGET = math.pi * A_TARGET**2 * E_STAR / (4.0 * R)  # N per mm of thickness
+P0 = 2.0 * P_TARGET / (math.pi * A_TARGET)
+
+
+def hertz(P: float) -> tuple[float, float]:
+    """(a, p0) for a load P per unit thickness."""
+    a = math.sqrt(4.0 * P * R / (math.pi * E_STAR))
+    return a, 2.0 * P / (math.pi * a)
+
+
+def deck(rh: float, end: float | None = None, damping: float | None = None, overrides: dict | None = None,
+         pair: bool = False, a_target: float = A_TARGET, seeding: str = "lattice") -> dict:
+    """The Hertz scene at R/h = rh (a mapping for Simulation.from_deck). pair: a second,
+    identical cylinder (material `upper`) stacked on the first (`lower`): their contact at
+    y = 2R carries the upper one's weight P; for two identical cylinders R* = R/2 and
+    E* = E / (2 (1 - nu^2)), so a = sqrt(4 P R* / (pi E*)) is the same as on the rigid flat."""
+    h = R / rh
+    c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)  # P-wave speed, mm/ms
+    load = math.pi * a_target**2 * E_STAR / (4.0 * R)  # the Hertz load of half-width a_target
+    g = load / (RHO * math.pi * R**2)  # gravity that gives it (N/mm: thickness 1)
+    # the fundamental (bouncing) mode on the contact is slow; damp it near critically
+    alpha = damping if damping is not None else c / R
+    end = end if end is not None else 40.0 * R / c
+    w = 3.0 * A_TARGET
+    data = {
+        "title": f"Hertz cylinder on a rigid flat, R/h = {rh:g}",
+        "units": "mm-g-ms",
+        "analysis": "plane_strain",
+        "grid": {"cell_size": h, "domain": {"min": [-R - 2 * h, -2 * h],
+                                            "max": [R + 2 * h, (4 if pair else 2) * R + 2 * h]}},
+        "shape_function": "gimp",
+        "particles_per_direction": 2,
+        "materials": {
+            "cylinder": {"type": "linear_elastic", "E": E, "nu": NU, "density": RHO},
+            "flat": {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0]},
+        },
+        "bodies": [
+            {"name": "cylinder", "shape": "circle", "center": [0.0, R], "radius": R, "material": "cylinder",
+             "seeding": seeding},
+            {"name": "flat", "shape": "rectangle", "min": [-w, -2 * h], "max": [w, 0.0], "material": "flat"},
+        ],
+        "gravity": [0.0, -g],
+        "damping": {"grid": alpha},
+        "contact": {"default": {"law": "frictionless"}},
+        "time": {"end": end, "cfl": 0.5},
+        "update": {"scheme": "flip", "stress": "usavg"},
+        "output": {"vtu_interval": end / 10, "history_interval": end / 100, "contact_traction": True,
+                   "checkpoint_interval": "off"},
+        "stability": {},
+    }
+    if pair:
+        data["title"] = f"Two Hertz cylinders on a rigid flat, R/h = {rh:g}"
+        data["materials"] = {"lower": dict(data["materials"]["cylinder"]), "upper": dict(data["materials"]["cylinder"]),
+                             "flat": data["materials"]["flat"]}
+        data["bodies"] = [{**data["bodies"][0], "material": "lower", "name": "lower"},
+                          {"name": "upper", "shape": "circle", "center": [0.0, 3 * R], "radius": R, "material": "upper",
+                           "seeding": seeding},
+                          {**data["bodies"][1], "min": [-w * 1.5, -2 * h], "max": [w * 1.5, 0.0]}]
+    for key, value in (overrides or {}).items():
+        node = data
+        parts = key.split(".")
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = value
+    return data
+
+
+def pressure_profile(contact_mesh, flat_group: int | None = None) -> dict:
+    """Per grid column: x, normal force, area, pressure (force / area), from one frame of the
+    contact part (a meshio mesh). Targets against the rigid flat only (partner_group)."""
+    pd = contact_mesh.point_data
+    x = contact_mesh.points[:, 0]
+    n = np.asarray(pd["normal"])[:, :2]
+    f = np.asarray(pd["contact_force"])[:, :2]
+    area = np.asarray(pd["contact_area"])
+    keep = np.ones(len(x), dtype=bool) if flat_group is None else np.asarray(pd["partner_group"]) == flat_group
+    fy = -np.sum(f * n, axis=1)[keep]  # the normal force, > 0 in compression
+    xs = np.round(x[keep], 9)
+    cols = np.unique(xs)
+    F = np.array([fy[xs == c].sum() for c in cols])
+    A = np.array([area[keep][xs == c].sum() for c in cols])
+    p = np.divide(F, A, out=np.zeros_like(F), where=A > 0)
+    pn = np.asarray(pd["contact_pressure"])[keep]
+    h = float(np.diff(cols).min()) if len(cols) > 1 else 1.0
+    big = area[keep] >= 0.1 * h  # nodes with a tenth of a column's area or more (thickness 1)
+    return {"x": cols, "F": F, "A": A, "p": p, "node_p_max": float(pn.max()) if len(pn) else 0.0,
+            "node_p_max_area": float(area[keep][np.argmax(pn)]) if len(pn) else 0.0,
+            "node_p_max_big": float(pn[big].max()) if big.any() else 0.0}
+
+
+def particle_pressures(out: Path, files: list[str], y0: float = 0.0) -> dict:
+    """The particles' contact_pressure averaged over frames (same particles in every frame),
+    for the particles within R/2 of the contact level y0 that carry some: x (last frame), p."""
+    import meshio
+
+    ps = [meshio.read(out / f) for f in files]
+    p = np.mean([np.asarray(m.point_data["contact_pressure"]) for m in ps], axis=0)
+    on = (p > 0.0) & (np.abs(ps[-1].points[:, 1] - y0) < 0.5 * R)
+    return {"x": ps[-1].points[on, 0], "p": p[on]}
+
+
+def average_profiles(profiles: list[dict]) -> dict:
+    """Column forces and areas averaged over frames (columns missing from a frame count 0)."""
+    cols = np.unique(np.concatenate([p["x"] for p in profiles]))
+    F, A = np.zeros(len(cols)), np.zeros(len(cols))
+    for p in profiles:
+        at = np.searchsorted(cols, p["x"])
+        F[at] += p["F"] / len(profiles)
+        A[at] += p["A"] / len(profiles)
+    top = max(profiles, key=lambda p: p["node_p_max"])
+    return {"x": cols, "F": F, "A": A, "p": np.divide(F, A, out=np.zeros_like(F), where=A > 0),
+            "node_p_max": top["node_p_max"], "node_p_max_area": top["node_p_max_area"],
+            "node_p_max_big": max(p.get("node_p_max_big", np.nan) for p in profiles)}
+
+
+def measure(prof: dict, P_applied: float) -> dict:
+    """Half-width, centre pressure, load balance and peak against Hertz for the applied load."""
+    a, p0 = hertz(P_applied)
+    x, F, p = prof["x"], prof["F"], prof["p"]
+    load = float(F.sum())
+    on = F > 1e-6 * max(abs(F).max(), 1e-300)
+    a_moment = 2.0 * math.sqrt(float((x**2 * F).sum() / load))
+    a_extent = float(np.abs(x[on]).max()) if on.any() else 0.0
+    centre = float(np.interp(0.0, x, p))
+    # Hertz's ellipse fitted to the columns that carry load (p^2 = p0^2 (1 - x^2 / a^2),
+    # least squares over the columns above a tenth of the largest pressure)
+    fit = p > 0.1 * p.max()
+    c = np.linalg.lstsq(np.stack([np.ones(fit.sum()), x[fit] ** 2], 1), p[fit] ** 2, rcond=None)[0]
+    a_fit = math.sqrt(-c[0] / c[1]) if c[0] > 0 > c[1] else float("nan")
+    inner = np.abs(x) < 0.8 * a
+    ph = p0 * np.sqrt(np.clip(1 - (x / a) ** 2, 0, None))
+    return {"a_hertz": a, "p0_hertz": p0, "load_applied": P_applied, "load_carried": load,
+            "load_error": load / P_applied - 1.0, "a_moment": a_moment, "a_moment_error": a_moment / a - 1.0,
+            "a_fit": a_fit, "a_fit_error": a_fit / a - 1.0, "p0_fit_error": math.sqrt(max(c[0], 0.0)) / p0 - 1.0,
+            "a_extent": a_extent, "centre_p": centre, "centre_error": centre / p0 - 1.0,
+            "p_max_over_p0": float(p.max() / p0), "node_p_max_over_p0": prof["node_p_max"] / p0,
+            "node_p_max_area": prof["node_p_max_area"],
+            "node_p_max_big_over_p0": float(prof.get("node_p_max_big", np.nan)) / p0, "profile_max_error": float(np.abs(p[inner] - ph[inner]).max() / p0)
+            if inner.any() else float("nan")}
+
+
+def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, end: float | None = None,
+             threads: int | None = None, seeding: str = "lattice", pair: bool = False,
+             a_target: float = A_TARGET) -> dict:
+    """Run one resolution; returns the measurement and the profile (also saved as JSON).
+    seeding: the circles' deck option, lattice (the grid-aligned lattice sites inside the circle,
+    a staircase surface) or rings (rings that follow the surface)."""
+    import meshio
+
+    from mpmsim.deck import as_loaded_deck
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    data = deck(rh, end=end, overrides=overrides, pair=pair, a_target=a_target, seeding=seeding)
+    tag = ("pair_" if pair else "") + f"rh{rh:g}" + ("" if seeding == "lattice" else f"_{seeding}") + (
+        "" if a_target == A_TARGET else f"_a{a_target:g}") + "".join(
+        f"_{k.split('.')[-1]}-{v}" for k, v in (overrides or {}).items())
+    tag = re.sub(r"[^\w.-]", "", tag)
+    out = out or RESULTS / tag
+    t0 = time.perf_counter()
+    scene = build_scene(as_loaded_deck(data, "hertz", None))
+    sim = Simulation(scene, out_dir=out, threads=threads)
+    sim.run()
+    wall = time.perf_counter() - t0
+    hist = sim.history
+    pvd = out / "hertz_contact.pvd"
+    end_t = data["time"]["end"]
+    # the frames of the last third of the run (0.7, 0.8, 0.9 end), without the final one (its step is shortened
+    # to land on time.end, and a contact force over that sliver of a step is not the state's)
+    frames = [(float(t), f) for t, f in re.findall(r'timestep="([^"]+)"[^>]*file="([^"]+)"', pvd.read_text())
+              if 0.65 * end_t <= float(t) < end_t * (1 - 1e-9)]
+    names = sim.state.contact.spec.group_names
+    partner = names.index("upper" if pair else "flat")
+    meshes = [meshio.read(out / f) for _, f in frames]
+    prof = average_profiles([pressure_profile(mesh, partner) for mesh in meshes])
+    prof["frames"] = np.array([t for t, _ in frames])
+    y0 = 2 * R if pair else 0.0
+    part = particle_pressures(out, [f.replace("_contact_", "_") for _, f in frames], y0)
+    P = sim.state.particles
+    m = P.mass[P.body == P.body.max()].sum() if pair else P.mass.sum()  # the upper cylinder's, or the one's
+    g = -data["gravity"][1]
+    result = measure(prof, float(m * g))
+    if pair:  # where the contact sits: the force's centroid, and its level, against the symmetry x = 0
+        xc, yc = [], []
+        for mesh in meshes:
+            pd = mesh.point_data
+            on = np.asarray(pd["partner_group"]) == partner
+            fn = -np.sum(np.asarray(pd["contact_force"])[on, :2] * np.asarray(pd["normal"])[on, :2], axis=1)
+            xc.append(float((mesh.points[on, 0] * fn).sum() / fn.sum()))
+            yc.append(float((mesh.points[on, 1] * fn).sum() / fn.sum()))
+        result["contact_x_over_h"] = float(np.max(np.abs(xc)) / (R / rh))
+        result["contact_y"] = float(np.mean(yc))
+    a_h, p0_h = result["a_hertz"], result["p0_hertz"]
+    inner = np.abs(part["x"]) < 0.8 * a_h
+    hz = p0_h * np.sqrt(np.clip(1 - (part["x"] / a_h) ** 2, 0, None))
+    result["particle_p_max_over_p0"] = float(part["p"].max() / p0_h)
+    result["particle_profile_max_error"] = float(np.abs(part["p"][inner] - hz[inner]).max() / p0_h)
+    result.update({"seeding": seeding, "rh": rh, "h": R / rh, "overrides": overrides or {}, "wall_s": wall, "steps": int(hist["step"].iloc[-1]),
+                   "reaction_y": float(hist["F_flat_y"].iloc[-1]), "n_particles": int(sim.state.particles.n),
+                   "ke_final": float(hist["kinetic_energy"].iloc[-1]) if "kinetic_energy" in hist else None})
+    prof_json = {k: np.asarray(v).tolist() for k, v in prof.items()}
+    result["frames"] = prof_json.pop("frames")
+    (out / "hertz_result.json").write_text(json.dumps({"result": result, "profile": prof_json}, indent=1))
+    return {"result": result, "profile": prof}
+
+
+def chart(tags: list[str], path: Path, title: str = "") -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    xs = np.linspace(-1, 1, 201)
+    ax.plot(xs, np.sqrt(1 - xs**2), "k-", lw=2, label="Hertz")
+    for tag, marker in zip(tags, "os^dv<>"):
+        d = json.loads((RESULTS / tag / "hertz_result.json").read_text())
+        r, p = d["result"], d["profile"]
+        ax.plot(np.array(p["x"]) / r["a_hertz"], np.array(p["p"]) / r["p0_hertz"], marker + "-", ms=4, lw=1,
+                label=f"R/h = {r['rh']:g}")
+    ax.set_xlim(-1.6, 1.6)
+    ax.set_xlabel("x / a")
+    ax.set_ylabel("p / p0")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def parse_set(items: list[str]) -> dict:
+    import yaml
+
+    return {k: yaml.safe_load(v) for k, v in (s.split("=", 1) for s in items)}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=["run", "chart", "table"])
+    ap.add_argument("--rh", type=float, nargs="+", default=[20.0, 40.0, 80.0])
+    ap.add_argument("--set", nargs="*", default=[], help="deck overrides key=value (YAML values)")
+    ap.add_argument("--seeding", choices=["lattice", "rings"], default="lattice")
+    ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
+    ap.add_argument("--a", type=float, default=A_TARGET, help="Hertz half-width the load is set for (mm)")
+    ap.add_argument("--end", type=float, help="simulated time (default 40 R / c)")
+    ap.add_argument("--threads", type=int)
+    ap.add_argument("--tags", nargs="*", help="saved runs for chart/table (default rh20 rh40 rh80)")
+    ap.add_argument("--out", default=str(FIGURES / "hertz_pressure.png"))
+    ap.add_argument("--title", default="")
+    args = ap.parse_args(argv)
+    if args.what == "run":
+        for rh in args.rh:
+            r = run_case(rh, parse_set(args.set), end=args.end, threads=args.threads, seeding=args.seeding,
+                         pair=args.pair, a_target=args.a)["result"]
+            print(json.dumps(r))
+            sys.stdout.flush()
+        return 0
+    tags = args.tags or sorted(p.parent.name for p in RESULTS.glob("*/hertz_result.json"))
+    if args.what == "chart":
+        chart(tags, Path(args.out), args.title)
+        print(args.out)
+        return 0
+    print("| run | R/h | load carried vs applied | a (ellipse fit) | a (moment) | p(0) vs p0 | max column p / p0 | "
+          "max \\|p − Hertz\\| / p0, \\|x\\| < 0.8a | max node p / p0 | same, A_c ≥ 0.1 h | "
+          "particles: max p / p0, max \\|p − Hertz\\| / p0 |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for tag in tags:
+        saved = json.loads((RESULTS / tag / "hertz_result.json").read_text())
+        old, prof = saved["result"], {k: np.asarray(v) for k, v in saved["profile"].items()}
+        prof.setdefault("node_p_max", np.nan)
+        prof.setdefault("node_p_max_area", np.nan)
+        prof.setdefault("node_p_max_big", np.nan)
+        r = measure(prof, old["load_applied"])  # measured again: every row by the same rules
+        print(f"| {tag} | {old['rh']:g} | {r['load_error']:+.3%} | {r['a_fit_error']:+.1%} | "
+              f"{r['a_moment_error']:+.1%} | {r['centre_error']:+.1%} | {r['p_max_over_p0']:.2f} | "
+              f"{r['profile_max_error']:.1%} | {float(r['node_p_max_over_p0']):.2f} | "
+              f"{float(r['node_p_max_big_over_p0']):.2f} | {old.get('particle_p_max_over_p0', np.nan):.2f}, "
+              f"{old.get('particle_profile_max_error', np.nan):.1%} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,102 @@
+"""`seeding: rings` on circles and annuli (mpmsim/scene/rings.py): particles in rings that follow
+the surface, each with its ring sector's exact area; the default lattice seeding is unchanged;
+what the rings cannot take part in (overlaps, clipping, 3D, unequal cell sizes) is refused with
+one line naming the key."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mpmsim.errors import DeckError
+from mpmsim.scene import build_scene
+from tests.conftest import deck_from
+
+pytestmark = pytest.mark.hertz
+
+H = 0.5  # cell size; 2 particles per direction: spacing 0.25
+R = 5.0
+
+
+def deck(*bodies, cell=H, thickness=None) -> dict:
+    d = {"title": "rings", "units": "mm-g-ms", "analysis": "plane_strain",
+         "grid": {"cell_size": cell, "domain": {"min": [-10, -10], "max": [10, 12]}},
+         "materials": {"a": {"type": "linear_elastic", "E": 1000.0, "nu": 0.3, "density": 0.001}},
+         "bodies": list(bodies), "time": {"end": 0.1}}
+    if thickness is not None:
+        d["thickness"] = thickness
+    return d
+
+
+def circle(seeding="rings", **kw) -> dict:
+    return {"name": "disk", "shape": "circle", "center": [0.0, 1.0], "radius": R, "material": "a",
+            "seeding": seeding, **kw}
+
+
+def test_rings_fill_the_circle_exactly_symmetric_at_the_particle_spacing():
+    scene = build_scene(deck_from(deck(circle())))
+    P = scene.deformable
+    c = np.array([0.0, 1.0])
+    r = np.linalg.norm(P.x - c, axis=1)
+    assert P.vol.sum() == pytest.approx(math.pi * R**2 * scene.thickness, rel=1e-13)  # the circle's area
+    assert r.max() < R and r.max() == pytest.approx(R - 0.125, rel=1e-12)  # the outer ring half a spacing in
+    # mirror-symmetric about the vertical through the centre: each particle's mirror image is a particle
+    mirror = np.stack([2 * c[0] - P.x[:, 0], P.x[:, 1]], axis=1)
+    d = np.linalg.norm(mirror[:, None, :] - P.x[None, :, :], axis=2).min(axis=1)
+    assert d.max() < 1e-12
+    # one particle at the bottom of every ring: the lowest point of the body is on the vertical axis
+    low = np.argmin(P.x[:, 1])
+    assert abs(P.x[low, 0]) < 1e-12 and P.x[low, 1] == pytest.approx(1.0 - R + 0.125)
+    # spacing: rings 0.25 apart; each particle's nearest neighbour between 0.2 and 0.3 of the spacing's 0.25
+    nn = np.sort(np.linalg.norm(P.x[:, None, :] - P.x[None, :, :], axis=2), axis=1)[:, 1]
+    assert nn.min() > 0.8 * 0.25 and nn.max() < 1.2 * 0.25
+    # each particle's area is the lattice spacing's square to within the rounding of its ring's count
+    assert np.all(np.abs(P.vol / (0.25**2 * scene.thickness) - 1.0) < 0.06)
+    assert len(np.unique(np.round(r, 12))) == 20  # R / spacing rings
+    assert np.allclose(scene.semi_size, 0.125)  # domains: squares of the lattice spacing
+
+
+def test_annulus_rings_between_the_radii():
+    body = {"name": "ring", "shape": "annulus", "center": [1.0, 0.0], "inner_radius": 2.0, "outer_radius": 4.5,
+            "material": "a", "seeding": "rings"}
+    scene = build_scene(deck_from(deck(body, thickness=2.0)))
+    P = scene.deformable
+    r = np.linalg.norm(P.x - [1.0, 0.0], axis=1)
+    assert P.vol.sum() == pytest.approx(math.pi * (4.5**2 - 2.0**2) * 2.0, rel=1e-13)
+    assert r.min() == pytest.approx(2.125) and r.max() == pytest.approx(4.375)
+
+
+def test_lattice_seeding_is_the_default_and_unchanged():
+    a = build_scene(deck_from(deck(circle(seeding="lattice")))).deformable
+    d = circle()
+    del d["seeding"]
+    b = build_scene(deck_from(deck(d))).deformable
+    assert np.array_equal(a.x, b.x) and np.array_equal(a.vol, b.vol)
+    assert len(np.unique(a.vol)) == 1
+
+
+def test_rings_beside_lattice_bodies_keep_both():
+    block = {"name": "block", "shape": "rectangle", "min": [-8, -8], "max": [8, -4], "material": "a"}
+    scene = build_scene(deck_from(deck(circle(), block)))
+    P = scene.deformable
+    assert P.vol[P.body == 1].sum() == pytest.approx(16 * 4 * scene.thickness)
+    assert P.vol[P.body == 0].sum() == pytest.approx(math.pi * R**2 * scene.thickness)
+    assert scene.notices == ()
+
+
+@pytest.mark.parametrize("extra, bodies, message", [
+    ({}, [{"name": "block", "shape": "rectangle", "min": [-8, -8], "max": [8, -3], "material": "a"}],
+     r"bodies\.0\.seeding.*seeded in rings and overlaps body 'block'"),
+    ({"clip": {"min": [-10, -10], "max": [10, 0]}}, [], r"bodies\.0\.seeding.*cannot be clipped"),
+])
+def test_what_rings_cannot_do_is_refused_in_one_line(extra, bodies, message):
+    with pytest.raises(DeckError, match=message) as err:
+        build_scene(deck_from(deck(circle(**extra), *bodies)))
+    assert "\n" not in str(err.value).strip()
+
+
+def test_rings_need_square_cells():
+    with pytest.raises(DeckError, match=r"bodies\.0\.seeding.*same along x and y"):
+        build_scene(deck_from(deck(circle(), cell=[0.5, 0.25])))

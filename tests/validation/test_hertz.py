@@ -1,0 +1,160 @@
+"""Contact tractions (output.contact_traction) and the Hertz cylinder (bench/hertz.py).
+
+1. The traction output reads back with meshio, and its integral over the contact (traction x
+   contact area, summed over the contact nodes) equals the history's pair contact force
+   (`contact_f*`) to 1e-10 relative, for FLIP (pass 2's force) and APIC (pass 1's change
+   counts too), with Coulomb friction so that the tangential tractions are not zero; against
+   a rigid contact flat it equals the flat's reaction (`F_flat_*`). Without the deck key no
+   contact series and no traction fields are written.
+2. The Hertz cylinder at R/h = 20, seeded in rings that follow its surface: the load the
+   contact carries balances the applied load (the issue's 1%), p(x) and the peaks are within
+   the issue's 10% and 1.3 p0 (columns and particles), and the half-width and centre pressure
+   stay within bands around what this resolution measures (docs/contact.md, "Hertz contact":
+   R/h = 40 and 80 run in bench/hertz.py; there the half-width at R/h = 80 (-3.2%) and the
+   per-node f/A_c peaks miss the issue's targets).
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+
+import meshio
+import numpy as np
+import pytest
+
+from mpmsim.output.paraview import find_series
+from mpmsim.solver import Simulation
+
+from ..conftest import ROOT
+
+sys.path.insert(0, str(ROOT / "bench"))
+import hertz  # noqa: E402
+
+pytestmark = pytest.mark.hertz
+
+
+def pair_deck(scheme: str, traction: bool = True) -> dict:
+    """A coarse disk pushed obliquely (gravity at 30 degrees) into a deformable block, Coulomb 0.3."""
+    return {
+        "title": "disk on a block, oblique load",
+        "units": "mm-g-ms",
+        "grid": {"cell_size": 1.0, "boundaries": {"ymin": "fixed"}},
+        "materials": {"disk": {"type": "linear_elastic", "E": 1000.0, "nu": 0.3, "density": 0.001},
+                      "block": {"type": "linear_elastic", "E": 2000.0, "nu": 0.3, "density": 0.001}},
+        "bodies": [{"shape": "rectangle", "min": [-10.0, 0.0], "max": [10.0, 6.0], "material": "block"},
+                   {"shape": "circle", "center": [0.0, 11.0], "radius": 5.0, "material": "disk"}],
+        "gravity": [400.0, -700.0],
+        "contact": {"default": {"law": "coulomb", "friction": 0.3}},
+        "time": {"end": 0.03, "cfl": 0.5},
+        "update": {"scheme": scheme},
+        "output": {"vtu_interval": 0.005, "history_interval": 0.005, "contact_traction": traction,
+                   "checkpoint_interval": "off"},
+    }
+
+
+def frames(out, stem: str, part: str) -> list[tuple[float, meshio.Mesh]]:
+    text = (out / f"{stem}_{part}.pvd").read_text()
+    return [(float(t), meshio.read(out / f)) for t, f in re.findall(r'timestep="([^"]+)"[^>]*file="([^"]+)"', text)]
+
+
+def integral(mesh: meshio.Mesh) -> np.ndarray:
+    """The contact's force on the targets' side (2D): traction x area summed over the nodes
+    with a contact area, plus the force of the nodes whose LR contact area is zero (the
+    nearer material edge a cell or more away: the law acts there, A_c = 0; their traction
+    is written as 0). That share is checked to be small."""
+    pd = mesh.point_data
+    area = np.asarray(pd["contact_area"])
+    force = np.asarray(pd["contact_force"])[:, :2]
+    with_area = (np.asarray(pd["traction"])[:, :2] * area[:, None]).sum(axis=0)
+    zero = area <= 0.0
+    assert np.all(np.asarray(pd["traction"])[zero] == 0.0)
+    assert np.allclose(force[~zero], np.asarray(pd["traction"])[~zero, :2] * area[~zero, None], rtol=1e-12,
+                       atol=1e-12 * np.abs(force).max())
+    assert np.abs(force[zero].sum(axis=0)).max() <= ZERO_AREA_SHARE * np.abs(force.sum(axis=0)).max()
+    return with_area + force[zero].sum(axis=0)
+
+
+ZERO_AREA_SHARE = 0.01  # measured: 0.03% (disk on block, first frame), 0.5% (Hertz, R/h = 10)
+
+
+@pytest.mark.parametrize("scheme", ["flip", "apic"])
+def test_traction_integral_is_the_pair_contact_force(tmp_path, scheme):
+    sim = Simulation.from_deck(pair_deck(scheme), out_dir=tmp_path, name="pair")
+    sim.run()
+    hist = sim.history
+    names = sim.state.contact.spec.group_names
+    found = frames(tmp_path, "pair", "contact")
+    assert len(found) >= 4
+    for t, mesh in found:
+        row = hist.iloc[int(np.argmin(np.abs(hist["time"] - t)))]
+        assert abs(row["time"] - t) < 1e-9 * t
+        pd = mesh.point_data
+        # every target here is the disk's (group 0) against the block (group 1): one pair per node
+        assert set(np.asarray(pd["group"])) == {names.index("block")} or set(np.asarray(pd["group"])) == {
+            names.index("disk")}
+        g = int(pd["group"][0])
+        a, b = names[g], names[1 - g]
+        hist_f = np.array([row[f"contact_fx_{a}_{b}"], row[f"contact_fy_{a}_{b}"]])
+        assert np.abs(hist_f).max() > 1.0  # a loaded contact
+        assert np.allclose(integral(mesh), hist_f, rtol=1e-10, atol=1e-10 * np.abs(hist_f).max())
+        # normal and tangential parts: traction = -p n + t_t, and friction within Coulomb
+        n = np.asarray(pd["normal"])[:, :2]
+        t = np.asarray(pd["traction"])[:, :2]
+        tt = np.asarray(pd["tangential_traction"])[:, :2]
+        p = np.asarray(pd["contact_pressure"])
+        assert np.allclose(t, -p[:, None] * n + tt, atol=1e-9 * np.abs(t).max())
+        assert np.all(np.linalg.norm(tt, axis=1) <= 0.3 * np.abs(p) * (1 + 1e-9) + 1e-9 * np.abs(t).max())
+    particles = meshio.read(sorted(tmp_path.glob("pair_0*.vtu"))[-1])
+    pp = np.asarray(particles.point_data["contact_pressure"])
+    y = particles.points[:, 1]
+    assert pp.max() > 0.0 and np.all(pp[(y > 8.0) & (y < 14.0)] == 0.0)  # only near the contact
+
+
+def test_no_traction_output_unless_asked(tmp_path):
+    data = pair_deck("flip", traction=False)
+    data["time"]["end"] = 0.01
+    Simulation.from_deck(data, out_dir=tmp_path, name="pair").run()
+    assert not list(tmp_path.glob("pair_contact*"))
+    mesh = meshio.read(sorted(tmp_path.glob("pair_0*.vtu"))[-1])
+    assert "contact_pressure" not in mesh.point_data
+
+
+def test_traction_integral_is_the_rigid_reaction(tmp_path):
+    """The Hertz scene, coarse and short: the flat's targets sum to its reaction F_flat."""
+    data = hertz.deck(10.0, end=0.03)
+    data["output"]["vtu_interval"] = data["output"]["history_interval"] = 0.01
+    sim = Simulation.from_deck(data, out_dir=tmp_path, name="hz")
+    sim.run()
+    hist = sim.history
+    for t, mesh in frames(tmp_path, "hz", "contact"):
+        row = hist.iloc[int(np.argmin(np.abs(hist["time"] - t)))]
+        ref = np.array([row["F_flat_x"], row["F_flat_y"]])
+        assert ref[1] > 1.0
+        assert np.allclose(integral(mesh), ref, rtol=1e-10, atol=1e-10 * abs(ref[1]))
+    assert find_series(tmp_path).name == "hz.pvd"  # `mpmsim paraview` takes the particles' series
+
+
+def test_hertz_cylinder_at_r_over_h_20(tmp_path):
+    """The recommended setup for a curved body (docs/contact.md): the cylinder seeded in rings
+    that follow its surface, GIMP, LR frictionless, FLIP, USAVG+. Measured at R/h = 20: load
+    +0.004%, half-width +1.8% (moment) / +2.0% (ellipse fit), centre -5.3%, column peak 1.01 p0,
+    p(x) within 5.3% of p0 over |x| < 0.8a (columns; particles 5.5%). The grid-seeded (staircase) cylinder gives +5.2%,
+    -29%, 1.21 and 54%: the bands below catch a return to it."""
+    r = hertz.run_case(20.0, out=tmp_path, seeding="rings")["result"]
+    assert abs(r["load_error"]) < 0.01  # the issue's 1%
+    assert abs(r["a_moment_error"]) < 0.03 and abs(r["a_fit_error"]) < 0.03
+    assert abs(r["centre_error"]) < 0.07
+    assert r["profile_max_error"] < 0.10  # the issue's 10% over |x| < 0.8a
+    assert r["p_max_over_p0"] < 1.3
+    # the particles' traction (a ratio of weighted sums): peak 0.99 p0, within 5.5% of Hertz
+    assert r["particle_p_max_over_p0"] < 1.3 and r["particle_profile_max_error"] < 0.10
+
+
+def test_traction_output_without_contact_names_the_key():
+    from mpmsim.errors import DeckError
+
+    data = pair_deck("flip")
+    data["bodies"] = data["bodies"][:1]  # one material: no contact
+    with pytest.raises(DeckError, match=r"output\.contact_traction: .*two or more materials"):
+        Simulation.from_deck(data)
