@@ -14,7 +14,7 @@ from mpmsim.contact.barrier.surface import min_edge_distance
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation
 from tests.conftest import deck_from
-from tests.implicit.test_implicit_3d import inside_tets
+from tests.implicit.test_implicit_3d import impact_deck, inside_tets
 
 pytestmark = pytest.mark.implicit
 
@@ -25,19 +25,7 @@ def fem_box(name, lo, hi, velocity=(0.0, 0.0, 0.0)):
 
 
 def deck(bodies, dt, end, friction=0.0, cell=0.025):
-    d = {
-        "title": "3D FEM-FEM impact", "units": "SI", "analysis": "3d",
-        "grid": {"cell_size": cell, "domain": {"min": [-0.2, -0.2, -0.2], "max": [0.25, 0.3, 0.2]}},
-        "shape_function": "bspline2", "update": {"scheme": "apic"},
-        "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
-        "bodies": bodies,
-        "integrator": "implicit",
-        "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "newton_tolerance": 1e-6},
-        "time": {"end": end, "dt": dt},
-    }
-    if friction:
-        d["contact"] = {"default": {"law": "coulomb", "friction": friction}}
-    return d
+    return impact_deck("3D FEM-FEM impact", bodies, ([-0.2, -0.2, -0.2], [0.25, 0.3, 0.2]), cell, dt, end, friction)
 
 
 def segments_cross_triangles(p0, p1, tri):

@@ -101,13 +101,22 @@ def cube_deck(speed: float, dt: float, end: float, friction: float = 0.0, free_f
               {"name": "target", "shape": "box", "min": [-0.15, -0.05, -0.15], "max": [0.15, 0.0, 0.15],
                "material": "m", "discretization": "fem", "element_size": 0.05,
                "constraints": [{"region": {"min": [-1.0, -0.06, -1.0], "max": [1.0, -0.045, 1.0]}}]})
+    cube = {"name": "cube", "shape": "box", "min": [-0.04, 0.004, -0.06], "max": [0.06, 0.104, 0.04],
+            "material": "m", "velocity": [sideways, -speed, 0.0]}
+    return impact_deck("3D impact", [target, cube], ([-0.2, -0.15, -0.2], [0.2, 0.2, 0.2]), 0.025, dt, end,
+                       friction)
+
+
+def impact_deck(title: str, bodies: list, domain: tuple, cell: float, dt: float, end: float,
+                friction: float = 0.0) -> dict:
+    """An implicit 3D deck of `bodies` of one soft material (E = 1e6, nu = 0.3, 1000 kg/m^3),
+    backward Euler, dhat = 1 mm, adaptive kappa; Coulomb friction when given."""
     d = {
-        "title": "3D impact", "units": "SI", "analysis": "3d",
-        "grid": {"cell_size": 0.025, "domain": {"min": [-0.2, -0.15, -0.2], "max": [0.2, 0.2, 0.2]}},
+        "title": title, "units": "SI", "analysis": "3d",
+        "grid": {"cell_size": cell, "domain": {"min": list(domain[0]), "max": list(domain[1])}},
         "shape_function": "bspline2", "update": {"scheme": "apic"},
         "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
-        "bodies": [target, {"name": "cube", "shape": "box", "min": [-0.04, 0.004, -0.06],
-                            "max": [0.06, 0.104, 0.04], "material": "m", "velocity": [sideways, -speed, 0.0]}],
+        "bodies": bodies,
         "integrator": "implicit",
         "implicit": {"scheme": "backward_euler", "dhat": 1e-3, "newton_tolerance": 1e-6},
         "time": {"end": end, "dt": dt},
