@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -51,6 +51,11 @@ bench-fem: $(STAMP)
 # friction coefficients; about 15 minutes on one core (also part of bench-fem)
 bench-fem-3d: $(STAMP)
 	$(BIN)/python bench/fem_contact.py ramp3d
+
+# the BFEMP paper's rings at its size (section 6.1: 20,109 particles on h = 8.66 mm, 3462 triangles), the whole
+# 0.2 s run on 1 and 2 threads: seconds per step and the run's time (docs/bfemp.md); about RINGS_MINUTES minutes
+bench-rings-paper: $(STAMP)
+	$(BIN)/python bench/implicit.py --paper-rings --threads 1 2
 
 # contact methods on the LR paper's problems: Fig. 5 errors, cost, charts in docs/figures/
 # (about 10 minutes on 2 cores; `python bench/contact.py ellipses` adds full-size Fig. 6)

@@ -1,10 +1,12 @@
 """The implicit step with barrier contact: cost per step (`make bench`).
 
     python bench/implicit.py [--h 0.025] [--rings-end 0.1] [--threads 1 2] [--cpu] [--tree OLD_CHECKOUT]
+    python bench/implicit.py --paper-rings  # the rings at the BFEMP paper's size, whole run (make bench-rings-paper)
     python bench/implicit.py --column       # MPM column settling on an FEM floor: refinement
     python bench/implicit.py --boxes        # BFEMP §6.5: MPM box on an FEM box, refinement at 4/9/16 per cell
     python bench/implicit.py --buckling     # stacked semicircular rings, three ring-ring mu
     python bench/implicit.py --solvers      # Newton's matrices: splu against CHOLMOD (cholespy, extra `bench`)
+    python bench/implicit.py --supernodal   # CHOLMOD simplicial against supernodal as the rings are refined
     python bench/implicit.py --quadrature   # 1D model: particle quadrature against B-spline knots
     python bench/implicit.py --contact3d    # 3D: an MPM cube dropped on an FEM slab, contact cost per iteration
     python bench/implicit.py --impact3d 1e-1 1e-2 1e-3   # 3D: a 20 m/s cube on a held slab at dt = f x T
@@ -39,6 +41,7 @@ from mpmsim.solver import Simulation  # noqa: E402
 
 
 CLOCK = time.perf_counter  # --cpu: time.process_time
+PAPER_RINGS = (0.00866, 0.0153)  # grid cell and FEM element size of the paper-size rings (--paper-rings)
 
 
 def timed_run(sim) -> tuple[float, list]:
@@ -54,7 +57,9 @@ def timed_run(sim) -> tuple[float, list]:
 def measure(name: str, d: dict, threads: int = 1) -> None:
     numba.set_num_threads(threads)
     sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=threads)
+    t0 = CLOCK()
     sim.step()
+    first = CLOCK() - t0
     wall, stats = timed_run(sim)
     steps = len(stats)
     st = sim.state
@@ -70,7 +75,8 @@ def measure(name: str, d: dict, threads: int = 1) -> None:
         dofs += grid.X.size
     print(f"{name}: {', '.join(parts)}, {dofs} free DOFs (last step), {steps} steps, {its / steps:.2f} Newton "
           f"iterations per step, {wall / steps * 1e3:.1f} ms per step ({wall / its * 1e3:.1f} ms per Newton "
-          f"iteration), {threads} thread(s)")
+          f"iteration), {threads} thread(s); whole run {first + wall:.1f} s ({first:.1f} s the first step, "
+          f"compiling included)")
     for part, sec in sim.integrator.timers.items():
         print(f"  {part:12s} {sec / steps * 1e3:8.2f} ms/step  {100 * sec / wall:5.1f}%")
     print("  " + "; ".join(sim.integrator.report()[1:]) if len(sim.integrator.report()) > 1 else "  SuperLU (splu)")
@@ -387,7 +393,7 @@ def buckling_study(figure: Path) -> None:
     print(f"figure: {figure}")
 
 
-def newton_matrices(name: str, end: float, keep: int = 6) -> list:
+def newton_matrices(name: str, end: float, keep: int = 6, changes: dict | None = None) -> list:
     """Up to `keep` of Newton's matrices (free unknowns, full) from the deck's run to `end` with
     SuperLU, every third from the first: the step's solve is wrapped to copy them."""
     from mpmsim.integrators.solvers import NewtonSolver
@@ -405,6 +411,12 @@ def newton_matrices(name: str, end: float, keep: int = 6) -> list:
     d = yaml.safe_load(deck.read_text())
     d["time"]["end"] = end
     d["implicit"]["linear_solver"] = "lu"
+    for key, value in (changes or {}).items():  # "a.b.c": value, list items by index
+        *path, last = key.split(".")
+        node = d
+        for k in path:
+            node = node[int(k)] if isinstance(node, list) else node[k]
+        node[last] = value
     NewtonSolver.solve = grab
     try:
         Simulation(build_scene(load_deck_text(yaml.safe_dump(d), deck)), threads=1).run()
@@ -465,6 +477,39 @@ def solver_study() -> None:
             print(f"  {name:28s} n {n:5d} nnz {A.nnz:6d}: splu (COLAMD) {runs[0][0] * 1e3:6.2f} ms, splu (MMD A'+A) "
                   f"{runs[1][0] * 1e3:6.2f} ms, CHOLMOD {runs[2][0] * 1e3:6.2f} ms{refactor}; residuals "
                   + " ".join(f"{r:.1e}" for r in res))
+
+
+def supernodal_study() -> None:
+    """CHOLMOD's simplicial LDL^T against its supernodal LL^T (BLAS on 1 and 2 threads) on the
+    rings' Newton matrices as the grid and mesh are refined: where solvers.SUPERNODAL_MIN
+    comes from."""
+    import scipy.sparse as sp
+    from threadpoolctl import threadpool_limits
+
+    from mpmsim.integrators.solvers import analyze
+
+    def best(f, reps):
+        f()
+        times = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            f()
+            times.append(time.perf_counter() - t0)
+        return min(times) * 1e3
+
+    print("the rings' Newton matrix after 2 steps, CHOLMOD refactorisation (analysis reused), best of 3-9")
+    for h, e in [(0.04, 0.04), (0.02, 0.025), (0.0141, 0.02), (0.01, 0.0175), PAPER_RINGS]:
+        A = newton_matrices("implicit_rings_2d.yaml", 0.004, 1, {"grid.cell_size": h, "bodies.1.element_size": e})[0]
+        L = sp.tril(A.tocsc()).tocsc()
+        n = A.shape[0]
+        reps = 9 if n < 5000 else 3
+        row = []
+        for mode, threads in (("simplicial", 1), ("supernodal", 1), ("supernodal", 2)):
+            factor = analyze(L, mode=mode)
+            with threadpool_limits(limits=threads, user_api="blas"):
+                row.append(best(lambda: factor.cholesky_inplace(L), reps))
+        print(f"  h {h * 1e3:5.2f} mm: n {n:6d}, nnz(lower) {L.nnz:7d}: simplicial {row[0]:8.2f} ms, supernodal "
+              f"{row[1]:8.2f} ms (1 thread), {row[2]:8.2f} ms (2 threads)", flush=True)
 
 
 def cube_drop_deck(speed: float = 2.0, dt: float = 2e-3, end: float = 0.03) -> dict:
@@ -634,13 +679,20 @@ def impact3d_study(fractions: list[float]) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--h", type=float, default=0.025, help="element size of the blocks (default 0.025)")
-    ap.add_argument("--rings-end", type=float, default=0.1, help="end time of the rings run (default 0.1 s)")
+    ap.add_argument("--rings-end", type=float, help="end time of the rings run (default 0.1 s; 0.2 s, the deck's, "
+                                                      "with --paper-rings)")
+    ap.add_argument("--paper-rings", action="store_true",
+                    help="the rings at the BFEMP paper's size (section 6.1: 20,098 particles, 1830 vertices, 3310 "
+                         f"triangles; here h = {PAPER_RINGS[0] * 1e3:g} mm, FEM element size {PAPER_RINGS[1] * 1e3:g} mm: "
+                         "20,109 particles, 1855 vertices, 3462 triangles), the whole run")
     ap.add_argument("--column", action="store_true", help="the column refinement study instead")
     ap.add_argument("--boxes", action="store_true",
                     help="BFEMP §6.5: a soft MPM box on a soft FEM box, refined with dhat, against a fine reference")
     ap.add_argument("--buckling", action="store_true",
                     help="the buckling rings for three friction coefficients instead (docs/figures/bfemp_buckling.png)")
     ap.add_argument("--solvers", action="store_true", help="splu against CHOLMOD on Newton's matrices instead")
+    ap.add_argument("--supernodal", action="store_true",
+                    help="CHOLMOD simplicial against supernodal (1 and 2 BLAS threads) as the rings are refined")
     ap.add_argument("--quadrature", action="store_true",
                     help="the 1D model of particle quadrature against B-spline knots instead (column orders)")
     ap.add_argument("--contact3d", action="store_true",
@@ -673,6 +725,9 @@ def main() -> None:
     if args.solvers:
         solver_study()
         return
+    if args.supernodal:
+        supernodal_study()
+        return
     if args.quadrature:
         quadrature_study()
         return
@@ -694,13 +749,19 @@ def main() -> None:
         b["element_size"] = args.h
     d["output"] = {"history_interval": d["time"]["end"]}
     rings = yaml.safe_load((ROOT / "inputs" / "implicit_rings_2d.yaml").read_text())
-    rings["time"]["end"] = args.rings_end
-    rings["output"] = {"history_interval": args.rings_end}
+    end = args.rings_end if args.rings_end is not None else (rings["time"]["end"] if args.paper_rings else 0.1)
+    rings["time"]["end"] = end
+    rings["output"] = {"history_interval": end}
+    name = "implicit rings (MPM ring against FEM ring)"
+    if args.paper_rings:
+        rings["grid"]["cell_size"], rings["bodies"][1]["element_size"] = PAPER_RINGS
+        name = "implicit rings at the paper's size"
+        args.no_blocks = True
     print(f"mpmsim from {sys.path[0]}")
     for threads in args.threads:
         if not args.no_blocks:
             measure(f"implicit blocks, h = {args.h:g}", d, threads)
-        measure("implicit rings (MPM ring against FEM ring)", rings, threads)
+        measure(name, rings, threads)
 
 
 if __name__ == "__main__":

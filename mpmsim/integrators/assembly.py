@@ -33,46 +33,49 @@ from ..energy import Blocks, Triplets
 def csc_slots(rows, cols, index, n):
     """The pattern of the pairs (rows, cols) restricted to the unknowns k with index[k] >= 0
     and renumbered by index, n of them: canonical CSC arrays (indptr, indices) (rows sorted
-    within each column, no duplicates) and each pair's slot in them (-1: eliminated). One
-    pass buckets the entries by column, a second gives each column's distinct rows their slots
-    through a row marker and sorts its (few) rows."""
-    start = np.zeros(n + 1, np.int64)
-    for k in range(len(rows)):
+    within each column, no duplicates) and each pair's slot in them (-1: eliminated). Two
+    stable counting sorts, by row then by column, leave each column's entries in row order,
+    duplicates next to each other: no comparison sort."""
+    m = len(rows)
+    rstart = np.zeros(n + 1, np.int64)
+    cstart = np.zeros(n + 1, np.int64)
+    for k in range(m):
         i, j = index[rows[k]], index[cols[k]]
         if i >= 0 and j >= 0:
-            start[j + 1] += 1
+            rstart[i + 1] += 1
+            cstart[j + 1] += 1
     for j in range(n):
-        start[j + 1] += start[j]
-    fill = start[:n].copy()
-    r = np.empty(start[n], np.int32)
-    who = np.empty(start[n], np.int64)  # the pair of each bucketed entry
-    for k in range(len(rows)):
+        rstart[j + 1] += rstart[j]
+        cstart[j + 1] += cstart[j]
+    kept = rstart[n]
+    fill = rstart[:n].copy()
+    by_row = np.empty(kept, np.int64)
+    for k in range(m):
         i, j = index[rows[k]], index[cols[k]]
         if i >= 0 and j >= 0:
-            r[fill[j]] = i
-            who[fill[j]] = k
-            fill[j] += 1
-    slot = np.full(len(rows), -1, np.int64)
-    where = np.full(n, -1, np.int64)  # slot of row i in the column being built (stale: < first)
+            by_row[fill[i]] = k
+            fill[i] += 1
+    fill = cstart[:n].copy()
+    by_col = np.empty(kept, np.int64)
+    for q in range(kept):
+        k = by_row[q]
+        j = index[cols[k]]
+        by_col[fill[j]] = k
+        fill[j] += 1
+    slot = np.full(m, -1, np.int64)
     indptr = np.zeros(n + 1, np.int32)
-    indices = np.empty(start[n], np.int32)
-    moved = np.empty(start[n], np.int64)
+    indices = np.empty(kept, np.int32)
     nnz = 0
     for j in range(n):
-        first = nnz
-        for q in range(start[j], start[j + 1]):
-            i = r[q]
-            if where[i] < first:
-                where[i] = nnz
+        last = -1
+        for q in range(cstart[j], cstart[j + 1]):
+            k = by_col[q]
+            i = index[rows[k]]
+            if i != last:
                 indices[nnz] = i
                 nnz += 1
-            slot[who[q]] = where[i]
-        order = np.argsort(indices[first:nnz])
-        indices[first:nnz] = indices[first:nnz][order]
-        for t in range(nnz - first):
-            moved[first + order[t]] = first + t
-        for q in range(start[j], start[j + 1]):
-            slot[who[q]] = moved[slot[who[q]]]
+                last = i
+            slot[k] = nnz - 1
         indptr[j + 1] = nnz
     return indptr, indices[:nnz].copy(), slot
 
@@ -94,6 +97,45 @@ def free_csc(rows, cols, vals, index, n):
     arrays (indptr, indices, data)."""
     indptr, indices, slot = csc_slots(rows, cols, index, n)
     return indptr, indices, csc_values(slot, vals, len(indices))
+
+
+@njit(cache=True)
+def distinct_groups(nodes):
+    """The distinct rows of nodes (g, k): (reps, inverse), reps the first group of each
+    distinct node list (in the order of a hash sort), inverse[q] the position in reps of
+    group q's list. MPM particles in one cell share a grid stencil: the rings deck's 948
+    particles have 267 distinct ones, and the pattern and slot maps are built for those."""
+    g, k = nodes.shape
+    key = np.empty(g, np.int64)
+    for q in range(g):
+        h = 1469598103934665603
+        for a in range(k):
+            h = (h ^ nodes[q, a]) * 1099511628211  # FNV-1a over the node numbers (wraps)
+        key[q] = h
+    order = np.argsort(key, kind="mergesort")
+    reps = np.empty(g, np.int64)
+    inverse = np.empty(g, np.int64)
+    m = 0
+    for t in range(g):
+        q = order[t]
+        found = -1
+        u = m - 1
+        while u >= 0 and key[reps[u]] == key[q]:  # equal hashes are next to each other
+            same = True
+            for a in range(k):
+                if nodes[reps[u], a] != nodes[q, a]:
+                    same = False
+                    break
+            if same:
+                found = u
+                break
+            u -= 1
+        if found < 0:
+            reps[m] = q
+            found = m
+            m += 1
+        inverse[q] = found
+    return reps[:m].copy(), inverse
 
 
 @njit(cache=True)
@@ -266,10 +308,19 @@ NO_WEIGHTS = np.zeros((0, 0))
 NO_BLOCK = np.zeros(0, np.int64)
 
 
-def _pairs_of(h: Blocks | Triplets, d: int) -> tuple[np.ndarray, np.ndarray]:
+def _distinct(h: Blocks | Triplets):
+    """(distinct node lists, inverse) of a Blocks bundle (distinct_groups); None for triplets."""
+    if isinstance(h, Triplets):
+        return None
+    nodes = np.asarray(h.nodes, np.int64)
+    reps, inverse = distinct_groups(nodes)
+    return nodes[reps], inverse
+
+
+def _pairs_of(h: Blocks | Triplets, distinct, d: int) -> tuple[np.ndarray, np.ndarray]:
     if isinstance(h, Triplets):
         return np.asarray(h.rows, np.int64) // d, np.asarray(h.cols, np.int64) // d
-    return block_pairs(np.asarray(h.nodes, np.int64))
+    return block_pairs(distinct[0])
 
 
 def _key(h: Blocks | Triplets) -> tuple:
@@ -299,7 +350,8 @@ class Assembler:
     def _build(self, hessians, index) -> None:
         d = self.d
         n_nodes = len(index) // d
-        pairs = [_pairs_of(h, d) for h in hessians]
+        distinct = [_distinct(h) for h in hessians]
+        pairs = [_pairs_of(h, u, d) for h, u in zip(hessians, distinct)]
         every = np.arange(n_nodes, dtype=np.int64)
         rows = np.concatenate([p[0] for p in pairs] + [every])
         cols = np.concatenate([p[1] for p in pairs] + [every])
@@ -308,13 +360,13 @@ class Assembler:
         indptr, indices, offset, before = dof_pattern(nptr, nidx, index, d, self.lower)
         args = (DofPattern(index, indptr, offset, before, diag_entry), self.lower)
         self.slots, start = [], 0
-        for h, (r, _) in zip(hessians, pairs):
+        for h, u, (r, _) in zip(hessians, distinct, pairs):
             ent = entry[start:start + len(r)]
             start += len(r)
             if isinstance(h, Triplets):
                 self.slots.append(triplet_slots(np.asarray(h.rows, np.int64), np.asarray(h.cols, np.int64), ent, *args))
-            else:
-                self.slots.append(block_slots(np.asarray(h.nodes, np.int64), ent, *args))
+            else:  # the distinct lists' slot maps, one per group
+                self.slots.append(block_slots(u[0], ent, *args)[u[1]])
         dofs = np.arange(len(index), dtype=np.int64)
         self.diag_slots = triplet_slots(dofs, dofs, np.repeat(diag_entry, d), *args).ravel()
         if self.pattern is None or not (np.array_equal(self.pattern[0], indptr)

@@ -176,6 +176,33 @@ def kept_weights(S: np.ndarray, keep: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
+def reference_gradients(S, G, F):
+    """The weight gradients over the step's reference (the configuration at its start):
+    F^T grad w (n, K, d), with the gradients of dropped entries (S = 0) zeroed and the rest
+    corrected by - S_k sum_k grad w_k, which restores sum_k grad w_k = 0 (rigid motions
+    strain-free) with sum_k w_k = 1."""
+    n, K, d = G.shape
+    out = np.empty((n, K, d))
+    g = np.empty((K, d))
+    s = np.empty(d)
+    for p in range(n):
+        s[:] = 0.0
+        for k in range(K):
+            for b in range(d):
+                g[k, b] = G[p, k, b] if S[p, k] != 0.0 else 0.0
+                s[b] += g[k, b]
+        for k in range(K):
+            for b in range(d):
+                g[k, b] -= S[p, k] * s[b]
+            for a in range(d):
+                t = 0.0
+                for b in range(d):
+                    t += F[p, b, a] * g[k, b]
+                out[p, k, a] = t
+    return out
+
+
+@njit(cache=True)
 def particle_update(nodes, S, x, X, u, v_new, v_old, a_new, flip, apic, xp, vp, Bp, ap):
     """Grid -> particle after the solve: positions follow the grid's motion u, velocities by
     PIC / FLIP / APIC, accelerations by interpolation."""
@@ -250,6 +277,7 @@ class GridUnknowns:
         self.transfer = transfer
         self.quadrature = quadrature  # domain: B-splines averaged over the particles' domains; points: at centres
         self.a = None  # (n, d) particle accelerations (Newmark's a^n, interpolated back each step)
+        self._hessians = None  # the particles' local Hessians, overwritten each Newton iteration
 
     def begin(self, state) -> None:
         P = state.particles
@@ -274,8 +302,6 @@ class GridUnknowns:
         # make nodes of ~zero mass and an ill-conditioned Newton system: drop them, then restore
         # sum_k w = 1 and sum_k grad w = 0 (momentum and rigid motions stay exact)
         S = kept_weights(S, S > WEIGHT_FLOOR)
-        grad = np.where(S[:, :, None] != 0.0, G, 0.0)
-        grad -= S[:, :, None] * grad.sum(axis=1, keepdims=True)
         flat = nodes
         active = np.unique(flat[S != 0.0])
         local = np.searchsorted(active, flat)
@@ -288,7 +314,7 @@ class GridUnknowns:
         self.X = origin[None, :d] + ijk[:, :d] * h[None, :d]
         self.held = walls(ijk.astype(np.int64), np.asarray(grid.view.face_type), np.asarray(grid.view.wall_index), d)
         self.nodes, self.S = local, S
-        self.G = np.einsum("pba,pkb->pka", P.F, grad)  # F^nT grad w
+        self.G = reference_gradients(S, G, P.F)
         self.F0 = P.F.copy()
         self.vol0, self.mat = P.vol0, P.mat
         self.x0 = P.x.copy()
@@ -352,7 +378,10 @@ class GridUnknowns:
 
     def hessians(self, u, materials) -> np.ndarray:
         K, d = self.S.shape[1], u.shape[1]
-        out = np.zeros((len(self.S), K * d, K * d))
+        shape = (len(self.S), K * d, K * d)
+        if self._hessians is None or self._hessians.shape != shape:  # kept: no fresh pages each iteration
+            self._hessians = np.empty(shape)
+        out = self._hessians  # every entry written; read by the assembly before the next call
         elements.point_hessians(u, self.nodes, self.G, self.F0, self.vol0, self.mat, materials.type_code,
                                 materials.props, True, out)
         return out

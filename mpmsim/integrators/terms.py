@@ -41,7 +41,7 @@ class FemStrain(Potential):
         if not len(self.fem.cells):
             return Derivatives((), ())
         d = y.shape[1]
-        local = np.zeros((len(self.fem.cells), (d + 1) * d, (d + 1) * d))
+        local = np.empty((len(self.fem.cells), (d + 1) * d, (d + 1) * d))  # every entry written
         elements.element_hessians(*self._args(y), True, local)
         return Derivatives((), (Blocks(self.fem.cells, local),))
 

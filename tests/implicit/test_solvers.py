@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from mpmsim.deck.overrides import with_overrides
+from mpmsim.integrators import solvers
 from mpmsim.integrators.assembly import Assembler
 from mpmsim.integrators.solvers import CHOLMOD_AVAILABLE, NewtonSolver
 from mpmsim.scene import build_scene
@@ -40,11 +41,15 @@ def run(solver: str, steps: int = STEPS) -> Simulation:
     return sim
 
 
-def test_cholmod_gives_superlus_newton_step():
+@pytest.mark.parametrize("supernodal", [False, True])
+def test_cholmod_gives_superlus_newton_step(supernodal, monkeypatch):
     """Newton matrices of the rings in contact (an MPM ring, an FEM ring, the barrier between):
     the step p = -H^-1 g from CHOLMOD (lower triangle, analysis reused over two matrices of one
-    pattern) against SuperLU (full matrix)."""
+    pattern; simplicial, and supernodal as from solvers.SUPERNODAL_MIN unknowns) against
+    SuperLU (full matrix)."""
     need_cholmod()
+    if supernodal:
+        monkeypatch.setattr(solvers, "SUPERNODAL_MIN", 0)
     sim = run("lu")
     it = sim.integrator
     assert it.barrier_term.in_contact
@@ -61,7 +66,7 @@ def test_cholmod_gives_superlus_newton_step():
         p_chol = chol.solve(lower.matrix(hessians, diag, it.c, index), -g[free], lower.version)
         p_lu = lu.solve(full.matrix(hessians, diag, it.c, index), -g[free], full.version)
         assert np.abs(p_chol - p_lu).max() <= 1e-10 * np.abs(p_lu).max()
-    assert chol.counts == {"cholmod": 2, "splu": 0, "analyses": 1, "fallbacks": 0}
+    assert chol.counts == {"cholmod": 2, "supernodal": 2 * supernodal, "splu": 0, "analyses": 1, "fallbacks": 0}
 
 
 def test_a_run_with_cholmod_is_superlus_run_within_the_newton_tolerance():
@@ -107,7 +112,7 @@ def test_a_factorisation_that_is_not_positive_definite_is_solved_by_superlu():
     solver = NewtonSolver(cholesky=True)
     x = solver.solve(sp.tril(A).tocsc(), b, version=1)
     assert np.allclose(A @ x, b, rtol=0, atol=1e-14)
-    assert solver.counts == {"cholmod": 0, "splu": 1, "analyses": 1, "fallbacks": 1}
+    assert solver.counts == {"cholmod": 0, "supernodal": 0, "splu": 1, "analyses": 1, "fallbacks": 1}
     assert "1 not positive definite, solved by SuperLU" in solver.report()
     empty = sp.csc_matrix((0, 0))  # every unknown held: nothing to solve
     assert solver.solve(empty, np.zeros(0), version=2).shape == (0,)
