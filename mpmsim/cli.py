@@ -244,15 +244,16 @@ def run(
 
 
 def _time_split(result, sim) -> str:
-    """The run's closing line: its wall time as compiling plus stepping. Compiling is the first
-    step's time less a warm step's (the mean of the others); stepping is the rest, output
-    included."""
+    """The run's closing line: its wall time as compiling plus stepping. Compiling (or, with
+    the kernel cache filled, loading the kernels) is the first step's time less a warm step's
+    (the mean of the others); stepping is the rest, output included."""
     first = min(sim.first_step_seconds, result.wall_time)
     rest = result.wall_time - first
     warm = rest / result.timed_steps if result.timed_steps else 0.0
     compiling = max(first - warm, 0.0)
-    return (f"[bold]time[/]:       {result.wall_time:.2f} s wall = {compiling:.2f} s compiling (first step, less a "
-            f"warm step) + {result.wall_time - compiling:.2f} s stepping ({result.steps} steps, output included)")
+    return (f"[bold]time[/]:       {result.wall_time:.2f} s wall = {compiling:.2f} s compiling or loading kernels "
+            f"(the first step less a warm one) + {result.wall_time - compiling:.2f} s stepping ({result.steps} steps, "
+            "output included)")
 
 
 def _reason(exc: BaseException) -> str:
