@@ -13,7 +13,7 @@ Scenes with FEM bodies, and implicit scenes: their cost does not follow one size
 contact goes with the boundary nodes, the augury grid and the kernel; the stability check with
 the elements; an implicit step with its Newton iterations, which depend on contact, stiffness
 and the step, not on the size), so `probe` measures it: it runs the scene's first steps on one
-thread and records each step's wall time and Newton iterations. An explicit run is then
+thread and records each step's CPU time and Newton iterations. An explicit run is then
 steps × the mean warm step; an implicit one steps × iterations per step × time per iteration
 (`Probe.run_seconds`).
 """
@@ -59,8 +59,9 @@ def step_microseconds(tasks: list[str], n: int, K: int) -> tuple[float, list[str
 @dataclass
 class Probe:
     """The first steps of a run, one entry per step: Newton iterations (1 for an explicit
-    step), wall time (the first step's includes compiling), whether barrier contact was active
-    at its end (False for an explicit step)."""
+    step), CPU time (the first step's includes compiling; on one thread and an idle core the
+    wall time is the same), whether barrier contact was active at its end (False for an
+    explicit step)."""
     iterations: list[int]
     seconds: list[float]
     contact: list[bool]
@@ -115,9 +116,9 @@ def probe(scene, max_steps: int = PROBE_STEPS, seconds: float = PROBE_SECONDS) -
         integ = sim.integrator
         newton = hasattr(integ, "stats")  # the implicit integrator's per-step Newton counts
         while found.steps < max(max_steps, 2) and sim.state.t < sim.end * (1.0 - 1e-9):
-            t0 = time.perf_counter()
+            t0 = time.process_time()  # CPU time: on a shared machine it hardly depends on the load
             sim.step()
-            found.seconds.append(time.perf_counter() - t0)
+            found.seconds.append(time.process_time() - t0)
             found.iterations.append(integ.stats[-1][0] if newton else 1)
             barrier = getattr(integ, "barrier_term", None)
             found.contact.append(bool(barrier is not None and barrier.in_contact))
