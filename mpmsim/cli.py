@@ -396,14 +396,18 @@ def compile(
 
 
 @app.command()
-def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
+def check(
+    deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
+    probe: bool = typer.Option(True, "--probe/--no-probe", help="FEM and implicit scenes: estimate the cost by "
+                               "running the first steps (up to 5 s, and compiling on a first run)."),
+) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
     scene = _load_scene(deck)
     with _deck_errors():
-        _check(scene)
+        _check(scene, probe)
 
 
-def _check(scene) -> None:
+def _check(scene, want_probe: bool = True) -> None:
     from .integrators import make_integrator
     from .state import State
 
@@ -438,20 +442,21 @@ def _check(scene) -> None:
         for warning in compaction_warnings(scene, state.particles.x):
             out.print(f"[yellow]warning:[/] {warning}", highlight=False)
     P = state.particles
-    if d.integrator == "implicit" or state.fem is not None:
+    if (d.integrator == "implicit" or state.fem is not None) and not want_probe:
+        out.print("cost: not estimated (--no-probe)", highlight=False)
+    elif d.integrator == "implicit" or state.fem is not None:
         from .cost import probe
 
         out.print("cost: probing the first steps on one thread (the first compiles what the kernel cache lacks)...",
                   highlight=False)
         implicit = d.integrator == "implicit"
-        try:
-            found = probe(scene) if implicit else probe(scene, max_steps=200, seconds=1.0)
-        except InstabilityError as exc:
-            found = None
-            out.print(f"[yellow]warning:[/] cost: the probe's steps failed ({exc}); no estimate", highlight=False)
-        seconds = found.run_seconds(steps) if found is not None else 0.0
-        if found is None:
-            pass
+        found = probe(scene) if implicit else probe(scene, max_steps=200, seconds=1.0)
+        if found.failed:
+            out.print(f"[yellow]warning:[/] the probe stopped at its step {found.steps + 1}: {found.failed}",
+                      highlight=False, soft_wrap=True)
+        seconds = found.run_seconds(steps) if found.steps >= 2 else 0.0
+        if found.steps < 2:
+            out.print("cost: no estimate (the probe needs two steps)", highlight=False)
         elif implicit:
             unknowns = " and ".join(s for s in (f"{state.fem.n} FEM nodes" if state.fem is not None else "",
                                                f"{P.n} particles' grid nodes" if scene.has_particles else "") if s)

@@ -22,12 +22,14 @@ from __future__ import annotations
 
 import json
 import time
+import warnings
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from .errors import InstabilityError
 from .solver import CHECK  # the run loop's own task, after every step
 
 COSTS = Path(__file__).with_name("task_costs.json")
@@ -65,6 +67,7 @@ class Probe:
     iterations: list[int]
     seconds: list[float]
     contact: list[bool]
+    failed: str | None = None  # why a step of the probe failed (None: none did)
 
     @property
     def steps(self) -> int:
@@ -103,7 +106,8 @@ class Probe:
 
 def probe(scene, max_steps: int = PROBE_STEPS, seconds: float = PROBE_SECONDS) -> Probe:
     """Run a scene's first steps on one thread (no output): up to max_steps, or fewer when the
-    steps after the first take more than `seconds` together, or the run ends."""
+    steps after the first take more than `seconds` together, or the run ends. A step that fails
+    (an unstable scene) ends the probe, its reason in `failed`; warnings are left to the run."""
     import numba
 
     from .solver import Simulation
@@ -112,18 +116,22 @@ def probe(scene, max_steps: int = PROBE_STEPS, seconds: float = PROBE_SECONDS) -
     numba.set_num_threads(1)
     found = Probe([], [], [])
     try:
-        sim = Simulation(scene, out_dir=None, threads=1)
-        integ = sim.integrator
-        newton = hasattr(integ, "stats")  # the implicit integrator's per-step Newton counts
-        while found.steps < max(max_steps, 2) and sim.state.t < sim.end * (1.0 - 1e-9):
-            t0 = time.process_time()  # CPU time: on a shared machine it hardly depends on the load
-            sim.step()
-            found.seconds.append(time.process_time() - t0)
-            found.iterations.append(integ.stats[-1][0] if newton else 1)
-            barrier = getattr(integ, "barrier_term", None)
-            found.contact.append(bool(barrier is not None and barrier.in_contact))
-            if found.steps >= 2 and sum(found.seconds[1:]) > seconds:
-                break
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            sim = Simulation(scene, out_dir=None, threads=1)
+            integ = sim.integrator
+            newton = hasattr(integ, "stats")  # the implicit integrator's per-step Newton counts
+            while found.steps < max(max_steps, 2) and sim.state.t < sim.end * (1.0 - 1e-9):
+                t0 = time.process_time()  # CPU time: on a shared machine it hardly depends on the load
+                sim.step()
+                found.seconds.append(time.process_time() - t0)
+                found.iterations.append(integ.stats[-1][0] if newton else 1)
+                barrier = getattr(integ, "barrier_term", None)
+                found.contact.append(bool(barrier is not None and barrier.in_contact))
+                if found.steps >= 2 and sum(found.seconds[1:]) > seconds:
+                    break
+    except Exception as exc:  # noqa: BLE001 (the estimate is advice: `run` reports the failure itself)
+        found.failed = f"{type(exc).__name__}: {exc}" if not isinstance(exc, InstabilityError) else str(exc)
     finally:
         numba.set_num_threads(threads)
     return found
