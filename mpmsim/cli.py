@@ -465,9 +465,9 @@ def _check(scene, want_probe: bool = True) -> None:
             out.print(f"cost: the probe ran {found.steps} steps of about {steps}, {sum(found.iterations)} Newton "
                       f"iterations (first step {found.seconds[0]:.3g} s, compiling included); {found.per_step:.3g} "
                       f"iterations per step and {found.per_iteration * 1e3:.3g} ms per iteration ({unknowns}, one "
-                      f"thread) over {phase} -> about {seconds:.3g} s for the run (CPU time on one thread, the wall time "
-                      "on an idle core; plus JIT compile on a first run; the iterations per step can change as "
-                      "contact develops)", highlight=False)
+                      f"thread) over {phase} -> about {seconds:.3g} s for the run (CPU time on one thread, the "
+                      "wall time on an idle core; plus JIT compile on a first run; the iterations per step can "
+                      "change as contact develops)", highlight=False)
         else:
             out.print(f"cost: the probe ran {found.steps} steps of about {steps} (first step {found.seconds[0]:.3g} s, "
                       f"compiling included); about {found.per_iteration * 1e3:.3g} ms per step on one thread (the "
