@@ -240,6 +240,20 @@ def run(
     out.print(f"[bold]run log[/]:    {log.path}", highlight=False)
     out.print(f"[bold]VTU series[/]: {result.pvd_path}  ({len(result.files)} files)", highlight=False)
     out.print(f"[bold]history[/]:    {result.history_path}", highlight=False)
+    out.print(_time_split(result, sim), highlight=False)
+
+
+def _time_split(result, sim) -> str:
+    """The run's closing line: its wall time as compiling plus stepping. Compiling (or, with
+    the kernel cache filled, loading the kernels) is the first step's time less a warm step's
+    (the mean of the others); stepping is the rest, output included."""
+    first = min(sim.first_step_seconds, result.wall_time)
+    rest = result.wall_time - first
+    warm = rest / result.timed_steps if result.timed_steps else 0.0
+    compiling = max(first - warm, 0.0)
+    return (f"[bold]time[/]:       {result.wall_time:.2f} s wall = {compiling:.2f} s compiling or loading kernels "
+            f"(the first step less a warm one) + {result.wall_time - compiling:.2f} s stepping ({result.steps} steps, "
+            "output included)")
 
 
 def _reason(exc: BaseException) -> str:
@@ -382,14 +396,18 @@ def compile(
 
 
 @app.command()
-def check(deck: Path = typer.Argument(..., help="Problem deck (YAML).")) -> None:
+def check(
+    deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
+    probe: bool = typer.Option(True, "--probe/--no-probe", help="FEM and implicit scenes: estimate the cost by "
+                               "running the first steps (up to 5 s, and compiling on a first run)."),
+) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
     scene = _load_scene(deck)
     with _deck_errors():
-        _check(scene)
+        _check(scene, probe)
 
 
-def _check(scene) -> None:
+def _check(scene, want_probe: bool = True) -> None:
     from .integrators import make_integrator
     from .state import State
 
@@ -424,12 +442,38 @@ def _check(scene) -> None:
         for warning in compaction_warnings(scene, state.particles.x):
             out.print(f"[yellow]warning:[/] {warning}", highlight=False)
     P = state.particles
-    if scene.has_particles and d.integrator == "implicit":
-        out.print(f"cost: {steps} Newton solves over {P.n} particles' grid nodes"
-                  + (f" and {state.fem.n} FEM nodes" if state.fem is not None else "")
-                  + "; each takes a few iterations (docs/bfemp.md: ~10 ms per iteration for 1000 particles "
-                  "on one thread)", highlight=False)
-    elif scene.has_particles:
+    if (d.integrator == "implicit" or state.fem is not None) and not want_probe:
+        out.print("cost: not estimated (--no-probe)", highlight=False)
+    elif d.integrator == "implicit" or state.fem is not None:
+        from .cost import probe
+
+        out.print("cost: probing the first steps on one thread (the first compiles what the kernel cache lacks)...",
+                  highlight=False)
+        implicit = d.integrator == "implicit"
+        found = probe(scene) if implicit else probe(scene, max_steps=200, seconds=1.0)
+        if found.failed:
+            out.print(f"[yellow]warning:[/] the probe stopped at its step {found.steps + 1}: {found.failed}",
+                      highlight=False, soft_wrap=True)
+        seconds = found.run_seconds(steps) if found.steps >= 2 else 0.0
+        if found.steps < 2:
+            out.print("cost: no estimate (the probe needs two steps)", highlight=False)
+        elif implicit:
+            unknowns = " and ".join(s for s in (f"{state.fem.n} FEM nodes" if state.fem is not None else "",
+                                               f"{P.n} particles' grid nodes" if scene.has_particles else "") if s)
+            made = sum(found.contact)
+            phase = f"the later half of its {made} steps in contact" if made else "its later half (no contact yet)"
+            out.print(f"cost: the probe ran {found.steps} steps of about {steps}, {sum(found.iterations)} Newton "
+                      f"iterations (first step {found.seconds[0]:.3g} s, compiling included); {found.per_step:.3g} "
+                      f"iterations per step and {found.per_iteration * 1e3:.3g} ms per iteration ({unknowns}, one "
+                      f"thread) over {phase} -> about {seconds:.3g} s for the run (CPU time on one thread, the "
+                      "wall time on an idle core; plus JIT compile on a first run; the iterations per step can "
+                      "change as contact develops)", highlight=False)
+        else:
+            out.print(f"cost: the probe ran {found.steps} steps of about {steps} (first step {found.seconds[0]:.3g} s, "
+                      f"compiling included); about {found.per_iteration * 1e3:.3g} ms per step on one thread (the "
+                      f"later half of the probe) -> about {seconds:.3g} s for the run (CPU time on one thread, the "
+                      "wall time on an idle core; plus JIT compile on a first run)", highlight=False)
+    else:
         from .cost import step_microseconds, task_costs
 
         us, missing = step_microseconds([name for name, _ in integrator.plan], P.n, int(state.entries.nodes.shape[1]))
@@ -437,6 +481,7 @@ def _check(scene) -> None:
         out.print(f"cost: {steps * P.n:.3g} particle-steps, about {us / 1e3:.3g} ms per step on one thread -> "
                   f"{steps * us * 1e-6:.3g} s (plus JIT compile on a first run; task costs measured "
                   f"{task_costs()['measured']}{lacking})", highlight=False)
+    if scene.has_particles and d.integrator != "implicit":
         out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
     out.print(f"[bold]tasks per step[/] ({integrator.name} integrator; only what this scene needs):")
     for i, (name, why) in enumerate(integrator.plan, 1):
