@@ -53,7 +53,7 @@ bench-fem-3d: $(STAMP)
 	$(BIN)/python bench/fem_contact.py ramp3d
 
 # the BFEMP paper's rings at its size (section 6.1: 20,109 particles on h = 8.66 mm, 3462 triangles), the whole
-# 0.2 s run on 1 and 2 threads: seconds per step and the run's time (docs/bfemp.md); about RINGS_MINUTES minutes
+# 0.2 s run on 1 and 2 threads: seconds per step and the run's time (docs/bfemp.md); about 5 minutes
 bench-rings-paper: $(STAMP)
 	$(BIN)/python bench/implicit.py --paper-rings --threads 1 2
 

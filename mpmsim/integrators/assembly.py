@@ -11,9 +11,10 @@ Newton iteration then only scatters values (`scatter`), in the bundles' order an
 
 The pattern is exact: it is rebuilt when a bundle's node lists change (contact pairs appearing
 or leaving, the particles' stencils at a new step) and kept, with its slot maps, otherwise. A
-rebuild costs a node-level sort of the node pairs and a slot pass over the bundles (about 1 ms
-on the rings deck), and a new symbolic analysis of the Cholesky factorisation (solvers.py) only
-when the rebuilt pattern differs from the last. A superset over the step (all contact pairs a
+rebuild costs a node-level bucketing of the node pairs of each bundle's distinct node lists
+(the particles of one cell share a stencil) and a slot pass over them (0.8 ms on the rings
+deck), and a new symbolic analysis of the Cholesky factorisation (solvers.py) only when the
+rebuilt pattern differs from the last. A superset over the step (all contact pairs a
 step might meet) would save the rebuilds but adds fill to every factorisation and leaves the
 matrix different from the triplets' (explicit zeros change SuperLU's column ordering).
 """

@@ -8,9 +8,10 @@ ordering, elimination tree) is done once per matrix pattern and reused while the
 SUPERNODAL_MIN unknowns the factorisation is simplicial LDL^T: on the 2D decks it factorises
 in 1.2-1.3 ms against 1.7-7.8 ms for the supernodal one (1342 and 3390 unknowns), and it
 calls no BLAS, so its results are the same on every machine. From SUPERNODAL_MIN up it is
-supernodal (dense BLAS blocks): on the rings at the paper's size (15,128 unknowns, 1.9 M
-non-zeros in L) 72 ms against 406 ms. Its BLAS runs on the run's thread count (threadpoolctl;
-mpmsim otherwise keeps BLAS at one thread). A factorisation with a D entry <= 0 (not positive
+supernodal (dense BLAS blocks): the two take the same time at 3870 unknowns (the rings at
+h = 20 mm), supernodal 0.80x at 6742, 0.56x at 11,592 and 0.49x (64 against 130 ms) at the
+paper's size, 15,164 unknowns (`python bench/implicit.py --supernodal`). Its BLAS runs on
+the run's thread count (threadpoolctl; mpmsim otherwise keeps BLAS at one thread). A factorisation with a D entry <= 0 (not positive
 definite: it cannot happen for an exact PSD sum, but guards round-off) is solved by SuperLU
 instead.
 
@@ -33,7 +34,7 @@ except ImportError:  # pragma: no cover - depends on the installation
     analyze = None
 
 CHOLMOD_AVAILABLE = analyze is not None
-SUPERNODAL_MIN = 8000  # unknowns from which CHOLMOD factorises supernodally
+SUPERNODAL_MIN = 5000  # unknowns from which CHOLMOD factorises supernodally (bench/implicit.py --supernodal)
 
 
 def blas_threads(n: int):
