@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -66,6 +66,22 @@ bench-contact: $(STAMP)
 # figures in docs/figures/ (about 5 minutes on one core)
 bench-shock: $(STAMP)
 	$(BIN)/python bench/shock.py all
+
+# Hertz contact (docs/contact.md): the ring-seeded cylinder on a rigid flat at R/h = 20, 40, 80, two cylinders at
+# R/h = 20 and 40, the table and the chart (docs/figures/hertz_pressure.png); about 50 minutes on one core
+bench-hertz: $(STAMP)
+	$(BIN)/python bench/hertz.py run --rh 20 40 80 --seeding rings
+	$(BIN)/python bench/hertz.py run --rh 20 40 --seeding rings --pair --end 0.9
+	$(BIN)/python bench/hertz.py table --tags rh20_rings rh40_rings rh80_rings pair_rh20_rings pair_rh40_rings
+	$(BIN)/python bench/hertz.py chart --tags rh20_rings rh40_rings rh80_rings
+
+# two Hertz cylinders at R/h = 80 (about 2 hours on one core)
+bench-hertz-pair80: $(STAMP)
+	$(BIN)/python bench/hertz.py run --rh 80 --seeding rings --pair --end 0.9
+
+# a quarter Hertz sphere on a rigid flat, R/h = 20, lattice-seeded (3D; about 6 minutes on one core)
+bench-hertz-sphere: $(STAMP)
+	$(BIN)/python bench/hertz.py run --rh 20 --sphere
 
 # imperfect interfaces: the 2013 paper's specimens swept (hours on 2 cores; resumes), the chart
 # in docs/figures/interfaces.png, and the cost of an interface

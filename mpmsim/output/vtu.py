@@ -190,7 +190,7 @@ def add_contact_tractions(state, meshes: dict[str, meshio.Mesh]) -> None:
     from ..contact.grid.traction import node_tractions, particle_tractions, slot_shares
 
     g = state.grid
-    nt = node_tractions(cs)
+    nt = node_tractions(cs, g.shape)
     if len(nt.slot):
         shape = g.shape
         ijk = np.stack([nt.node % shape[0], (nt.node // shape[0]) % shape[1], nt.node // (shape[0] * shape[1])], 1)

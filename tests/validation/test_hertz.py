@@ -1,17 +1,17 @@
 """Contact tractions (output.contact_traction) and the Hertz cylinder (bench/hertz.py).
 
 1. The traction output reads back with meshio, and its integral over the contact (traction x
-   contact area, summed over the contact nodes) equals the history's pair contact force
-   (`contact_f*`) to 1e-10 relative, for FLIP (pass 2's force) and APIC (pass 1's change
-   counts too), with Coulomb friction so that the tangential tractions are not zero; against
+   contact area, summed over the contact nodes; each node's traction is its normal line's)
+   equals the history's pair contact force (`contact_f*`) to 1e-10 relative, for FLIP (pass
+   2's force) and APIC (pass 1's change counts too), with Coulomb friction so that the tangential tractions are not zero; against
    a rigid contact flat it equals the flat's reaction (`F_flat_*`). Without the deck key no
    contact series and no traction fields are written.
 2. The Hertz cylinder at R/h = 20, seeded in rings that follow its surface: the load the
    contact carries balances the applied load (the issue's 1%), p(x) and the peaks are within
-   the issue's 10% and 1.3 p0 (columns and particles), and the half-width and centre pressure
-   stay within bands around what this resolution measures (docs/contact.md, "Hertz contact":
-   R/h = 40 and 80 run in bench/hertz.py; there the half-width at R/h = 80 (-3.2%) and the
-   per-node f/A_c peaks miss the issue's targets).
+   the issue's 10% and 1.3 p0 (columns, nodes and particles), and the half-width and centre
+   pressure stay within bands around what this resolution measures (docs/contact.md, "Hertz
+   contact": R/h = 40 and 80 run in bench/hertz.py; there the half-width at R/h = 80, -3.2%,
+   misses the issue's 2%; the node tractions peak at 1.05 p0 at R/h = 40).
 """
 
 from __future__ import annotations
@@ -59,23 +59,16 @@ def frames(out, stem: str, part: str) -> list[tuple[float, meshio.Mesh]]:
 
 
 def integral(mesh: meshio.Mesh) -> np.ndarray:
-    """The contact's force on the targets' side (2D): traction x area summed over the nodes
-    with a contact area, plus the force of the nodes whose LR contact area is zero (the
-    nearer material edge a cell or more away: the law acts there, A_c = 0; their traction
-    is written as 0). That share is checked to be small."""
+    """The contact's force on the targets' side (2D): traction x area summed over the contact
+    nodes. Each node's traction is its normal line's (the targets of one pair along the grid
+    axis nearest the normal: their forces summed over their areas summed), so the sum holds
+    every force, that of nodes whose own LR area is zero (the nearer material edge a cell
+    or more away) included, as long as their line has some area."""
     pd = mesh.point_data
     area = np.asarray(pd["contact_area"])
-    force = np.asarray(pd["contact_force"])[:, :2]
-    with_area = (np.asarray(pd["traction"])[:, :2] * area[:, None]).sum(axis=0)
-    zero = area <= 0.0
-    assert np.all(np.asarray(pd["traction"])[zero] == 0.0)
-    assert np.allclose(force[~zero], np.asarray(pd["traction"])[~zero, :2] * area[~zero, None], rtol=1e-12,
-                       atol=1e-12 * np.abs(force).max())
-    assert np.abs(force[zero].sum(axis=0)).max() <= ZERO_AREA_SHARE * np.abs(force.sum(axis=0)).max()
-    return with_area + force[zero].sum(axis=0)
-
-
-ZERO_AREA_SHARE = 0.01  # measured: 0.03% (disk on block, first frame), 0.5% (Hertz, R/h = 10)
+    traction = np.asarray(pd["traction"])[:, :2]
+    assert np.all(area >= 0.0)
+    return (traction * area[:, None]).sum(axis=0)
 
 
 @pytest.mark.parametrize("scheme", ["flip", "apic"])
@@ -104,11 +97,35 @@ def test_traction_integral_is_the_pair_contact_force(tmp_path, scheme):
         tt = np.asarray(pd["tangential_traction"])[:, :2]
         p = np.asarray(pd["contact_pressure"])
         assert np.allclose(t, -p[:, None] * n + tt, atol=1e-9 * np.abs(t).max())
-        assert np.all(np.linalg.norm(tt, axis=1) <= 0.3 * np.abs(p) * (1 + 1e-9) + 1e-9 * np.abs(t).max())
+        # Coulomb: the law bounds each node's force about its own normal; a node's traction is its line's,
+        # whose nodes' normals differ by a few degrees, so the bound holds there to within that (measured
+        # 0.7% over at most)
+        f = np.asarray(pd["contact_force"])[:, :2]
+        fn = np.sum(f * n, axis=1)
+        ft = f - fn[:, None] * n
+        assert np.all(np.linalg.norm(ft, axis=1) <= 0.3 * np.abs(fn) * (1 + 1e-9) + 1e-9 * np.abs(f).max())
+        assert np.all(np.linalg.norm(tt, axis=1) <= 0.3 * np.abs(p) * 1.02 + 1e-9 * np.abs(t).max())
     particles = meshio.read(sorted(tmp_path.glob("pair_0*.vtu"))[-1])
     pp = np.asarray(particles.point_data["contact_pressure"])
     y = particles.points[:, 1]
     assert pp.max() > 0.0 and np.all(pp[(y > 8.0) & (y < 14.0)] == 0.0)  # only near the contact
+
+
+def test_normal_lines_follow_the_grid_axis_nearest_the_normal():
+    """Targets of one pair on consecutive nodes along the axis nearest their normals share a
+    line; another pair, a gap, or a node whose normal is nearer the other axis starts a new one."""
+    from mpmsim.contact.grid.traction import normal_lines
+
+    shape = np.array([6, 6, 1])
+    ij = np.array([[1, 1], [1, 2], [1, 3], [1, 4], [1, 5], [3, 2], [4, 2], [3, 3], [5, 0]])
+    normal = np.array([[0.1, 1.0], [-0.2, 1.0], [0.0, -1.0], [0.0, 1.0], [0.0, 1.0], [1.0, 0.3], [1.0, -0.9],
+                       [0.0, 1.0], [0.6, 0.7]])
+    key = np.array([7, 7, 7, 8, 7, 7, 7, 7, 7])
+    line = normal_lines(ij[:, 0] + shape[0] * ij[:, 1], shape, normal, key)
+    # (1,1)-(1,3) one line along y; (1,4) another pair; (1,5) cut off by it; (3,2)-(4,2) along x;
+    # (3,3) along y, not joined to (3,2) (which is on an x line); (5,0) alone
+    groups = [set(np.flatnonzero(line == v)) for v in np.unique(line)]
+    assert sorted(map(sorted, groups)) == [[0, 1, 2], [3], [4], [5, 6], [7], [8]]
 
 
 def test_no_traction_output_unless_asked(tmp_path):
@@ -147,6 +164,8 @@ def test_hertz_cylinder_at_r_over_h_20(tmp_path):
     assert abs(r["centre_error"]) < 0.07
     assert r["profile_max_error"] < 0.10  # the issue's 10% over |x| < 0.8a
     assert r["p_max_over_p0"] < 1.3
+    # every contact node's traction (its normal line's): 1.01 p0 (f / A_c per node gave 78 p0)
+    assert r["node_p_max_over_p0"] < 1.3
     # the particles' traction (a ratio of weighted sums): peak 0.99 p0, within 5.5% of Hertz
     assert r["particle_p_max_over_p0"] < 1.3 and r["particle_profile_max_error"] < 0.10
 

@@ -1,5 +1,5 @@
-"""Contact tractions (`output.contact_traction`): the contact force at each contact node
-divided by the node's contact area, for the VTU output.
+"""Contact tractions (`output.contact_traction`): the contact force at each contact node and
+the traction of its normal line of contact nodes, for the VTU output.
 
 The force at a node is what the history's pair contact force (`contact_f*`, or a rigid
 contact material's `F_<name>_*`) sums: the momentum change contact gave each deformable slot
@@ -9,11 +9,22 @@ the history counts it; not at nodes with a rigid contact material, whose reactio
 2's), divided by the step. The area is the contact area A_c the geometry computes for the
 node (LR: Omega_tot max(0, 1 - d/h_perp) / h_perp, with d the distance of the nearer
 material edge to the node; notes §3.5); in 2D it includes the deck's thickness, so force /
-area is a stress. The sum of the nodes' forces equals the history's contact force to
-round-off; so does the sum of traction x area, but for the force at nodes whose LR area is
-zero (the nearer material edge a cell or more away while the law acts there; their traction
-is written as 0: 0.03-0.5% of the force in the tests). With multimaterial XPIC the filter's
-contact increments, which the history adds to the pair force, are not recorded here.
+area is a stress.
+
+The traction written at a node is its normal line's: the targets of the same pair on
+consecutive nodes along the grid axis nearest their normal form a line, and each of them
+carries sum f / sum A_c over the line (`normal_lines`). The LR area interpolates the surface
+to the nodes that straddle it along the normal (the weights 1 - d/h_perp of two nodes a cell
+apart on either side of an edge sum to 1), so only the line's sum is the surface's area; one
+node's own f / A_c is not a surface traction where the edge is almost a cell away: a node
+one row inside a rigid flat gets ~1% of its column's force over 1e-4 of its area, and f /
+A_c there reads tens of p0 under a Hertz cylinder (docs/contact.md). Lines resolve the
+traction along the surface at the grid's spacing, as the nodes do, so peaks along the
+surface stay. The sum of traction x area over the targets equals the sum of their forces
+(the history's contact force) to round-off, the force at nodes of zero LR area included,
+unless a whole line has zero area (its traction is written as 0). With multimaterial XPIC
+the filter's contact increments, which the history adds to the pair force, are not recorded
+here.
 
 Recording costs one pass over the contact slots per step (`record_slot_forces`, in pass 2);
 scenes that do not ask for the output do not compile or call it.
@@ -69,19 +80,62 @@ class NodeTractions(NamedTuple):
     in_contact: np.ndarray  # (m,) pass 2 applied the law there
 
 
-def node_tractions(cs) -> NodeTractions:
-    """The last step's tractions at its contact targets (workspace `cs`, traction recorded)."""
+def normal_lines(node: np.ndarray, shape: np.ndarray, normal: np.ndarray, key: np.ndarray) -> np.ndarray:
+    """Line label of each contact target: targets with the same key (pair) on consecutive grid
+    nodes along the grid axis nearest their normal (each choosing that axis) share a line; a
+    line is a straight run of nodes along one axis. node: grid node indices (x fastest) of a
+    grid of shape `shape` nodes; normal (m, dim); key (m,) int64."""
+    m, dim = normal.shape
+    label = np.zeros(m, dtype=np.int64)
+    if m == 0:
+        return label
+    ijk = np.stack([node % shape[0], (node // shape[0]) % shape[1], node // (shape[0] * shape[1])], 1)[:, :dim]
+    axis = np.argmax(np.abs(normal), axis=1)
+    start = 0
+    for k in range(dim):
+        sel = np.flatnonzero(axis == k)
+        if not len(sel):
+            continue
+        others = [ijk[sel, d] for d in range(dim) if d != k]
+        order = sel[np.lexsort([ijk[sel, k], *others[::-1], key[sel]])]
+        new = np.ones(len(order), dtype=bool)
+        same = (key[order[1:]] == key[order[:-1]]) & (ijk[order[1:], k] - ijk[order[:-1], k] == 1)
+        for d in range(dim):
+            if d != k:
+                same &= ijk[order[1:], d] == ijk[order[:-1], d]
+        new[1:] = ~same
+        label[order] = start + np.cumsum(new) - 1
+        start = int(label[order[-1]]) + 1
+    return label
+
+
+def node_tractions(cs, shape: np.ndarray | None = None) -> NodeTractions:
+    """The last step's tractions at its contact targets (workspace `cs`, traction recorded).
+    With the grid's node shape, each target's traction is its normal line's: the force of the
+    targets of the same pair along the grid axis nearest the normal, summed, over their areas
+    summed (`normal_lines`); without it, its own f / A_c."""
     ns = cs.n_slots
     slots = np.flatnonzero(cs.role[:ns] != 0)
     force = cs.slot_force[slots]
     normal = cs.normal[slots]
     area = cs.area[slots]
-    inv = np.divide(1.0, area, out=np.zeros_like(area), where=area > 0.0)
-    traction = force * inv[:, None]
-    tn = np.sum(traction * normal, axis=1)
     partner = cs.partner[slots]
     pgroup = np.where(partner >= 0, cs.slot_group[np.maximum(partner, 0)], -1)
-    return NodeTractions(slots, cs.slot_node[slots], cs.slot_group[slots], pgroup, force, normal, area, traction,
+    group = cs.slot_group[slots]
+    node = cs.slot_node[slots]
+    if shape is None:
+        inv = np.divide(1.0, area, out=np.zeros_like(area), where=area > 0.0)
+        traction = force * inv[:, None]
+    else:
+        line = normal_lines(node, np.asarray(shape), normal, (group + 1) * (cs.spec.n_groups + 1) + pgroup + 1)
+        n_lines = int(line.max()) + 1 if len(line) else 0
+        line_area = np.bincount(line, weights=area, minlength=n_lines).astype(float)
+        line_force = np.stack([np.bincount(line, weights=force[:, d], minlength=n_lines).astype(float)
+                               for d in range(force.shape[1])], 1)
+        inv = np.divide(1.0, line_area, out=np.zeros_like(line_area), where=line_area > 0.0)
+        traction = (line_force * inv[:, None])[line]
+    tn = np.sum(traction * normal, axis=1)
+    return NodeTractions(slots, node, group, pgroup, force, normal, area, traction,
                          -tn, traction - tn[:, None] * normal, cs.contact2[slots] != 0)
 
 
