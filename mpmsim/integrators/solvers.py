@@ -10,10 +10,13 @@ in 1.2-1.3 ms against 1.7-7.8 ms for the supernodal one (1342 and 3390 unknowns)
 calls no BLAS, so its results are the same on every machine. From SUPERNODAL_MIN up it is
 supernodal (dense BLAS blocks): the two take the same time at 3870 unknowns (the rings at
 h = 20 mm), supernodal 0.80x at 6742, 0.56x at 11,592 and 0.49x (64 against 130 ms) at the
-paper's size, 15,164 unknowns (`python bench/implicit.py --supernodal`). Its BLAS runs on
-the run's thread count (threadpoolctl; mpmsim otherwise keeps BLAS at one thread). A factorisation with a D entry <= 0 (not positive
-definite: it cannot happen for an exact PSD sum, but guards round-off) is solved by SuperLU
-instead.
+paper's size, 15,164 unknowns (`python bench/implicit.py --supernodal`). Its BLAS stays on
+one thread, as mpmsim keeps BLAS: on the 2-core VM a second BLAS thread gained nothing, and
+beside numba's two OpenMP threads (which spin-wait between parallel regions) it made 2-thread
+runs of the paper-size rings up to 1.7x slower than 1-thread ones. A matrix
+that is not positive definite (it cannot be for an exact PSD sum, but round-off may make it
+so: a D entry <= 0 of the simplicial LDL^T, an error of the supernodal LL^T) is solved by
+SuperLU instead.
 
 SuperLU (scipy's splu, COLAMD ordering; Li 2005, doi:10.1145/1089014.1089017) otherwise: it
 needs the full matrix and analyses every time.
@@ -21,9 +24,6 @@ needs the full matrix and analyses every time.
 
 from __future__ import annotations
 
-import contextlib
-
-import numba
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
@@ -35,15 +35,6 @@ except ImportError:  # pragma: no cover - depends on the installation
 
 CHOLMOD_AVAILABLE = analyze is not None
 SUPERNODAL_MIN = 5000  # unknowns from which CHOLMOD factorises supernodally (bench/implicit.py --supernodal)
-
-
-def blas_threads(n: int):
-    """A context that runs BLAS on n threads (threadpoolctl), or does nothing without it."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - depends on the installation
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=n, user_api="blas")
 
 
 def full_from_lower(L: sp.csc_matrix) -> sp.csc_matrix:
@@ -82,12 +73,13 @@ class NewtonSolver:
                     self.factor = analyze(A, mode="supernodal" if supernodal else "simplicial")
                     self.version = version
                     self.counts["analyses"] += 1
-                if supernodal:
-                    with blas_threads(numba.get_num_threads()):
-                        self.factor.cholesky_inplace(A)
-                else:
+                if supernodal:  # LL^T: a matrix not positive definite raises
                     self.factor.cholesky_inplace(A)
-                if self.factor.D().min() > 0.0:
+                    definite = True
+                else:  # LDL^T goes through a D entry <= 0
+                    self.factor.cholesky_inplace(A)
+                    definite = self.factor.D().min() > 0.0
+                if definite:
                     self.counts["cholmod"] += 1
                     self.counts["supernodal"] += supernodal
                     return self.factor(b)

@@ -102,11 +102,15 @@ def test_linear_solver_cholmod_without_scikit_sparse_is_a_deck_error(monkeypatch
                                          ROOT / "inputs")), out_dir=None, threads=1)
 
 
-def test_a_factorisation_that_is_not_positive_definite_is_solved_by_superlu():
-    """CHOLMOD's LDL^T of an indefinite matrix meets a D entry <= 0: SuperLU solves it."""
+@pytest.mark.parametrize("supernodal", [False, True])
+def test_a_factorisation_that_is_not_positive_definite_is_solved_by_superlu(supernodal, monkeypatch):
+    """CHOLMOD's LDL^T of an indefinite matrix meets a D entry <= 0, its supernodal LL^T stops
+    with an error: SuperLU solves it."""
     import scipy.sparse as sp
 
     need_cholmod()
+    if supernodal:
+        monkeypatch.setattr(solvers, "SUPERNODAL_MIN", 0)
     A = sp.csc_matrix(np.array([[1.0, 3.0, 0.0], [3.0, 1.0, 1.0], [0.0, 1.0, 2.0]]))
     b = np.array([1.0, 2.0, 3.0])
     solver = NewtonSolver(cholesky=True)
