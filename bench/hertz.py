@@ -45,6 +45,14 @@ P_TARGET = math.pi * A_TARGET**2 * E_STAR / (4.0 * R)  # N per mm of thickness
 P0 = 2.0 * P_TARGET / (math.pi * A_TARGET)
 
 
+def run_settings(alpha: float, end: float) -> dict:
+    """What every Hertz deck shares: grid damping alpha, frictionless contact, FLIP with USAVG,
+    CFL 0.5 to `end`, ten frames and 100 history rows with the contact tractions."""
+    return {"damping": {"grid": alpha}, "contact": {"default": {"law": "frictionless"}},
+            "time": {"end": end, "cfl": 0.5}, "update": {"scheme": "flip", "stress": "usavg"},
+            "output": {"vtu_interval": end / 10, "history_interval": end / 100, "contact_traction": True,
+                       "checkpoint_interval": "off"}}
+
 def hertz(P: float) -> tuple[float, float]:
     """(a, p0) for a load P per unit thickness."""
     a = math.sqrt(4.0 * P * R / (math.pi * E_STAR))
@@ -83,12 +91,7 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
             {"name": "flat", "shape": "rectangle", "min": [-w, -2 * h], "max": [w, 0.0], "material": "flat"},
         ],
         "gravity": [0.0, -g],
-        "damping": {"grid": alpha},
-        "contact": {"default": {"law": "frictionless"}},
-        "time": {"end": end, "cfl": 0.5},
-        "update": {"scheme": "flip", "stress": "usavg"},
-        "output": {"vtu_interval": end / 10, "history_interval": end / 100, "contact_traction": True,
-                   "checkpoint_interval": "off"},
+        **run_settings(alpha, end),
         "stability": {},
     }
     if pair:
@@ -279,12 +282,7 @@ def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET)
                     "clip": {"min": [0.0, -1.0, 0.0], "max": [R + 1.0, 2 * R + 1.0, R + 1.0]}},
                    {"name": "flat", "shape": "box", "min": [0.0, -2 * h, 0.0], "max": [w, 0.0, w], "material": "flat"}],
         "gravity": [0.0, -g, 0.0],
-        "damping": {"grid": alpha},
-        "contact": {"default": {"law": "frictionless"}},
-        "time": {"end": end, "cfl": 0.5},
-        "update": {"scheme": "flip", "stress": "usavg"},
-        "output": {"vtu_interval": end / 10, "history_interval": end / 100, "contact_traction": True,
-                   "checkpoint_interval": "off"},
+        **run_settings(alpha, end),
     }
 
 
