@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-scaling examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -36,6 +36,12 @@ bench: $(STAMP)
 	$(BIN)/python bench/traffic.py
 	$(BIN)/python bench/fem_contact.py speed
 	$(BIN)/python bench/implicit.py
+
+# thread scaling of the explicit step, 1, 2, 4, ... threads up to the machine's cores, whole and
+# per task, on the 1M, 256k and 16k columns, the 256k LR two-block column and the 640k 3D column
+# (docs/performance.md); minutes on a many-core machine, long on two cores
+bench-scaling: $(STAMP)
+	$(BIN)/python bench/scaling.py --json scaling.json
 
 # deck fuzzing: 5000 decks of inputs/ with one thing broken through check and run; the table of
 # outcomes (docs/reliability.md), failures listed; about 8 minutes on one core

@@ -151,8 +151,9 @@ TRAFFIC: dict[str, list[Term]] = {
         T("contact.rfidx", R_, "K", 8, 1, "rigid slot of each entry written", when="rigid"),
         T("box.fields", F_, "1", 8, 2, "box.fields, box.fnodes rebuilt by concatenation", count="2"),
         T("box.skip", F_, "1", 1, 2, "box.skip rebuilt by concatenation"),
-        T("sd.nodes", P_, "K", 8, 1, "build_clouds: a counting pass and a filling pass", count="2", when="cloud"),
-        T("sd.S", P_, "K", 8, 1, "build_clouds: both passes", count="2", when="cloud"),
+        T("sd.nodes", P_, "K", 8, 1, "touch_contact_nodes (build_clouds' two passes then walk only the particles "
+          "at contact nodes: not counted)", when="cloud"),
+        T("sd.S", P_, "K", 8, 1, "touch_contact_nodes", when="cloud"),
         T("rigid_sd.nodes", R_, "K", 8, 1, "build_clouds: rigid entries, both passes", count="2",
           when="cloud rigid"),
         T("rigid_sd.S", R_, "K", 8, 1, "build_clouds: rigid, both passes", count="2", when="cloud rigid"),

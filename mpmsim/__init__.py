@@ -8,6 +8,15 @@ from importlib.metadata import PackageNotFoundError, version
 # user's own setting wins; numpy imported before mpmsim keeps whatever it loaded with.
 for _blas in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_blas, "1")
+# Threads that wait at the end of a parallel region sleep instead of spinning. With numba's
+# OpenMP layer (libgomp) spinning is the default: a waiting thread keeps its core, and when
+# other processes want the cores the spinning thread steals time from the thread the region
+# waits for. Measured on the 2-core bench machine (bench/contention.py): --threads 2 ran 2.4x
+# (one busy neighbour) to 12x (three) slower than --threads 1 while spinning, and no slower
+# than --threads 1 while sleeping (docs/performance.md). libgomp reads this when it loads
+# (numba's first threaded kernel), so it must be set before; OMP_WAIT_POLICY=ACTIVE restores
+# spinning.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 try:
     __version__ = version("mpmsim")

@@ -269,15 +269,20 @@ class Terminated(KeyboardInterrupt):
 
 def default_threads(cpus: set[int] | None = None, busy: float | None = None,
                     load: float | None = None) -> tuple[int, str]:
-    """(threads, why): the cores this process may run on (its affinity) that other processes
-    are not keeping busy, at least one. A parallel region waits for its slowest thread, so a
-    thread sharing a core with a busy process slows the whole step many times over (measured:
-    bench/contention.py); one thread per idle core avoids that. `busy`: how many cores' worth
-    of CPU other processes used over the last 0.2 s (/proc/stat; rounded); without /proc, the
-    1-minute load average (`load`), which lags a newly started neighbour by up to a minute."""
+    """(threads, why): every core this process may run on (its affinity). Threads that wait at
+    the end of a parallel region sleep (mpmsim sets OMP_WAIT_POLICY=PASSIVE), so a busy
+    neighbour takes its share of the cores and no more: on the 2-core bench machine two
+    threads ran at least as fast as one beside one or three busy processes, started before or
+    during the run (bench/contention.py, docs/performance.md). Where the user makes waiting
+    threads spin (OMP_WAIT_POLICY=ACTIVE) a thread sharing a core with a busy process stalls
+    every region (2-12x slower measured), so then only the cores other processes leave idle
+    are taken: `busy` is how many cores' worth of CPU they used over the last 0.2 s
+    (/proc/stat; rounded); without /proc, the 1-minute load average (`load`)."""
     if cpus is None:
         cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else set(range(os.cpu_count() or 1))
     n_cpus = len(cpus)
+    if os.environ.get("OMP_WAIT_POLICY", "").strip().upper() != "ACTIVE":
+        return n_cpus, f"{n_cpus} cores"
     how = "over the last 0.2 s"
     if busy is None and load is None:
         busy = busy_cores(cpus)
@@ -290,8 +295,9 @@ def default_threads(cpus: set[int] | None = None, busy: float | None = None,
         busy, how = load, "1-minute load average"
     taken = min(n_cpus, max(0, int(busy + 0.5)))
     n = max(1, n_cpus - taken)
-    return n, (f"{n_cpus} cores, all idle" if taken == 0 else
-               f"{n_cpus} cores, {taken} kept busy by other processes ({busy:.1f} cores' worth, {how})")
+    return n, (f"{n_cpus} cores, all idle, spinning waits" if taken == 0 else
+               f"{n_cpus} cores, {taken} kept busy by other processes ({busy:.1f} cores' worth, {how}), "
+               f"spinning waits")
 
 
 def busy_cores(cpus: set[int], window: float = 0.2, stat=lambda: Path("/proc/stat").read_text()) -> float | None:

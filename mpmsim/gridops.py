@@ -74,25 +74,38 @@ def zero_fields(fields, arr):
             arr[f, c] = 0.0
 
 
-@njit(cache=True)
-def bin_slabs(lowest, axis, lo_axis, width, nslab, order, ptr):
-    """Counting sort of particles into slabs by their lowest node index along `axis`."""
+@njit(cache=True, inline="always")
+def slab_of(lowest, p, axis, lo_axis, width, nslab):
+    s = (lowest[p, axis] - lo_axis) // width
+    return min(max(s, 0), nslab - 1)
+
+
+@chunk_kernel
+def bin_slabs(lowest, axis, lo_axis, width, nslab, nchunk, order, ptr):
+    """Stable counting sort of particles into slabs by their lowest node index along `axis`,
+    in chunks of particles: each chunk counts its particles per slab, a slab's particles are
+    placed chunk after chunk, so `order` lists each slab's particles in index order, as a
+    serial sort would (the scatters' sums then do not depend on the thread count's chunks)."""
     n = lowest.shape[0]
-    key = np.empty(n, dtype=np.int64)
-    for s in range(nslab + 1):
-        ptr[s] = 0
-    for p in range(n):
-        s = (lowest[p, axis] - lo_axis) // width
-        s = min(max(s, 0), nslab - 1)
-        key[p] = s
-        ptr[s + 1] += 1
+    start_of = np.zeros((nchunk, nslab), dtype=np.int64)  # counts, then each chunk's first place
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        for p in range(start, stop):
+            start_of[c, slab_of(lowest, p, axis, lo_axis, width, nslab)] += 1
+    ptr[0] = 0
     for s in range(nslab):
-        ptr[s + 1] += ptr[s]
-    fill = ptr[:-1].copy()
-    for p in range(n):
-        s = key[p]
-        order[fill[s]] = p
-        fill[s] += 1
+        place = ptr[s]
+        for c in range(nchunk):
+            count = start_of[c, s]
+            start_of[c, s] = place
+            place += count
+        ptr[s + 1] = place
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        for p in range(start, stop):
+            s = slab_of(lowest, p, axis, lo_axis, width, nslab)
+            order[start_of[c, s]] = p
+            start_of[c, s] += 1
 
 
 class ActiveBox:
@@ -153,4 +166,4 @@ class ActiveBox:
             axis = int(np.argmax(extent))
         nslab = max(1, int(np.ceil(extent[axis] / width)))
         self.ptr = np.zeros(nslab + 1, dtype=np.int64)
-        bin_slabs(lowest, axis, self.lo[axis], width, nslab, self.order, self.ptr)
+        bin_slabs(lowest, axis, self.lo[axis], width, nslab, 4 * threads, self.order, self.ptr)

@@ -15,7 +15,7 @@ import numpy as np
 from ...views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
-                     scatter_rigid_slots, scatter_slot_extras)
+                     scatter_rigid_slots, scatter_slot_extras, touch_contact_nodes)
 from .passes import (NO_BEFORE, PASS_1, PASS_3, PASS_3_RECHECK, Pass2Settings, Pass2Sums, contact_pass_2,
                      law_kernels, pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
@@ -55,9 +55,13 @@ def material_fields(state) -> None:
     if cs.spec.needs_cloud:
         ptr = np.zeros(n_cn + 1, dtype=np.int64)
         sw = cs.spec.shape_weights
-        build_clouds(sd, rsd, cs.rgroup, cs.node_cn, n_cn, sw, ptr, np.zeros(0, dtype=np.int64), np.zeros(0), False)
+        touching = np.empty(sd.S.shape[0], dtype=np.bool_)
+        touch_contact_nodes(sd, cs.node_cn, state.nchunk, touching)
+        near = np.flatnonzero(touching)
+        build_clouds(sd, near, rsd, cs.rgroup, cs.node_cn, n_cn, sw, ptr, np.zeros(0, dtype=np.int64), np.zeros(0),
+                     False)
         idx, wts = np.zeros(ptr[-1], dtype=np.int64), np.zeros(ptr[-1])
-        build_clouds(sd, rsd, cs.rgroup, cs.node_cn, n_cn, sw, ptr, idx, wts, True)
+        build_clouds(sd, near, rsd, cs.rgroup, cs.node_cn, n_cn, sw, ptr, idx, wts, True)
         cs.cloud_ptr, cs.cloud_idx, cs.cloud_w = ptr, idx, wts
     else:
         cs.cloud_ptr, cs.cloud_idx = np.zeros(n_cn + 1, dtype=np.int64), np.zeros(0, dtype=np.int64)

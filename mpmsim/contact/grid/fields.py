@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ...gridops import node_ijk, slab
+from ...gridops import chunk_range, node_ijk, slab
 from ...materials.kernels import inv3
 from ...parallel import chunk_kernel
 
@@ -119,13 +119,30 @@ def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_no
             fidx[p, k] = f
 
 
+@chunk_kernel
+def touch_contact_nodes(sd, node_cn, nchunk, out):
+    """out[p]: deformable particle p weighs a contact node (sd: shapes.ShapeData); in chunks,
+    so the clouds' serial passes below walk only these particles."""
+    nodes, S = sd.nodes, sd.S
+    n, K = S.shape
+    for c in prange(nchunk):
+        start, stop = chunk_range(c, nchunk, n)
+        for p in range(start, stop):
+            hit = False
+            for k in range(K):
+                if S[p, k] > 0.0 and node_cn[nodes[p, k]] >= 0:
+                    hit = True
+                    break
+            out[p] = hit
+
+
 @njit(cache=True)
-def build_clouds(sd, rsd, rgroup, node_cn, n_cn, shape_weights, ptr, idx, wts, fill):
+def build_clouds(sd, near, rsd, rgroup, node_cn, n_cn, shape_weights, ptr, idx, wts, fill):
     """CSR of the particles touching each contact node (sd, rsd: shapes.ShapeData of the
-    deformable and rigid particles), with each one's regression weight (its shape function at
-    the node, or 1); rigid contact particles are numbered after the deformable ones. With
-    fill=False only counts (ptr[c + 1] = count); call again with fill=True after the prefix
-    sum."""
+    deformable and rigid particles; near: the deformable particles that weigh a contact node,
+    in index order), with each one's regression weight (its shape function at the node, or 1);
+    rigid contact particles are numbered after the deformable ones. With fill=False only
+    counts (ptr[c + 1] = count); call again with fill=True after the prefix sum."""
     nodes, S, rnodes, rS = sd.nodes, sd.S, rsd.nodes, rsd.S
     n, K = S.shape
     n_def = n
@@ -134,7 +151,8 @@ def build_clouds(sd, rsd, rgroup, node_cn, n_cn, shape_weights, ptr, idx, wts, f
             ptr[c] = 0
     else:
         cursor = ptr[:-1].copy()
-    for p in range(n):
+    for q in range(near.size):
+        p = near[q]
         for k in range(K):
             if S[p, k] > 0.0:
                 c = node_cn[nodes[p, k]]
