@@ -418,8 +418,8 @@ def run_augury(rh: float, end: float | None = None, hc_ratio: float = 2.0, threa
     of the FEM node velocities (v and the boundary nodes' affine B scaled by exp(-alpha dt) after
     every step, alpha = c / R as the MPM scene's grid damping). The contact force on each of the
     block's top nodes is its augury force m a_contact (the normal, y, part), averaged over the
-    steps of the last third of the run (the nodes within 1.5 a of the centre); the tributary length is half its two boundary edges;
-    the load applied is the FEM disk's mass times g (the inscribed polygon's area)."""
+    steps of the last third of the run (the nodes within 1.5 a of the centre); the tributary
+    length is half its two boundary edges; the load applied is the FEM disk's mass times g (the inscribed polygon's area)."""
     from mpmsim.deck import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
@@ -455,7 +455,7 @@ def run_augury(rh: float, end: float | None = None, hc_ratio: float = 2.0, threa
             n_avg += 1
     wall = time.perf_counter() - t0
     g = -data["gravity"][1]
-    P_applied = float(fem.mass[body == [i.name for i in fem.infos].index("cylinder")].sum() * g)
+    P_applied = float(fem.mass[cyl].sum() * g)
     # the profile over |x| <= 1.5 a_Hertz: beyond it the top nodes touch nothing, and what the augury
     # transfers give them (a single body's own smoothing, of either sign) is reported as far_force
     f_top = f_sum / n_avg
@@ -464,7 +464,8 @@ def run_augury(rh: float, end: float | None = None, hc_ratio: float = 2.0, threa
     prof = node_columns(fem.X[top[near], 0], f_top[near], trib[top[near]])
     result = measure(prof, P_applied, e_star_fem(e_flat))
     result["far_force"] = float(np.abs(f_top[~near]).sum() / P_applied)
-    result.update({"load_on_cylinder_error": f_cyl / n_avg / P_applied - 1.0, "rh": rh, "h": R / rh, "hc": hc_ratio * R / rh, "e_flat": e_flat, "wall_s": wall, "steps": steps,
+    result.update({"load_on_cylinder_error": f_cyl / n_avg / P_applied - 1.0, "rh": rh, "h": R / rh,
+                   "hc": hc_ratio * R / rh, "e_flat": e_flat, "wall_s": wall, "steps": steps,
                    "n_nodes": int(fem.n), "n_cells": int(len(fem.cells)),
                    "ke_final": float(0.5 * (fem.mass[cyl] * (fem.v[cyl] ** 2).sum(1)).sum()),
                    "gap_at_centre": float(fem.x[cyl, 1].min() - fem.x[top[np.argmin(np.abs(fem.X[top, 0]))], 1])})
@@ -569,7 +570,8 @@ def run_barrier(rh: float, dt: float = 0.05, steps: int = 12, threads: int | Non
     wall = time.perf_counter() - t0
     prof = node_columns(fem.X[top, 0], f, trib)
     result = measure(prof, P_applied, e_star_fem(e_flat))
-    result.update({"rh": rh, "h": R / rh, "dt": dt, "e_flat": e_flat, "steps": steps, "wall_s": wall, "n_particles": int(st.particles.n),
+    result.update({"rh": rh, "h": R / rh, "dt": dt, "e_flat": e_flat, "steps": steps, "wall_s": wall,
+                   "n_particles": int(st.particles.n),
                    "load_history": history, "dhat": R / rh / 20.0})
     out = out or RESULTS / re.sub(r"[^\w.-]", "", f"barrier_rh{rh:g}_flat{e_flat / E:g}" + "".join(
         f"_{k.split('.')[-1]}-{v}" for k, v in (overrides or {}).items()))
@@ -621,7 +623,8 @@ def main(argv=None) -> int:
     ap.add_argument("--sphere", action="store_true", help="3D: a quarter sphere on the flat (lattice-seeded)")
     ap.add_argument("--augury", action="store_true", help="an FEM cylinder on an FEM block, augury contact")
     ap.add_argument("--barrier", action="store_true", help="an MPM cylinder on an FEM block, implicit barrier contact")
-    ap.add_argument("--flat", type=float, default=E_FLAT / E, help="the FEM flat's E / the cylinder's (--augury, --barrier)")
+    ap.add_argument("--flat", type=float, default=E_FLAT / E,
+                    help="the FEM flat's E / the cylinder's (--augury, --barrier)")
     ap.add_argument("--hc", type=float, default=2.0, help="augury grid cell / element size (--augury)")
     ap.add_argument("--a", type=float, default=A_TARGET, help="Hertz half-width the load is set for (mm)")
     ap.add_argument("--end", type=float, help="simulated time (default 40 R / c)")
