@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-scaling examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-hertz-fem bench-scaling examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -85,9 +85,19 @@ bench-hertz: $(STAMP)
 bench-hertz-pair80: $(STAMP)
 	$(BIN)/python bench/hertz.py run --rh 80 --seeding rings --pair --end 0.9
 
-# a quarter Hertz sphere on a rigid flat, R/h = 20, lattice-seeded (3D; about 6 minutes on one core)
+# a quarter Hertz sphere on a rigid flat, R/h = 20, lattice-seeded and seeded in shells (3D; about 6 + 10 minutes
+# on one core)
 bench-hertz-sphere: $(STAMP)
 	$(BIN)/python bench/hertz.py run --rh 20 --sphere
+	$(BIN)/python bench/hertz.py run --rh 20 --sphere --seeding shells
+
+# the Hertz cylinder through the FEM contact families: an FEM cylinder on an FEM block by augury contact
+# (R/h = 20, 40; h_c = 2h and h), an MPM cylinder on it by the implicit barrier contact (R/h = 20, 40, 80);
+# about 10 minutes on one core
+bench-hertz-fem: $(STAMP)
+	$(BIN)/python bench/hertz.py run --augury --rh 20 40 --threads 1
+	$(BIN)/python bench/hertz.py run --augury --rh 20 --hc 1 --threads 1
+	$(BIN)/python bench/hertz.py run --barrier --rh 20 40 80 --threads 1
 
 # imperfect interfaces: the 2013 paper's specimens swept (hours on 2 cores; resumes), the chart
 # in docs/figures/interfaces.png, and the cost of an interface

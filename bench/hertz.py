@@ -3,7 +3,9 @@ contact, the pressure read from the contact traction output (output.contact_trac
 
     python bench/hertz.py run --rh 20 40 [--set contact.normal=average_gradient ...]
     python bench/hertz.py run --rh 20 40 --seeding rings --pair --end 0.9   # two cylinders
-    python bench/hertz.py run --rh 20 --sphere                                # 3D, a quarter sphere
+    python bench/hertz.py run --rh 20 --sphere [--seeding shells]             # 3D, a quarter sphere
+    python bench/hertz.py run --rh 20 40 --augury [--hc 1]    # an FEM cylinder on an FEM block, augury contact
+    python bench/hertz.py run --rh 20 40 80 --barrier         # an MPM cylinder on an FEM block, barrier contact
     python bench/hertz.py chart          # docs/figures/hertz_pressure.png from saved runs
     python bench/hertz.py table          # the docs/contact.md table from saved runs
 
@@ -53,9 +55,9 @@ def run_settings(alpha: float, end: float) -> dict:
             "output": {"vtu_interval": end / 10, "history_interval": end / 100, "contact_traction": True,
                        "checkpoint_interval": "off"}}
 
-def hertz(P: float) -> tuple[float, float]:
-    """(a, p0) for a load P per unit thickness."""
-    a = math.sqrt(4.0 * P * R / (math.pi * E_STAR))
+def hertz(P: float, e_star: float = E_STAR) -> tuple[float, float]:
+    """(a, p0) for a load P per unit thickness (E* the rigid flat's unless given)."""
+    a = math.sqrt(4.0 * P * R / (math.pi * e_star))
     return a, 2.0 * P / (math.pi * a)
 
 
@@ -102,6 +104,11 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
                           {"name": "upper", "shape": "circle", "center": [0.0, 3 * R], "radius": R, "material": "upper",
                            "seeding": seeding},
                           {**data["bodies"][1], "min": [-w * 1.5, -2 * h], "max": [w * 1.5, 0.0]}]
+    return apply_overrides(data, overrides)
+
+
+def apply_overrides(data: dict, overrides: dict | None) -> dict:
+    """Set the dotted keys of `overrides` (deck.key.sub: value) in the deck mapping `data`."""
     for key, value in (overrides or {}).items():
         node = data
         parts = key.split(".")
@@ -159,9 +166,9 @@ def average_profiles(profiles: list[dict]) -> dict:
             "node_p_max_big": max(p.get("node_p_max_big", np.nan) for p in profiles)}
 
 
-def measure(prof: dict, P_applied: float) -> dict:
+def measure(prof: dict, P_applied: float, e_star: float = E_STAR) -> dict:
     """Half-width, centre pressure, load balance and peak against Hertz for the applied load."""
-    a, p0 = hertz(P_applied)
+    a, p0 = hertz(P_applied, e_star)
     x, F, p = prof["x"], prof["F"], prof["p"]
     load = float(F.sum())
     on = F > 1e-6 * max(abs(F).max(), 1e-300)
@@ -256,10 +263,11 @@ def sphere_load(a: float = A_TARGET) -> float:
     return 4.0 * E_STAR * a**3 / (3.0 * R)
 
 
-def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET) -> dict:
+def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET, seeding: str = "lattice") -> dict:
     """A quarter of an elastic sphere (x, z >= 0; roller faces xmin and zmin are its symmetry
     planes) of the cylinder's material on a rigid flat, loaded by gravity for the Hertz contact
-    radius a_target; lattice-seeded (the grid-aligned sites inside the sphere: a stepped surface)."""
+    radius a_target; seeding lattice (the grid-aligned sites inside the sphere: a stepped surface, a flat
+    bottom facet) or shells (concentric shells that follow the surface, clipped to the quarter)."""
     h = R / rh
     c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)
     g = sphere_load(a_target) / (RHO * 4.0 / 3.0 * math.pi * R**3)
@@ -279,14 +287,15 @@ def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET)
         "materials": {"sphere": {"type": "linear_elastic", "E": E, "nu": NU, "density": RHO},
                       "flat": {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0, 0.0]}},
         "bodies": [{"name": "sphere", "shape": "sphere", "center": [0.0, R, 0.0], "radius": R, "material": "sphere",
-                    "clip": {"min": [0.0, -1.0, 0.0], "max": [R + 1.0, 2 * R + 1.0, R + 1.0]}},
+                    "seeding": seeding, "clip": {"min": [0.0, -1.0, 0.0], "max": [R + 1.0, 2 * R + 1.0, R + 1.0]}},
                    {"name": "flat", "shape": "box", "min": [0.0, -2 * h, 0.0], "max": [w, 0.0, w], "material": "flat"}],
         "gravity": [0.0, -g, 0.0],
         **run_settings(alpha, end),
     }
 
 
-def run_sphere(rh: float, out: Path | None = None, end: float | None = None, threads: int | None = None) -> dict:
+def run_sphere(rh: float, out: Path | None = None, end: float | None = None, threads: int | None = None,
+               seeding: str = "lattice") -> dict:
     """The quarter sphere at R/h = rh; the pressure per normal line of contact nodes (the traction
     output's contact_pressure: each node carries its line's), averaged over the frames of the
     last third; radius from the force's second moment, a_m = sqrt(5/2 sum r^2 F / sum F) (= a for
@@ -298,8 +307,8 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
-    data = sphere_deck(rh, end=end)
-    out = out or RESULTS / f"sphere_rh{rh:g}"
+    data = sphere_deck(rh, end=end, seeding=seeding)
+    out = out or RESULTS / (f"sphere_rh{rh:g}" + ("" if seeding == "lattice" else f"_{seeding}"))
     t0 = time.perf_counter()
     sim = Simulation(build_scene(as_loaded_deck(data, "hertz", None)), out_dir=out, threads=threads)
     sim.run()
@@ -344,10 +353,232 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
               "centre_error": float(p[r == 0].max()) / p0 - 1 if np.any(r == 0) else float("nan"),
               "p_max_over_p0": float(p.max() / p0), "node_p_max_over_p0": node_p_max / p0,
               "profile_max_error": float(np.abs(p[inner] - ph[inner]).max() / p0),
-              "n_particles": int(P.n), "steps": int(hist["step"].iloc[-1]), "wall_s": wall}
+              "n_particles": int(P.n), "steps": int(hist["step"].iloc[-1]), "wall_s": wall, "seeding": seeding}
     (out / "hertz_result.json").write_text(json.dumps({"result": result, "profile": {
         "r": r.tolist(), "F": F.tolist(), "A": A.tolist(), "p": p.tolist()}}, indent=1))
     return {"result": result, "profile": {"r": r, "F": F, "A": A, "p": p}}
+
+
+E_FLAT = 10.0 * E  # the FEM flat of the augury and barrier scenes: ten times stiffer than the cylinder
+
+
+def e_star_fem(e_flat: float) -> float:
+    """Plane-strain E* of the cylinder on an elastic flat of the same nu: 1/E* = (1 - nu^2) (1/E + 1/E_flat)."""
+    return 1.0 / ((1.0 - NU**2) * (1.0 / E + 1.0 / e_flat))
+
+
+def fem_deck(rh: float, end: float | None = None, hc_ratio: float = 2.0, cfl: float = 0.4, e_flat: float = E_FLAT
+             ) -> dict:
+    """The Hertz scene with FEM bodies and augury contact: a plane-strain FEM disk (the mesher's
+    concentric rings, element size h = R / rh, surface node spacing ~1.05 h) of the cylinder's
+    material resting on a stiffer FEM block (20 x 8 mm, element size h, bottom held, E_flat, the
+    cylinder's density),
+    loaded by gravity for the Hertz half-width a = 2 mm with 1/E* = (1 - nu^2)(1/E + 1/E_flat);
+    augury grid h_c = hc_ratio h, frictionless, APIC, one iteration. No grid damping here
+    (FEM nodes have none): run_augury damps the node velocities itself."""
+    h = R / rh
+    c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)
+    load = math.pi * A_TARGET**2 * e_star_fem(e_flat) / (4.0 * R)
+    g = load / (RHO * math.pi * R**2)  # nominal: run_augury measures the mesh's own mass
+    end = end if end is not None else 40.0 * R / c
+    hc = hc_ratio * h
+    gap = 0.25 * hc  # the cylinder's lowest node starts a quarter augury cell above the block
+    return {
+        "title": f"Hertz FEM cylinder on an FEM block, augury contact, R/h = {rh:g}",
+        "units": "mm-g-ms", "analysis": "plane_strain",
+        "materials": {"cylinder": {"type": "linear_elastic", "E": E, "nu": NU, "density": RHO},
+                      "flat": {"type": "linear_elastic", "E": e_flat, "nu": NU, "density": RHO}},
+        "bodies": [
+            {"name": "cylinder", "shape": "circle", "center": [0.0, R + gap], "radius": R, "material": "cylinder",
+             "discretization": "fem", "element_size": h},
+            {"name": "flat", "shape": "rectangle", "min": [-R, -8.0], "max": [R, 0.0], "material": "flat",
+             "discretization": "fem", "element_size": h,
+             "constraints": [{"region": {"min": [-2 * R, -8.0 - 0.5 * h], "max": [2 * R, -8.0 + 0.5 * h]}}]}],
+        "gravity": [0.0, -g],
+        "contact": {"default": {"law": "frictionless"},
+                    "augury": {"cell_size": hc, "transfer": "apic", "iterations": 1}},
+        "time": {"end": end, "cfl": cfl},
+        "output": {"history_interval": end / 100, "checkpoint_interval": "off"},
+    }
+
+
+def node_columns(x: np.ndarray, fn: np.ndarray, spacing: np.ndarray) -> dict:
+    """A profile (measure's input) from per-node normal forces fn at positions x with tributary
+    lengths `spacing` (thickness 1): each node is its own column, p = fn / spacing."""
+    order = np.argsort(x)
+    x, fn, spacing = x[order], fn[order], spacing[order]
+    p = fn / spacing
+    return {"x": x, "F": fn, "A": spacing, "p": p, "node_p_max": float(p.max()), "node_p_max_area": float(
+        spacing[np.argmax(p)]), "node_p_max_big": float(p.max())}
+
+
+def run_augury(rh: float, end: float | None = None, hc_ratio: float = 2.0, threads: int | None = 1,
+               out: Path | None = None, e_flat: float = E_FLAT) -> dict:
+    """The FEM Hertz scene through augury contact, brought to rest by mass-proportional damping
+    of the FEM node velocities (v and the boundary nodes' affine B scaled by exp(-alpha dt) after
+    every step, alpha = c / R as the MPM scene's grid damping). The contact force on each of the
+    block's top nodes is its augury force m a_contact (the normal, y, part), averaged over the
+    steps of the last third of the run (the nodes within 1.5 a of the centre); the tributary
+    length is half its two boundary edges; the load applied is the FEM disk's mass times g (the inscribed polygon's area)."""
+    from mpmsim.deck import as_loaded_deck
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    data = fem_deck(rh, end=end, hc_ratio=hc_ratio, e_flat=e_flat)
+    t0 = time.perf_counter()
+    sim = Simulation(build_scene(as_loaded_deck(data, "hertz", None)), out_dir=None, threads=threads)
+    st, fem = sim.state, sim.state.fem
+    c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)
+    alpha = c / R
+    end_t = data["time"]["end"]
+    body = fem.node_body
+    flat = [i.name for i in fem.infos].index("flat")
+    top = np.flatnonzero((body == flat) & (np.abs(fem.X[:, 1]) < 1e-9))
+    # tributary length of each top node: half its boundary edges along the top face
+    edges = fem.facets[np.all(np.isin(fem.facets, top), axis=1)]
+    trib = np.zeros(fem.n)
+    length = np.linalg.norm(fem.X[edges[:, 1]] - fem.X[edges[:, 0]], axis=1)
+    np.add.at(trib, edges[:, 0], 0.5 * length)
+    np.add.at(trib, edges[:, 1], 0.5 * length)
+    cyl = body == [i.name for i in fem.infos].index("cylinder")
+    f_sum, n_avg, f_cyl = np.zeros(len(top)), 0, 0.0
+    steps = 0
+    while st.t < end_t * (1 - 1e-9):
+        sim.step()
+        steps += 1
+        decay = math.exp(-alpha * st.dt)
+        fem.v *= decay
+        fem.B *= decay
+        if st.t >= 0.65 * end_t:
+            f_sum -= fem.mass[top] * fem.a_contact[top, 1]  # the force pressing the block down
+            f_cyl += float((fem.mass[cyl] * fem.a_contact[cyl, 1]).sum())
+            n_avg += 1
+    wall = time.perf_counter() - t0
+    g = -data["gravity"][1]
+    P_applied = float(fem.mass[cyl].sum() * g)
+    # the profile over |x| <= 1.5 a_Hertz: beyond it the top nodes touch nothing, and what the augury
+    # transfers give them (a single body's own smoothing, of either sign) is reported as far_force
+    f_top = f_sum / n_avg
+    a_h = hertz(P_applied, e_star_fem(e_flat))[0]
+    near = np.abs(fem.X[top, 0]) <= 1.5 * a_h
+    prof = node_columns(fem.X[top[near], 0], f_top[near], trib[top[near]])
+    result = measure(prof, P_applied, e_star_fem(e_flat))
+    result["far_force"] = float(np.abs(f_top[~near]).sum() / P_applied)
+    result.update({"load_on_cylinder_error": f_cyl / n_avg / P_applied - 1.0, "rh": rh, "h": R / rh,
+                   "hc": hc_ratio * R / rh, "e_flat": e_flat, "wall_s": wall, "steps": steps,
+                   "n_nodes": int(fem.n), "n_cells": int(len(fem.cells)),
+                   "ke_final": float(0.5 * (fem.mass[cyl] * (fem.v[cyl] ** 2).sum(1)).sum()),
+                   "gap_at_centre": float(fem.x[cyl, 1].min() - fem.x[top[np.argmin(np.abs(fem.X[top, 0]))], 1])})
+    out = out or RESULTS / f"augury_rh{rh:g}_hc{hc_ratio:g}_flat{e_flat / E:g}"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "hertz_result.json").write_text(json.dumps({"result": result, "profile": {
+        k: np.asarray(v).tolist() for k, v in prof.items()}}, indent=1))
+    return {"result": result, "profile": prof}
+
+
+def barrier_deck(rh: float, dt: float = 0.05, steps: int = 12, e_flat: float = E_FLAT) -> dict:
+    """The Hertz scene through the implicit barrier contact (BFEMP, docs/bfemp.md): the MPM
+    cylinder (ring-seeded, 2 particles per direction, B-spline 2, APIC) of the cylinder's
+    material on a stiffer FEM block (20 x 8 mm, element size h, bottom held, E_flat, the cylinder's
+    density), loaded by gravity for a = 2 mm (1/E* = (1 - nu^2)(1/E + 1/E_flat)); backward Euler with dt = 0.05 ms,
+    six times the cylinder's R/c: the step's numerical damping brings the cylinder to rest in a
+    few steps. d_hat = h/20; the block's face 2 d_hat under the lowest particle centre (R - s/2
+    below the centre: the barrier acts on particle centres), frictionless."""
+    h = R / rh
+    dhat = h / 20.0
+    load = math.pi * A_TARGET**2 * e_star_fem(e_flat) / (4.0 * R)
+    g = load / (RHO * math.pi * R**2)
+    top = h / 4.0 - 2.0 * dhat  # the lowest ring's centres sit at y = s / 2 = h / 4
+    return {
+        "title": f"Hertz MPM cylinder on an FEM block, barrier contact, R/h = {rh:g}",
+        "units": "mm-g-ms", "analysis": "plane_strain",
+        "grid": {"cell_size": h, "domain": {"min": [-R - 2 * h, top - 8.0 - h], "max": [R + 2 * h, 2 * R + 2 * h]}},
+        "shape_function": "bspline2", "particles_per_direction": 2, "update": {"scheme": "apic"},
+        "materials": {"cylinder": {"type": "linear_elastic", "E": E, "nu": NU, "density": RHO},
+                      "flat": {"type": "linear_elastic", "E": e_flat, "nu": NU, "density": RHO}},
+        "bodies": [
+            {"name": "cylinder", "shape": "circle", "center": [0.0, R], "radius": R, "material": "cylinder",
+             "seeding": "rings"},
+            {"name": "flat", "shape": "rectangle", "min": [-R, top - 8.0], "max": [R, top], "material": "flat",
+             "discretization": "fem", "element_size": h,
+             "constraints": [{"region": {"min": [-2 * R, top - 8.0 - 0.5 * h], "max": [2 * R, top - 8.0 + 0.5 * h]}}]}],
+        "gravity": [0.0, -g],
+        "integrator": "implicit",
+        "implicit": {"scheme": "backward_euler", "dhat": dhat, "newton_tolerance": 1.0e-3},
+        "contact": {"default": {"law": "frictionless"}},
+        "time": {"end": steps * dt, "dt": dt},
+        "output": {"vtu_interval": 10 * steps * dt, "history_interval": 10 * steps * dt, "checkpoint_interval": "off"},
+    }
+
+
+def barrier_node_forces(sim, top: np.ndarray) -> np.ndarray:
+    """The barrier's normal force on each of the block's top nodes (top: their indices, ordered
+    by x): each particle centre within d_hat of the top face pushes with w_p (-b'(d)) (d its
+    distance to the edge under it, w_p its barrier weight), shared by the edge's two nodes as
+    the point-edge distance's gradient shares it, (1 - t) and t at the closest point's
+    parameter t (the face is straight to within its deflection; the vertex correction of
+    pairs whose closest point is an edge's end is left out)."""
+    from mpmsim.contact.barrier.energy import BarrierContact
+    from mpmsim.contact.barrier.potential import barrier_normal_force
+
+    term = next(t for t in sim.integrator.terms if isinstance(t, BarrierContact))
+    P, fem = sim.state.particles, sim.state.fem
+    w = term.particle_weights(P.vol0, np.arange(P.n), False)
+    xt = fem.x[top]
+    k = np.clip(np.searchsorted(xt[:, 0], P.x[:, 0]) - 1, 0, len(top) - 2)
+    a, b = xt[k], xt[k + 1]
+    e = b - a
+    t = np.clip(np.einsum("pc,pc->p", P.x - a, e) / np.einsum("pc,pc->p", e, e), 0.0, 1.0)
+    d = np.linalg.norm(P.x - (a + t[:, None] * e), axis=1)
+    near = (d < term.dhat) & (P.x[:, 1] > a[:, 1] - 0.5 * term.dhat)
+    f = np.zeros(len(top))
+    fp = w[near] * np.array([barrier_normal_force(x, term.dhat, term.kappa) for x in d[near]]) / term.thickness
+    np.add.at(f, k[near], fp * (1.0 - t[near]))
+    np.add.at(f, k[near] + 1, fp * t[near])
+    return f
+
+
+def run_barrier(rh: float, dt: float = 0.05, steps: int = 12, threads: int | None = 1, out: Path | None = None,
+                e_flat: float = E_FLAT, overrides: dict | None = None) -> dict:
+    """The MPM cylinder on the FEM block through the barrier contact; the per-node pressure of the
+    block's top face (barrier_node_forces / the node's tributary length, half its two top edges)
+    after the last step; the load applied is the particles' mass times g. Prints the load carried
+    after every step (the approach to rest)."""
+    from mpmsim.deck import as_loaded_deck
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    data = apply_overrides(barrier_deck(rh, dt=dt, steps=steps, e_flat=e_flat), overrides)
+    t0 = time.perf_counter()
+    sim = Simulation(build_scene(as_loaded_deck(data, "hertz", None)), out_dir=None, threads=threads)
+    st, fem = sim.state, sim.state.fem
+    top_y = data["bodies"][1]["max"][1]
+    top = np.flatnonzero(np.abs(fem.X[:, 1] - top_y) < 1e-9)
+    top = top[np.argsort(fem.X[top, 0])]
+    trib = np.zeros(len(top))
+    dx = np.diff(fem.X[top, 0])
+    trib[:-1] += 0.5 * dx
+    trib[1:] += 0.5 * dx
+    g = -data["gravity"][1]
+    P_applied = float(st.particles.mass.sum() * g)
+    history = []
+    while st.t < data["time"]["end"] * (1 - 1e-9):
+        sim.step()
+        f = barrier_node_forces(sim, top)
+        history.append((float(st.t), float(f.sum()) / P_applied - 1.0))
+        print(f"R/h = {rh:g} t = {st.t:.3f} load carried / applied - 1 = {history[-1][1]:+.2e}", flush=True)
+    wall = time.perf_counter() - t0
+    prof = node_columns(fem.X[top, 0], f, trib)
+    result = measure(prof, P_applied, e_star_fem(e_flat))
+    result.update({"rh": rh, "h": R / rh, "dt": dt, "e_flat": e_flat, "steps": steps, "wall_s": wall,
+                   "n_particles": int(st.particles.n),
+                   "load_history": history, "dhat": R / rh / 20.0})
+    out = out or RESULTS / re.sub(r"[^\w.-]", "", f"barrier_rh{rh:g}_flat{e_flat / E:g}" + "".join(
+        f"_{k.split('.')[-1]}-{v}" for k, v in (overrides or {}).items()))
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "hertz_result.json").write_text(json.dumps({"result": result, "profile": {
+        k: np.asarray(v).tolist() for k, v in prof.items()}}, indent=1))
+    return {"result": result, "profile": prof}
 
 
 def chart(tags: list[str], path: Path, title: str = "") -> None:
@@ -386,9 +617,15 @@ def main(argv=None) -> int:
     ap.add_argument("what", choices=["run", "chart", "table"])
     ap.add_argument("--rh", type=float, nargs="+", default=[20.0, 40.0, 80.0])
     ap.add_argument("--set", nargs="*", default=[], help="deck overrides key=value (YAML values)")
-    ap.add_argument("--seeding", choices=["lattice", "rings"], default="lattice")
+    ap.add_argument("--seeding", choices=["lattice", "rings", "shells"], default="lattice",
+                    help="circles: lattice or rings; the sphere (--sphere): lattice or shells")
     ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
     ap.add_argument("--sphere", action="store_true", help="3D: a quarter sphere on the flat (lattice-seeded)")
+    ap.add_argument("--augury", action="store_true", help="an FEM cylinder on an FEM block, augury contact")
+    ap.add_argument("--barrier", action="store_true", help="an MPM cylinder on an FEM block, implicit barrier contact")
+    ap.add_argument("--flat", type=float, default=E_FLAT / E,
+                    help="the FEM flat's E / the cylinder's (--augury, --barrier)")
+    ap.add_argument("--hc", type=float, default=2.0, help="augury grid cell / element size (--augury)")
     ap.add_argument("--a", type=float, default=A_TARGET, help="Hertz half-width the load is set for (mm)")
     ap.add_argument("--end", type=float, help="simulated time (default 40 R / c)")
     ap.add_argument("--threads", type=int)
@@ -398,8 +635,17 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.what == "run":
         for rh in args.rh:
+            if args.barrier:
+                print(json.dumps(run_barrier(rh, threads=args.threads, e_flat=args.flat * E,
+                                             overrides=parse_set(args.set))["result"]))
+                continue
+            if args.augury:
+                print(json.dumps(run_augury(rh, end=args.end, hc_ratio=args.hc, threads=args.threads,
+                                            e_flat=args.flat * E)["result"]))
+                continue
             if args.sphere:
-                print(json.dumps(run_sphere(rh, end=args.end, threads=args.threads)["result"]))
+                print(json.dumps(run_sphere(rh, end=args.end, threads=args.threads,
+                                            seeding="shells" if args.seeding == "shells" else "lattice")["result"]))
                 continue
             r = run_case(rh, parse_set(args.set), end=args.end, threads=args.threads, seeding=args.seeding,
                          pair=args.pair, a_target=args.a)["result"]

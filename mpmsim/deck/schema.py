@@ -372,8 +372,21 @@ class Circle(Round):
     seeding: Literal["lattice", "rings"] = _seeding()
 
 
+SHELLS_DESCRIPTION = (
+    "How particles fill the sphere (3D decks). lattice: the sites of the grid-aligned lattice inside it (its "
+    "surface a staircase, its bottom a flat facet). shells: concentric shells one particle spacing (cell_size / "
+    "particles_per_direction) apart, each cut into bands of polar angle from the bottom pole (-y) and each band "
+    "into a multiple of 4 particles spaced as close to the spacing as whole numbers allow, mirror-symmetric "
+    "about the planes x = center_x and z = center_z with no particle on them; each particle carries its band "
+    "sector's exact volume (the volumes sum to the sphere's). For curved bodies in contact (docs/contact.md). A "
+    "shells body may not overlap another particle body; it may be clipped only by planes through its centre "
+    "normal to x or z (a half or quarter sphere on symmetry planes keeps an exact half or quarter) or by planes "
+    "that miss it; the grid cell size must be the same along x, y and z.")
+
+
 class Sphere(Round):
     shape: Literal["sphere"]
+    seeding: Literal["lattice", "shells"] = Field(default="lattice", description=SHELLS_DESCRIPTION)
 
 
 class Ellipse(BodyBase):

@@ -24,7 +24,7 @@ from .contact import ContactModel, build_contact_model
 from .fem import FemSeed, build_fem
 from .settings import RunSettings, run_settings
 from .grid import FACE_CODES, FACES, GridSpec, plan_grid
-from .rings import ring_seed
+from .rings import ring_seed, shell_seed
 from .memory import CANDIDATE_BYTES, NODE_BYTES, PARTICLE_BYTES, too_big
 
 
@@ -170,14 +170,21 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     problems = []
     n_rings = 0  # ring-seeded particles so far: their keys are -1, -2, ... (no lattice site)
     for (i, body), (blo, bhi) in zip(particle_bodies, boxes):
-        if getattr(body, "seeding", "lattice") == "rings":
-            problem = _rings_problem(body, dim, h)
+        seeding = getattr(body, "seeding", "lattice")
+        if seeding in ("rings", "shells"):
+            problem = _rings_problem(body, dim, h) if seeding == "rings" else _shells_problem(body, dim, h)
             if problem:
                 problems.append((("bodies", i, "seeding"), problem))
                 continue
-            r_in = body.inner_radius if body.shape == "annulus" else 0.0
-            r_out = body.outer_radius if body.shape == "annulus" else body.radius
-            pts, vol = ring_seed(body.center, r_in, r_out, float(spacing[0]), deck.thickness)
+            if seeding == "shells":
+                pts, vol = shell_seed(body.center, body.radius, float(spacing[0]))
+                if body.clip is not None:
+                    keep = np.all((pts >= np.asarray(body.clip.min)) & (pts <= np.asarray(body.clip.max)), axis=1)
+                    pts, vol = pts[keep], vol[keep]
+            else:
+                r_in = body.inner_radius if body.shape == "annulus" else 0.0
+                r_out = body.outer_radius if body.shape == "annulus" else body.radius
+                pts, vol = ring_seed(body.center, r_in, r_out, float(spacing[0]), deck.thickness)
             if np.any((pts < grid.domain_lo) | (pts > grid.domain_hi)):
                 who = f"body '{body.name}'" if body.name else "the body"
                 problems.append((("bodies", i), f"{who} extends outside grid.domain; enlarge grid.domain or move the body"))
@@ -303,16 +310,37 @@ def _rings_problem(body, dim: int, h: np.ndarray) -> str | None:
     return None
 
 
+def _shells_problem(body, dim: int, h: np.ndarray) -> str | None:
+    """Why a `seeding: shells` sphere cannot be seeded so (None: it can)."""
+    if dim != 3:
+        return "shells seed 3D spheres only"
+    if np.any(h != h[0]):
+        return "shells need a grid cell_size that is the same along x, y and z"
+    if body.clip is not None:
+        c, r = np.asarray(body.center, float), float(body.radius)
+        lo, hi = np.asarray(body.clip.min, float), np.asarray(body.clip.max, float)
+        tol = 1e-9 * r
+        for a in range(3):
+            through = (a != 1, a != 1)  # planes through the centre: normal to x or z only
+            lo_ok = lo[a] <= c[a] - r or (through[0] and abs(lo[a] - c[a]) <= tol)
+            hi_ok = hi[a] >= c[a] + r or (through[1] and abs(hi[a] - c[a]) <= tol)
+            if not (lo_ok and hi_ok):
+                return (f"a sphere seeded in shells may be clipped only by planes through its centre normal to x or z, "
+                        f"or planes that miss it (clip {'xyz'[a]} range [{lo[a]:g}, {hi[a]:g}], centre {c[a]:g}, "
+                        f"radius {r:g})")
+    return None
+
+
 def _rings_overlaps(deck, base, particle_bodies, where) -> list:
     """A ring-seeded body takes no part in the lattice's overwriting: refuse any overlap with
     another particle body (a particle of either inside the other's shape)."""
     problems = []
     for (i, bi), pi in zip(particle_bodies, where):
-        if getattr(bi, "seeding", "lattice") != "rings":
+        if getattr(bi, "seeding", "lattice") not in ("rings", "shells"):
             continue
         for (j, bj), pj in zip(particle_bodies, where):
             if j != i and (inside(bi, pj, base).any() or _inside_body(bj, pi, base).any()):
-                problems.append((("bodies", i, "seeding"), f"body '{body_name(bi, i)}' is seeded in rings and "
+                problems.append((("bodies", i, "seeding"), f"body '{body_name(bi, i)}' is seeded in {bi.seeding} and "
                                  f"overlaps body '{body_name(bj, j)}': separate the shapes or use seeding: lattice"))
                 break
     return problems

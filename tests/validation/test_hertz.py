@@ -177,3 +177,32 @@ def test_traction_output_without_contact_names_the_key():
     data["bodies"] = data["bodies"][:1]  # one material: no contact
     with pytest.raises(DeckError, match=r"output\.contact_traction: .*two or more materials"):
         Simulation.from_deck(data)
+
+
+def test_hertz_fem_cylinder_through_augury_contact_at_r_over_h_20(tmp_path):
+    """An FEM cylinder (the disk mesher's rings, h = R/20) on an FEM block ten times stiffer,
+    augury contact (h_c = 2h, APIC, one iteration), damped to rest (bench/hertz.py run_augury);
+    pressure per top node of the block = its augury force / tributary length, against Hertz with
+    1/E* = (1 - nu^2)(1/E + 1/E_flat). Measured: load -1.4% (the cylinder still settling: its
+    contact force -1.8%), half-width -4.0% (moment), centre -8.4%, p(x) within 9.6% over
+    |x| < 0.8a, peak 1.06 p0, the top nodes beyond 1.5a 0.6% of the load (docs/contact.md)."""
+    r = hertz.run_augury(20.0, out=tmp_path)["result"]
+    assert abs(r["load_error"]) < 0.03
+    assert abs(r["a_moment_error"]) < 0.07
+    assert abs(r["centre_error"]) < 0.12
+    assert r["profile_max_error"] < 0.13
+    assert r["p_max_over_p0"] < 1.3
+    assert r["far_force"] < 0.01
+
+
+def test_hertz_mpm_cylinder_on_fem_flat_through_barrier_contact_at_r_over_h_20(tmp_path):
+    """The ring-seeded MPM cylinder on the same FEM block through the implicit barrier contact
+    (backward Euler, 12 steps of 6 R/c: at rest), pressure per top node from the barrier's
+    point-edge forces (bench/hertz.py run_barrier). Measured: load +4e-5, half-width -1.7%
+    (moment) / -2.1% (fit), centre +5.6%, p(x) within 11.5%, peak 1.06 p0 (docs/contact.md)."""
+    r = hertz.run_barrier(20.0, out=tmp_path)["result"]
+    assert abs(r["load_error"]) < 1e-3
+    assert abs(r["a_moment_error"]) < 0.04 and abs(r["a_fit_error"]) < 0.04
+    assert abs(r["centre_error"]) < 0.09
+    assert r["profile_max_error"] < 0.14
+    assert r["p_max_over_p0"] < 1.3
