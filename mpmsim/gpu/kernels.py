@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from functools import cache
 
+import numpy as np
 from numba import cuda, float64, int64
 
 from numba.cuda.core import config as cuda_config
@@ -37,6 +38,27 @@ from ..tasks.extrapolate import RIGID_MIN_WEIGHT
 from ..tasks.particle_update import APIC, FLIP, PIC, UPDATED
 
 SIMULATOR = bool(cuda_config.ENABLE_CUDASIM)
+
+
+def _add_ufunc_loops() -> None:
+    """numba-cuda 0.30 has no float64 loops for np.floor and np.cbrt, which the shared shape
+    functions and the neo-Hookean stress call: add them (LLVM's floor, libdevice's cbrt) to its
+    ufunc table, so the CPU path's functions compile for the device unchanged."""
+    from llvmlite import ir
+    from numba.cuda import cgutils, ufuncs
+    from numba.cuda.cudaimpl import ptx_cbrt
+
+    def floor(context, builder, sig, args):
+        fnty = ir.FunctionType(ir.DoubleType(), [ir.DoubleType()])
+        return builder.call(cgutils.get_or_insert_function(builder.module, fnty, "llvm.floor.f64"), args)
+
+    db = ufuncs.ufunc_db()
+    db.setdefault(np.floor, {}).setdefault("d->d", floor)
+    db.setdefault(np.cbrt, {}).setdefault("d->d", ptx_cbrt)
+
+
+if not SIMULATOR:
+    _add_ufunc_loops()
 
 
 def device_function(f):
