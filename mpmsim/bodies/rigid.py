@@ -38,6 +38,7 @@ class RigidParticles(BodySet):
     lattices: list | None = None  # rigid_lattices, built at the first check
 
     kind = "rigid particles"
+    find_inside = None  # inside_rigid's stand-in, when the particles are on a GPU (mpmsim/gpu/step.py)
 
     @property
     def n(self) -> int:
@@ -103,7 +104,8 @@ class RigidParticles(BodySet):
         origin, spacing = g.origin[: g.dim], 2.0 * P.semi
         if self.lattices is None:  # built once: the lattices depend on the start positions only
             self.lattices = rigid_lattices(self, origin, spacing)
-        p, q = inside_rigid(P.x, self, origin, spacing, self.lattices)
+        finder = self.find_inside or inside_rigid  # (a GPU run looks on the device)
+        p, q = finder(P.x, self, origin, spacing, self.lattices)
         if p < 0:
             return None
         return "stopped", (f"{P.describe(state, p, units)} is inside rigid material '{self.names[int(self.mat[q])]}' "
@@ -147,32 +149,35 @@ def rigid_lattices(rigid: "RigidParticles", origin: np.ndarray, spacing: np.ndar
     return out
 
 
+@njit(cache=True, inline="always")
+def lattice_owner(x, p, origin, spacing, lo, span, owner, k):
+    """Whether particle p lies in a lattice cell (origin, spacing; cells lo .. lo + span - 1, C
+    order in `owner`) whose 2^dim corner sites are all owned (>= 0): the owner of the cell's
+    lowest corner, or -1. k: (3,) int scratch. (Also the GPU step's check, mpmsim/gpu.)"""
+    dim = x.shape[1]
+    for a in range(dim):
+        k[a] = int(np.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
+        if k[a] < 0 or k[a] + 1 >= span[a]:
+            return -1
+    for c in range(2 ** dim):
+        flat = 0
+        for a in range(dim):
+            flat = flat * span[a] + k[a] + ((c >> a) & 1)
+        if owner[flat] < 0:
+            return -1
+    flat = 0
+    for a in range(dim):
+        flat = flat * span[a] + k[a]
+    return owner[flat]
+
+
 @njit(cache=True)
 def _first_inside(x, origin, spacing, lo, span, owner):
-    """The first particle in a lattice cell (origin, spacing; cells lo .. lo + span - 1, C order
-    in `owner`) whose 2^dim corner sites are all owned (>= 0): (particle, owner of the cell's
-    lowest corner), or (-1, -1)."""
-    n, dim = x.shape
+    """The first particle in a lattice cell whose 2^dim corner sites are all owned
+    (lattice_owner): (particle, owner of the cell's lowest corner), or (-1, -1)."""
     k = np.zeros(3, np.int64)
-    for p in range(n):
-        inside = True
-        for a in range(dim):
-            k[a] = int(np.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
-            if k[a] < 0 or k[a] + 1 >= span[a]:
-                inside = False
-                break
-        if not inside:
-            continue
-        for c in range(2 ** dim):
-            flat = 0
-            for a in range(dim):
-                flat = flat * span[a] + k[a] + ((c >> a) & 1)
-            if owner[flat] < 0:
-                inside = False
-                break
-        if inside:
-            flat = 0
-            for a in range(dim):
-                flat = flat * span[a] + k[a]
-            return p, owner[flat]
+    for p in range(x.shape[0]):
+        q = lattice_owner(x, p, origin, spacing, lo, span, owner, k)
+        if q >= 0:
+            return p, q
     return -1, -1

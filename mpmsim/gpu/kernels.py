@@ -27,6 +27,7 @@ from numba import cuda, float64, int64
 from numba.cuda.core import config as cuda_config
 
 from .. import bc
+from ..bodies import rigid as rigid_body
 from ..bc import NO_BC, RIGID_OWNER
 from ..faults import BAD_INVERTED, BAD_LEFT_GRID, BAD_NAN
 from .. import gridops
@@ -78,6 +79,7 @@ weights_1d = device_function(_weights_1d)
 ghost_mirror, node_bc, rigid_holds = (device_function(f) for f in (bc.ghost_mirror, bc.node_bc, bc.rigid_holds))
 det3, inv3 = device_function(mk.det3), device_function(mk.inv3)
 node_ijk = device_function(gridops.node_ijk)
+lattice_owner = device_function(rigid_body.lattice_owner)
 TPB = 128  # threads per block
 SHAPE, RIGID_SHAPE, STRESS, UPDATE = 0, 1, 2, 3
 N_SLOTS = 4
@@ -573,6 +575,19 @@ def particle_kernel(scheme: int, position: int, dim: int):
             cuda.atomic.min(faults, slot, p)
 
     return kernel
+
+
+@cuda.jit
+def inside_rigid(x, origin, spacing, lo, span, owner, first, found):
+    """bodies/rigid.py's penetration watch: the lowest particle inside a rigid body's lattice."""
+    p = cuda.grid(1)
+    if p >= x.shape[0]:
+        return
+    k = cuda.local.array(3, int64)
+    q = lattice_owner(x, p, origin, spacing, lo, span, owner, k)
+    if q >= 0:
+        found[p] = q
+        cuda.atomic.min(first, 0, p)
 
 
 @cuda.jit

@@ -108,7 +108,9 @@ class DeviceStep:
         self.reaches_ghosts = state.shape.reaches_ghosts
         self.kind, self.per_axis = state.shape.grid_kind, state.shape.per_axis
         self.has_gravity = bool(np.any(state.gravity))
-        self.watch = R.n > 0 and P.n > 0 and R.watch_penetration
+        if R.n and P.n and R.watch_penetration:
+            R.find_inside = self.find_inside
+        self.lattices = {}  # device copies of the rigid lattices
         self.state = state
         self.host_stale = False
         cuda.synchronize()
@@ -298,8 +300,24 @@ class DeviceStep:
                 state.flags.set(p, code if code != BAD_NONE else BAD_SUPPORT, value)
         if int(faults[K.RIGID_SHAPE]) < self.nr:
             state.flags.set_rigid(int(faults[K.RIGID_SHAPE]), BAD_SUPPORT)
-        if self.watch:  # the rigid-penetration watch reads the positions every step
-            d["x"].copy_to_host(state.particles.x)
+
+    def find_inside(self, x, rigid, origin, spacing, lattices) -> tuple[int, int]:
+        """bodies.rigid.inside_rigid on the device's positions (x, the host's, is not read)."""
+        cuda, d = self.cuda, self.d
+        if "inside" not in d:
+            d["inside"] = cuda.device_array(max(self.n, 1), dtype=np.int64)
+        for r, lo, span, owner in lattices:
+            if r not in self.lattices:
+                self.lattices[r] = tuple(cuda.to_device(np.ascontiguousarray(a)) for a in (lo, span, owner))
+            dlo, dspan, downer = self.lattices[r]
+            first = cuda.to_device(np.array([self.n], dtype=np.int64))
+            K.inside_rigid[K.blocks(self.n)](d["x"], cuda.to_device(origin + rigid.disp[r]), cuda.to_device(spacing),
+                                             dlo, dspan, downer, first, d["inside"])
+            p = int(first.copy_to_host()[0])
+            if p < self.n:
+                self.to_host(self.state)  # (the message names the particle and where it is)
+                return p, int(d["inside"][p:p + 1].copy_to_host()[0])
+        return -1, -1
 
 
 def timed_step(device: DeviceStep, tasks, timers: dict, state) -> None:

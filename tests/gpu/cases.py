@@ -102,6 +102,51 @@ def compare(d: dict, steps: int = STEPS) -> dict:
     return out
 
 
+def faults(speed: float, max_steps: int = 40) -> dict:
+    """The message each device stops with when the platen is driven into the block at `speed`
+    (mm/ms): the first step whose check fails, and what it says."""
+    from mpmsim.errors import InstabilityError
+    from mpmsim.solver import Simulation
+
+    d = deck(material="linear_elastic")
+    d["materials"]["platen"]["velocity"] = [0.0, -speed]
+    out = {}
+    for device in ("cpu", "cuda"):
+        sim = Simulation.from_deck(d, threads=1, name="block", device=device)
+        try:
+            for _ in range(max_steps):
+                sim.step()
+            out[device] = "no stop"
+        except InstabilityError as exc:
+            out[device] = str(exc)
+    return out
+
+
+def penetration() -> dict:
+    """The rigid-penetration watch (bodies/rigid.py) on each device: after a step, particle 5 is
+    put at the centre of a platen three particles thick; the stability check's message."""
+    from mpmsim.errors import InstabilityError
+    from mpmsim.solver import Simulation
+
+    d = deck()
+    d["bodies"][1]["max"][1] = 11.0
+    out = {}
+    for device in ("cpu", "cuda"):
+        sim = Simulation.from_deck(d, threads=1, name="block", device=device)
+        sim.step()
+        st = sim.state
+        sim.integrator.to_host(st)
+        st.particles.x[5] = st.rigid.x.mean(axis=0)
+        if device == "cuda":
+            sim.integrator.device.d["x"].copy_to_device(st.particles.x)
+        try:
+            sim.check(st)
+            out[device] = "no stop"
+        except InstabilityError as exc:
+            out[device] = str(exc)
+    return out
+
+
 def cli(*args: str) -> int:
     """`mpmsim ARGS` in this process (the simulator's environment); its exit code."""
     from typer.testing import CliRunner
@@ -150,6 +195,10 @@ def files(folder: str) -> dict:
 if __name__ == "__main__":
     if sys.argv[1:2] == ["--files"]:
         print(json.dumps(files(sys.argv[2])))
+    elif sys.argv[1:2] == ["--penetration"]:
+        print(json.dumps(penetration()))
+    elif sys.argv[1:2] == ["--faults"]:
+        print(json.dumps({speed: faults(float(speed)) for speed in sys.argv[2:]}))
     else:
         names = sys.argv[1:] or list(CASES)
         print(json.dumps({n: compare(CASES[n]) for n in names}))

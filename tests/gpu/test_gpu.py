@@ -100,3 +100,20 @@ def test_no_cuda_driver_is_one_line(tmp_path):
     assert [ln for ln in p.stderr.splitlines() if ln.strip()] == [
         "mpmsim: --device cuda: no CUDA driver or GPU found on this machine (numba.cuda.is_available() is false; "
         "NUMBA_ENABLE_CUDASIM=1 runs numba's CUDA simulator, slowly)"]
+
+
+def test_faults_stop_the_run_with_the_cpu_message():
+    """A platen driven into the block at 20 m/s inverts a particle in the first step, at 10 m/s
+    pushes one out of the grid at step 7: each device stops at the same step with the same
+    message (fault slots and the first flagged particle, mpmsim/gpu/kernels.py)."""
+    r = last_json(simulate("-m", "tests.gpu.cases", "--faults", "20000", "10000"))
+    assert "J = 0 <= 0: the particle inverted" in r["20000"]["cpu"]
+    assert "the particle left the grid domain" in r["10000"]["cpu"]
+    assert all(v["cpu"] == v["cuda"] for v in r.values())
+
+
+def test_rigid_penetration_watch_on_the_device():
+    """A particle moved inside a rigid body (on the device) is found by the device's lattice
+    test and reported as the CPU reports it."""
+    r = last_json(simulate("-m", "tests.gpu.cases", "--penetration"))
+    assert "is inside rigid material 'platen'" in r["cpu"] and r["cuda"] == r["cpu"]
