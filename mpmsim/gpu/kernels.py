@@ -28,6 +28,7 @@ from numba.cuda.core import config as cuda_config
 
 from ..bodies import rigid as rigid_body
 from ..bc import NO_BC, RIGID_OWNER
+from ..bc import held_volume as _held_volume
 from ..faults import BAD_INVERTED, BAD_LEFT_GRID, BAD_NAN
 from ..materials import kernels as mk
 from ..materials.kernels import EOS_N
@@ -81,6 +82,7 @@ particle_weights, fill_entries, clear_entries = (device_function(f) for f in (
 ghost_entry = device_function(_boundary.ghost_entry)
 impose_velocity = device_function(_boundary.impose_velocity)
 update_field = device_function(_update_field)
+held_volume = device_function(_held_volume)
 det3 = device_function(mk.det3)
 affine_of = device_function(_affine_of)
 lattice_owner = device_function(rigid_body.lattice_owner)
@@ -260,10 +262,7 @@ def node_kernels(dim: int):
             if owner != RIGID_OWNER:
                 cuda.atomic.add(reaction, (owner, d), amounts[d])
             else:  # shared by the rigid materials holding the node, by their volumes (bc.add_reaction)
-                wsum = 0.0
-                for r in range(constrain.shape[0]):
-                    if constrain[r, d]:
-                        wsum += rigid_vol[node, r]
+                wsum = held_volume(node, d, rigid_vol, constrain)
                 for r in range(constrain.shape[0]):
                     if constrain[r, d] and rigid_vol[node, r] > 0.0:
                         cuda.atomic.add(reaction, (RIGID_OWNER + r, d), amounts[d] * rigid_vol[node, r] / wsum)
