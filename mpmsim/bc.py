@@ -98,24 +98,16 @@ def rigid_holds(node, d, rigid_vol, constrain):
 
 
 @njit(cache=True, inline="always")
-def held_volume(node, d, rigid_vol, constrain):
-    """The volume of the rigid materials that constrain component d at a node (the weights
-    their reaction shares are in). (Also the GPU step's.)"""
-    wsum = 0.0
-    for r in range(constrain.shape[0]):
-        if constrain[r, d]:
-            wsum += rigid_vol[node, r]
-    return wsum
-
-
-@njit(cache=True, inline="always")
 def add_reaction(chunk_reaction, ch, owner, node, d, amount, rigid_vol, constrain):
     """Credit a constrained component's reaction to its owner: a face, or the rigid materials
     holding the node, shared by their volumes there."""
     if owner != RIGID_OWNER:
         chunk_reaction[ch, owner, d] += amount
         return
-    wsum = held_volume(node, d, rigid_vol, constrain)
+    wsum = 0.0
+    for r in range(constrain.shape[0]):
+        if constrain[r, d]:
+            wsum += rigid_vol[node, r]
     for r in range(constrain.shape[0]):
         if constrain[r, d] and rigid_vol[node, r] > 0.0:
             chunk_reaction[ch, RIGID_OWNER + r, d] += amount * rigid_vol[node, r] / wsum

@@ -149,35 +149,32 @@ def rigid_lattices(rigid: "RigidParticles", origin: np.ndarray, spacing: np.ndar
     return out
 
 
-@njit(cache=True, inline="always")
-def lattice_owner(x, p, origin, spacing, lo, span, owner, k):
-    """Whether particle p lies in a lattice cell (origin, spacing; cells lo .. lo + span - 1, C
-    order in `owner`) whose 2^dim corner sites are all owned (>= 0): the owner of the cell's
-    lowest corner, or -1. k: (3,) int scratch. (Also the GPU step's check, mpmsim/gpu.)"""
-    dim = x.shape[1]
-    for a in range(dim):
-        k[a] = int(np.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
-        if k[a] < 0 or k[a] + 1 >= span[a]:
-            return -1
-    for c in range(2 ** dim):
-        flat = 0
-        for a in range(dim):
-            flat = flat * span[a] + k[a] + ((c >> a) & 1)
-        if owner[flat] < 0:
-            return -1
-    flat = 0
-    for a in range(dim):
-        flat = flat * span[a] + k[a]
-    return owner[flat]
-
-
 @njit(cache=True)
 def _first_inside(x, origin, spacing, lo, span, owner):
-    """The first particle in a lattice cell whose 2^dim corner sites are all owned
-    (lattice_owner): (particle, owner of the cell's lowest corner), or (-1, -1)."""
+    """The first particle in a lattice cell (origin, spacing; cells lo .. lo + span - 1, C order
+    in `owner`) whose 2^dim corner sites are all owned (>= 0): (particle, owner of the cell's
+    lowest corner), or (-1, -1)."""
+    n, dim = x.shape
     k = np.zeros(3, np.int64)
-    for p in range(x.shape[0]):
-        q = lattice_owner(x, p, origin, spacing, lo, span, owner, k)
-        if q >= 0:
-            return p, q
+    for p in range(n):
+        inside = True
+        for a in range(dim):
+            k[a] = int(np.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
+            if k[a] < 0 or k[a] + 1 >= span[a]:
+                inside = False
+                break
+        if not inside:
+            continue
+        for c in range(2 ** dim):
+            flat = 0
+            for a in range(dim):
+                flat = flat * span[a] + k[a] + ((c >> a) & 1)
+            if owner[flat] < 0:
+                inside = False
+                break
+        if inside:
+            flat = 0
+            for a in range(dim):
+                flat = flat * span[a] + k[a]
+            return p, owner[flat]
     return -1, -1

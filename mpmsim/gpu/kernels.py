@@ -22,21 +22,18 @@ import math
 from functools import cache
 
 import numpy as np
-from numba import cuda, float64, int64, uint64
+from numba import cuda, float64, int64
 
 from numba.cuda.core import config as cuda_config
 
-from ..bodies import rigid as rigid_body
+from .. import bc
 from ..bc import NO_BC, RIGID_OWNER
-from ..bc import held_volume as _held_volume
 from ..faults import BAD_INVERTED, BAD_LEFT_GRID, BAD_NAN
+from .. import gridops
 from ..materials import kernels as mk
 from ..materials.kernels import EOS_N
 from ..materials.model import model_of
-from ..shapes import tensor
-from ..tasks import boundary as _boundary
-from ..tasks.extrapolate import affine_of as _affine_of
-from ..tasks.grid_update import update_field as _update_field
+from ..shapes.grid_functions import weights_1d as _weights_1d
 from ..tasks.extrapolate import RIGID_MIN_WEIGHT
 from ..tasks.particle_update import APIC, FLIP, PIC, UPDATED
 
@@ -77,16 +74,11 @@ def device_function(f):
     return call
 
 
-particle_weights, fill_entries, clear_entries = (device_function(f) for f in (
-    tensor.particle_weights, tensor.fill_entries, tensor.clear_entries))
-ghost_entry = device_function(_boundary.ghost_entry)
-impose_velocity = device_function(_boundary.impose_velocity)
-update_field = device_function(_update_field)
-held_volume = device_function(_held_volume)
-det3 = device_function(mk.det3)
-affine_of = device_function(_affine_of)
-lattice_owner = device_function(rigid_body.lattice_owner)
-TPB = 128  # threads per block
+weights_1d = device_function(_weights_1d)
+ghost_mirror, node_bc, rigid_holds = (device_function(f) for f in (bc.ghost_mirror, bc.node_bc, bc.rigid_holds))
+det3, inv3 = device_function(mk.det3), device_function(mk.inv3)
+node_ijk = device_function(gridops.node_ijk)
+TPB = 16 if SIMULATOR else 128  # threads per block (the simulator runs each as a Python thread)
 SHAPE, RIGID_SHAPE, STRESS, UPDATE = 0, 1, 2, 3
 N_SLOTS = 4
 WAVE, GRID_WORK, GRAVITY_WORK = 0, 1, 2  # entries of the step's scalars
@@ -122,13 +114,41 @@ def shape_kernel(dim: int, kind: int, per_axis: int):
             for a in range(4):
                 w[d, a] = 1.0
                 dw[d, a] = 0.0
-        if not particle_weights(x, p, origin, h, semi, shape, kind, per_axis, w, dw, base):
-            clear_entries(p, nodes, S, G)
+        inside = True
+        for d in range(dim):
+            xi = (x[p, d] - origin[d]) / h[d]
+            if not (xi > -1e9 and xi < 1e9):
+                xi = 0.0
+                inside = False
+            base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
+            if base[d] < 0 or base[d] + per_axis > shape[d]:
+                inside = False
+        if not inside:
+            for k in range(S.shape[1]):
+                nodes[p, k] = 0
+                S[p, k] = 0.0
+                for d in range(dim):
+                    G[p, k, d] = 0.0
             cuda.atomic.min(faults, slot, p)
             return
         for d in range(dim):
             lowest[p, d] = base[d]
-        fill_entries(p, base, w, dw, per_axis, dim, shape, nodes, S, G)
+        k = 0
+        b0, b1, b2 = base[0], base[1], base[2]
+        for cc in range(per_axis if dim == 3 else 1):
+            wz, dwz = w[2, cc], dw[2, cc]
+            for b in range(per_axis):
+                wy, dwy = w[1, b], dw[1, b]
+                row = (b1 + b) + shape[1] * (b2 + cc)
+                for a in range(per_axis):
+                    nodes[p, k] = (b0 + a) + shape[0] * row
+                    wx = w[0, a]
+                    S[p, k] = wx * wy * wz
+                    G[p, k, 0] = dw[0, a] * wy * wz
+                    G[p, k, 1] = wx * dwy * wz
+                    if dim == 3:
+                        G[p, k, 2] = wx * wy * dwz
+                    k += 1
 
     return kernel
 
@@ -145,7 +165,25 @@ def affine_kernel(dim: int):
         D = cuda.local.array((3, 3), float64)
         Di = cuda.local.array((3, 3), float64)
         r = cuda.local.array(3, float64)
-        affine_of(p, S, lowest, offs, origin, h, x, B, D, Di, r, C)
+        for a in range(3):
+            r[a] = 0.0
+            for b in range(3):
+                D[a, b] = 0.0
+        D[2, 2] = 1.0 if dim == 2 else 0.0
+        for k in range(S.shape[1]):
+            w = S[p, k]
+            for b in range(dim):
+                r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
+            for a in range(dim):
+                for b in range(dim):
+                    D[a, b] += w * r[a] * r[b]
+        inv3(D, Di)
+        for a in range(dim):
+            for b in range(dim):
+                cab = 0.0
+                for m in range(dim):
+                    cab += B[p, a, m] * Di[m, b]
+                C[p, a, b] = cab
 
     return kernel
 
@@ -207,20 +245,31 @@ def node_kernels(dim: int):
         node = cuda.grid(1)
         if node >= src.shape[0]:
             return
-        none = cuda.local.array(1, int64)  # (no contact slots: the mirror node's own field)
-        none[0] = -1
-        mask = cuda.local.array(1, uint64)
-        mask[0] = 0
-        ghost_entry(node, node, node, dim, shape, face_type, wall_index, rigid_vol, constrain, src.shape[0], none, none,
-                    none, mask, 0, src, face)
+        i, j, k = node_ijk(node, shape)
+        for d in range(dim):
+            mirror, f = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
+            face[node, d] = f
+            if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
+                src[node, d] = -1
+            else:
+                src[node, d] = mirror
 
     @cuda.jit
     def velocity(shape, face_type, wall_index, rigid_vol, constrain, rig_vel, mass, mom, vel):
         """boundary.grid_velocity: vel = p/m with velocity conditions imposed."""
         node = cuda.grid(1)
-        if node < mass.shape[0]:
-            impose_velocity(node, node, dim, shape, face_type, wall_index, rigid_vol, constrain, rig_vel, mass, mom,
-                            vel)
+        if node >= mass.shape[0]:
+            return
+        i, j, k = node_ijk(node, shape)
+        m = mass[node]
+        for d in range(dim):
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+            if owner != NO_BC:
+                vel[node, d] = vbc
+            elif m > 0.0:
+                vel[node, d] = mom[node, d] / m
+            else:
+                vel[node, d] = 0.0
 
     @cuda.jit
     def mirror(src, field):
@@ -251,21 +300,40 @@ def node_kernels(dim: int):
         node = cuda.grid(1)
         if node >= mass.shape[0]:
             return
-        owners = cuda.local.array(3, int64)
-        amounts = cuda.local.array(3, float64)
-        work = update_field(node, node, False, dim, shape, face_type, wall_index, rigid_vol, constrain, v_start, v_end,
-                            mass, mom, force, vnew, acc, vstart, dt, 0.0, owners, amounts)
+        i, j, k = node_ijk(node, shape)
+        m = mass[node]
+        if m <= 0.0:
+            for d in range(dim):
+                vnew[node, d] = 0.0
+                acc[node, d] = 0.0
+                vstart[node, d] = 0.0
+            return
+        work = 0.0
         for d in range(dim):
-            owner = owners[d]
-            if owner == NO_BC:
-                continue
-            if owner != RIGID_OWNER:
-                cuda.atomic.add(reaction, (owner, d), amounts[d])
-            else:  # shared by the rigid materials holding the node, by their volumes (bc.add_reaction)
-                wsum = held_volume(node, d, rigid_vol, constrain)
-                for r in range(constrain.shape[0]):
-                    if constrain[r, d] and rigid_vol[node, r] > 0.0:
-                        cuda.atomic.add(reaction, (RIGID_OWNER + r, d), amounts[d] * rigid_vol[node, r] / wsum)
+            fd = force[node, d]
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
+            if owner != NO_BC:
+                owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
+                vstart[node, d] = vbc0
+            else:
+                vstart[node, d] = mom[node, d] / m
+            if owner != NO_BC:
+                f_bc = (m * vbc - mom[node, d]) / dt
+                dfc = f_bc - fd
+                work += dfc * vbc * dt
+                if owner != RIGID_OWNER:
+                    cuda.atomic.add(reaction, (owner, d), dfc)
+                else:  # shared by the rigid materials holding the node, by their volumes (bc.add_reaction)
+                    wsum = 0.0
+                    for r in range(constrain.shape[0]):
+                        if constrain[r, d]:
+                            wsum += rigid_vol[node, r]
+                    for r in range(constrain.shape[0]):
+                        if constrain[r, d] and rigid_vol[node, r] > 0.0:
+                            cuda.atomic.add(reaction, (RIGID_OWNER + r, d), dfc * rigid_vol[node, r] / wsum)
+                fd = f_bc
+            acc[node, d] = fd / m
+            vnew[node, d] = (mom[node, d] + fd * dt) / m
         if work != 0.0:
             cuda.atomic.add(scalars, GRID_WORK, work)
 
@@ -513,11 +581,23 @@ def inside_rigid(x, origin, spacing, lo, span, owner, first, found):
     p = cuda.grid(1)
     if p >= x.shape[0]:
         return
+    dim = x.shape[1]
     k = cuda.local.array(3, int64)
-    q = lattice_owner(x, p, origin, spacing, lo, span, owner, k)
-    if q >= 0:
-        found[p] = q
-        cuda.atomic.min(first, 0, p)
+    for a in range(dim):
+        k[a] = int(math.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
+        if k[a] < 0 or k[a] + 1 >= span[a]:
+            return
+    corner = 0
+    for c in range(2 ** dim):
+        flat = 0
+        for a in range(dim):
+            flat = flat * span[a] + k[a] + ((c >> a) & 1)
+        if owner[flat] < 0:
+            return
+        if c == 0:
+            corner = owner[flat]
+    found[p] = corner
+    cuda.atomic.min(first, 0, p)
 
 
 @cuda.jit

@@ -46,7 +46,16 @@ def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
             chunk_lo[c, d] = 1 << 60 if d < dim else 0
             chunk_hi[c, d] = -1 if d < dim else 0
         for p in range(start, stop):
-            if not particle_weights(x, p, origin, h, semi, shape, kind, per_axis, w, dw, base):
+            inside = True
+            for d in range(dim):
+                xi = (x[p, d] - origin[d]) / h[d]
+                if not (xi > -1e9 and xi < 1e9):  # NaN or absurd position
+                    xi = 0.0
+                    inside = False
+                base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
+                if base[d] < 0 or base[d] + per_axis > shape[d]:
+                    inside = False
+            if not inside:
                 clear_entries(p, nodes, S, G)
                 if chunk_bad[c] < 0:
                     chunk_bad[c] = p
@@ -55,43 +64,22 @@ def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
                 lowest[p, d] = base[d]
                 chunk_lo[c, d] = min(chunk_lo[c, d], base[d])
                 chunk_hi[c, d] = max(chunk_hi[c, d], base[d] + per_axis - 1)
-            fill_entries(p, base, w, dw, per_axis, dim, shape, nodes, S, G)
-
-
-@njit(cache=True, inline="always")
-def particle_weights(x, p, origin, h, semi, shape, kind, per_axis, w, dw, base):
-    """The 1D weights w, dw (3, 4) and lowest node `base` of particle p along each axis; False
-    if its support leaves the grid (or its position is not finite). (Also the GPU step's.)"""
-    inside = True
-    for d in range(x.shape[1]):
-        xi = (x[p, d] - origin[d]) / h[d]
-        if not (xi > -1e9 and xi < 1e9):  # NaN or absurd position
-            xi = 0.0
-            inside = False
-        base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
-        if base[d] < 0 or base[d] + per_axis > shape[d]:
-            inside = False
-    return inside
-
-
-@njit(cache=True, inline="always")
-def fill_entries(p, base, w, dw, per_axis, dim, shape, nodes, S, G):
-    """Node list, S and G of particle p from its 1D weights (node k = a + per_axis (b +
-    per_axis cc): nested loops, no divisions; what the inner loop reuses is read into locals
-    first, as the stores into nodes, S and G would otherwise force reloads of the scratch rows)."""
-    k = 0
-    b0, b1, b2 = base[0], base[1], base[2]
-    for cc in range(per_axis if dim == 3 else 1):
-        wz, dwz = w[2, cc], dw[2, cc]
-        for b in range(per_axis):
-            wy, dwy = w[1, b], dw[1, b]
-            row = (b1 + b) + shape[1] * (b2 + cc)
-            for a in range(per_axis):
-                nodes[p, k] = (b0 + a) + shape[0] * row
-                wx = w[0, a]
-                S[p, k] = wx * wy * wz
-                G[p, k, 0] = dw[0, a] * wy * wz
-                G[p, k, 1] = wx * dwy * wz
-                if dim == 3:
-                    G[p, k, 2] = wx * wy * dwz
-                k += 1
+            # node k = a + per_axis (b + per_axis cc): nested loops, no divisions; what the inner
+            # loop reuses is read into locals first (the stores into nodes, S and G would
+            # otherwise force reloads of the scratch rows)
+            k = 0
+            b0, b1, b2 = base[0], base[1], base[2]
+            for cc in range(per_axis if dim == 3 else 1):
+                wz, dwz = w[2, cc], dw[2, cc]
+                for b in range(per_axis):
+                    wy, dwy = w[1, b], dw[1, b]
+                    row = (b1 + b) + shape[1] * (b2 + cc)
+                    for a in range(per_axis):
+                        nodes[p, k] = (b0 + a) + shape[0] * row
+                        wx = w[0, a]
+                        S[p, k] = wx * wy * wz
+                        G[p, k, 0] = dw[0, a] * wy * wz
+                        G[p, k, 1] = wx * dwy * wz
+                        if dim == 3:
+                            G[p, k, 2] = wx * wy * dwz
+                        k += 1

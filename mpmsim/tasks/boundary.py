@@ -32,23 +32,18 @@ def grid_velocity(active, grid, held, mass, mom, vel):
     shape, _, _, face_type, wall_index = grid
     rigid_vol, constrain, rig_vel = held
     for q in prange(fields.size):
-        impose_velocity(fields[q], fnodes[q], dim, shape, face_type, wall_index, rigid_vol, constrain, rig_vel, mass,
-                        mom, vel)
-
-
-@njit(cache=True, inline="always")
-def impose_velocity(f, node, dim, shape, face_type, wall_index, rigid_vol, constrain, rig_vel, mass, mom, vel):
-    """vel = p/m of field f at `node`, with its velocity conditions imposed. (Also the GPU step's.)"""
-    i, j, k = node_ijk(node, shape)
-    m = mass[f]
-    for d in range(dim):
-        owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
-        if owner != NO_BC:
-            vel[f, d] = vbc
-        elif m > 0.0:
-            vel[f, d] = mom[f, d] / m
-        else:
-            vel[f, d] = 0.0
+        f = fields[q]
+        node = fnodes[q]
+        i, j, k = node_ijk(node, shape)
+        m = mass[f]
+        for d in range(dim):
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+            if owner != NO_BC:
+                vel[f, d] = vbc
+            elif m > 0.0:
+                vel[f, d] = mom[f, d] / m
+            else:
+                vel[f, d] = 0.0
 
 
 def slot_info(state):
@@ -99,22 +94,16 @@ def ghost_table(active, grid, held, slots, src, face):
     node_cn, cn_ptr, slot_group, mask, n_def = slots
     nn = shape[0] * shape[1] * shape[2]
     for q in prange(fields.size):
-        ghost_entry(q, fields[q], fnodes[q], dim, shape, face_type, wall_index, rigid_vol, constrain, nn, node_cn, cn_ptr,
-                    slot_group, mask, n_def, src, face)
-
-
-@njit(cache=True, inline="always")
-def ghost_entry(q, fid, node, dim, shape, face_type, wall_index, rigid_vol, constrain, nn, node_cn, cn_ptr, slot_group,
-                mask, n_def, src, face):
-    """Row q of the ghost table: field fid at `node`. (Also the GPU step's, one field per node.)"""
-    i, j, k = node_ijk(node, shape)
-    for d in range(dim):
-        mirror, f = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
-        face[q, d] = f
-        if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
-            src[q, d] = NOT_GHOST
-        else:
-            src[q, d] = mirror_field(fid, mirror, nn, node_cn, cn_ptr, slot_group, mask, n_def)
+        fid = fields[q]
+        node = fnodes[q]
+        i, j, k = node_ijk(node, shape)
+        for d in range(dim):
+            mirror, f = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
+            face[q, d] = f
+            if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
+                src[q, d] = NOT_GHOST
+            else:
+                src[q, d] = mirror_field(fid, mirror, nn, node_cn, cn_ptr, slot_group, mask, n_def)
 
 
 def find_ghosts(state) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..bc import NO_BC, add_reaction, node_bc
 from ..gridops import chunk_range, node_ijk
@@ -46,53 +46,34 @@ def grid_update_kernel(active, grid, held_start, held_end, f, dt, nchunk, chunk_
         start, stop = chunk_range(c, nchunk, nq)
         chunk_reaction[c] = 0.0
         work = 0.0
-        owners = np.empty(3, dtype=np.int64)
-        amounts = np.empty(3)
         for q in range(start, stop):
             fid = fields[q]
             node = fnodes[q]
-            work = update_field(fid, node, skip[q], dim, shape, face_type, wall_index, rigid_vol, constrain, v_start,
-                                v_end, mass, mom, force, vnew, acc, vstart, dt, work, owners, amounts)
+            i, j, k = node_ijk(node, shape)
+            m = mass[fid]
+            if m <= 0.0 or skip[q]:
+                for d in range(dim):
+                    vnew[fid, d] = 0.0
+                    acc[fid, d] = 0.0
+                    vstart[fid, d] = 0.0
+                continue
             for d in range(dim):
-                if owners[d] != NO_BC:
-                    add_reaction(chunk_reaction, c, owners[d], node, d, amounts[d], rigid_vol, constrain)
+                fd = force[fid, d]
+                owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
+                if owner != NO_BC:
+                    owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
+                    vstart[fid, d] = vbc0
+                else:
+                    vstart[fid, d] = mom[fid, d] / m
+                if owner != NO_BC:
+                    f_bc = (m * vbc - mom[fid, d]) / dt
+                    dfc = f_bc - fd
+                    work += dfc * vbc * dt  # signed work done on the material
+                    add_reaction(chunk_reaction, c, owner, node, d, dfc, rigid_vol, constrain)
+                    fd = f_bc
+                acc[fid, d] = fd / m
+                vnew[fid, d] = (mom[fid, d] + fd * dt) / m
         chunk_work[c] = work
-
-
-@njit(cache=True, inline="always")
-def update_field(fid, node, skipped, dim, shape, face_type, wall_index, rigid_vol, constrain, v_start, v_end, mass,
-                 mom, force, vnew, acc, vstart, dt, work, owners, amounts):
-    """v+, a and the start velocity of field fid at `node`; each component's condition owner
-    (NO_BC: free) and reaction in owners/amounts; returns `work` plus the conditions' work
-    (added component by component, as a running sum). (Also the GPU step's.)"""
-    for d in range(dim):
-        owners[d] = NO_BC
-    m = mass[fid]
-    if m <= 0.0 or skipped:
-        for d in range(dim):
-            vnew[fid, d] = 0.0
-            acc[fid, d] = 0.0
-            vstart[fid, d] = 0.0
-        return work
-    i, j, k = node_ijk(node, shape)
-    for d in range(dim):
-        fd = force[fid, d]
-        owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
-        if owner != NO_BC:
-            owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
-            vstart[fid, d] = vbc0
-        else:
-            vstart[fid, d] = mom[fid, d] / m
-        if owner != NO_BC:
-            f_bc = (m * vbc - mom[fid, d]) / dt
-            dfc = f_bc - fd
-            work += dfc * vbc * dt  # signed work done on the material
-            owners[d] = owner
-            amounts[d] = dfc
-            fd = f_bc
-        acc[fid, d] = fd / m
-        vnew[fid, d] = (mom[fid, d] + fd * dt) / m
-    return work
 
 
 @chunk_kernel

@@ -157,8 +157,9 @@ def cli(*args: str) -> int:
 
 
 def files(folder: str) -> dict:
-    """The column-like block run to the end on the CPU and on the device, and run 3 steps on the
-    device (`--steps 3`: a checkpoint, as Ctrl-C leaves) then restarted on the CPU: exit codes,
+    """The column-like block run to the end on the CPU and on the device, and run 3 (4) steps on
+    the device (`--steps`: a checkpoint, as Ctrl-C leaves) then restarted on the CPU (on the
+    device): exit codes,
     the files each folder holds, and the largest relative difference of the history and the
     final particles from the CPU run."""
     from pathlib import Path
@@ -178,12 +179,17 @@ def files(folder: str) -> dict:
                     cli("run", str(path), "--out", str(root / "gpu"), "-q", "--threads", "1", "--device", "cuda"),
                     cli("run", str(path), "--out", str(root / "stop"), "-q", "--threads", "1", "--device", "cuda",
                         "--steps", "3")]}
-    out["checkpoint"] = checkpoint_path(root / "stop", "block").exists()
+    out["exit"].append(cli("run", str(path), "--out", str(root / "stop_gpu"), "-q", "--threads", "1", "--device",
+                           "cuda", "--steps", "4"))
+    out["checkpoint"] = all(checkpoint_path(root / k, "block").exists() for k in ("stop", "stop_gpu"))
     out["exit"].append(cli("run", str(path), "--restart", str(root / "stop"), "-q", "--threads", "1"))
-    out["files"] = {k: sorted(f.name for f in (root / k).iterdir()) for k in ("cpu", "gpu", "stop")}
-    hist = {k: pd.read_csv(root / k / "block_history.csv") for k in ("cpu", "gpu", "stop")}
+    out["exit"].append(cli("run", str(path), "--restart", str(root / "stop_gpu"), "-q", "--threads", "1", "--device",
+                           "cuda"))
+    runs = ("cpu", "gpu", "stop", "stop_gpu")
+    out["files"] = {k: sorted(f.name for f in (root / k).iterdir()) for k in runs}
+    hist = {k: pd.read_csv(root / k / "block_history.csv") for k in runs}
     cols = [c for c in hist["cpu"].columns if not c.startswith("wall")]
-    for k in ("gpu", "stop"):
+    for k in runs[1:]:
         out[f"history_{k}"] = max(relative(hist["cpu"][c], hist[k][c]) for c in cols if hist["cpu"][c].abs().max() > 0)
         out[f"rows_{k}"] = len(hist[k])
     out["rows_cpu"] = len(hist["cpu"])
