@@ -70,6 +70,9 @@ class DeviceStep:
         for name in ("x", "v", "F", "stress", "vol", "vol0", "mass", "mat", "B", "C"):
             d[name] = to(np.ascontiguousarray(getattr(P, name)))
         d["semi"] = to(np.asarray(P.semi, dtype=np.float64))
+        # APIC: the positions the step's shape functions and affine terms refer to (the
+        # re-extrapolation after the particle update still uses them), else the positions
+        d["xref"] = to(np.ascontiguousarray(P.xref)) if P.affine else d["x"]
         for name in ("nodes", "S", "G", "lowest"):
             d[name] = to(getattr(sd, name))
             d["r" + name] = to(getattr(state.rigid_sd, name))
@@ -122,8 +125,8 @@ class DeviceStep:
         P, d = state.particles, self.d
         for name in ("x", "v", "F", "stress", "vol") + (("B", "C") if P.affine else ()):
             d[name].copy_to_host(getattr(P, name))
-        if P.affine:  # the positions the APIC affine terms refer to: the step's start (xref)
-            P.xref[:] = P.x
+        if P.affine:  # the positions the APIC affine terms refer to: the step's start
+            d["xref"].copy_to_host(P.xref)
         self.host_stale = False
 
     # ------------------------------------------------------------------ the tasks
@@ -164,6 +167,8 @@ class DeviceStep:
     def shape_functions(self, state) -> None:
         d = self.d
         kernel = K.shape_kernel(self.dim, self.kind, self.per_axis)
+        if self.n and self.scheme == K.APIC:
+            d["xref"].copy_to_device(d["x"])
         if self.n:
             kernel[K.blocks(self.n)](d["x"], d["origin"], d["h"], d["shape"], d["semi"], d["nodes"], d["S"], d["G"],
                                      d["lowest"], d["faults"], K.SHAPE)
@@ -183,11 +188,11 @@ class DeviceStep:
         if not self.n:
             return
         if affine:
-            K.affine_kernel(dim)[K.blocks(self.n)](d["S"], d["lowest"], d["offs"], d["origin"], d["h"], d["x"],
+            K.affine_kernel(dim)[K.blocks(self.n)](d["S"], d["lowest"], d["offs"], d["origin"], d["h"], d["xref"],
                                                    d["B"], d["C"])
         K.p2g_kernel(dim, affine)[K.blocks(self.n)](d["mass"], d["v"], d["nodes"], d["S"], with_mass, d["gmass"],
                                                     d["gmom"], d["C"], d["lowest"], d["offs"], d["origin"], d["h"],
-                                                    d["x"])
+                                                    d["xref"])
 
     def extrapolate(self, state) -> None:
         d = self.d

@@ -59,6 +59,7 @@ CASES = {
     "bspline2-apic-usf-elastic-walls": deck(shape="bspline2", scheme="apic", stress="usf", material="linear_elastic",
                                             boundaries={"ymin": "fixed", "xmin": "fixed", "xmax": "roller"}),
     "bspline2-flip-usavg-minus-updated": deck(shape="bspline2", reextrapolate=False, position="updated"),
+    "gimp-apic-usl-plus-elastic": deck(scheme="apic", stress="usl", material="linear_elastic"),
     "3d-gimp-flip-usavg-neohookean-rigid": deck(dim=3),
 }
 
