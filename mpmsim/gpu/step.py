@@ -291,7 +291,8 @@ class DeviceStep:
         d = self.d
         scal = d["scalars"].copy_to_host()
         state.wave_max = float(scal[K.WAVE]) if self.n else state.wave_max
-        state.work_in += float(scal[K.GRID_WORK]) + float(scal[K.GRAVITY_WORK])
+        state.work_in += float(scal[K.GRID_WORK])  # (in the CPU path's order: walls, then gravity)
+        state.work_in += float(scal[K.GRAVITY_WORK])
         state.reaction[:] = d["reaction"].copy_to_host()
         faults = d["faults"].copy_to_host()
         for slot in (K.SHAPE, STRESS_FIRST, K.UPDATE, STRESS_LAST):
