@@ -31,6 +31,8 @@ from ..bc import NO_BC, RIGID_OWNER
 from ..faults import BAD_INVERTED, BAD_LEFT_GRID, BAD_NAN
 from .. import gridops
 from ..materials import kernels as mk
+from ..bodies import KINETIC, STRAIN
+from ..materials.dispatch import energy_dispatch
 from ..materials.kernels import EOS_N
 from ..materials.model import model_of
 from ..shapes.grid_functions import weights_1d as _weights_1d
@@ -598,6 +600,32 @@ def inside_rigid(x, origin, spacing, lo, span, owner, first, found):
             corner = owner[flat]
     found[p] = corner
     cuda.atomic.min(first, 0, p)
+
+
+@cache
+def energy_kernel(codes: tuple):
+    """The kinetic and strain energy of the particles (bodies/particles.py's sums, the two the
+    energy check reads), atomic adds into out[KINETIC], out[STRAIN]."""
+    ENERGY = device_function(energy_dispatch(codes)[1])
+
+    @cuda.jit
+    def kernel(v, mass, vol, F, stress, mat, code, props, out):
+        p = cuda.grid(1)
+        if p >= v.shape[0]:
+            return
+        dim = v.shape[1]
+        F3 = cuda.local.array((3, 3), float64)
+        v2 = 0.0
+        for d in range(dim):
+            v2 += v[p, d] * v[p, d]
+        for a in range(3):
+            for b in range(3):
+                F3[a, b] = F[p, a, b] if (a < dim and b < dim) else (1.0 if a == b else 0.0)
+        mt = mat[p]
+        cuda.atomic.add(out, KINETIC, 0.5 * mass[p] * v2)
+        cuda.atomic.add(out, STRAIN, vol[p] * ENERGY(code[mt], props[mt], F3, stress[p], det3(F3)))
+
+    return kernel
 
 
 @cuda.jit

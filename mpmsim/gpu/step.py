@@ -113,6 +113,8 @@ class DeviceStep:
         self.has_gravity = bool(np.any(state.gravity))
         if R.n and P.n and R.watch_penetration:
             R.find_inside = self.find_inside
+        if P.n:
+            P.device_sums = self.energy_sums
         self.lattices = {}  # device copies of the rigid lattices
         self.state = state
         self.host_stale = False
@@ -306,6 +308,17 @@ class DeviceStep:
                 state.flags.set(p, code if code != BAD_NONE else BAD_SUPPORT, value)
         if int(faults[K.RIGID_SHAPE]) < self.nr:
             state.flags.set_rigid(int(faults[K.RIGID_SHAPE]), BAD_SUPPORT)
+
+    def energy_sums(self, state):
+        """The particles' kinetic and strain energy (bodies.Sums; the other entries zero) from
+        the device's arrays: the energy check needs no copy of the particles."""
+        from ..bodies import NSUMS, Sums
+
+        d = self.d
+        out = self.cuda.to_device(np.zeros(NSUMS))
+        K.energy_kernel(tuple(self.models))[K.blocks(self.n)](d["v"], d["mass"], d["vol"], d["F"], d["stress"],
+                                                             d["mat"], d["code"], d["props"], out)
+        return Sums(out.copy_to_host(), np.zeros((0, NSUMS)))
 
     def find_inside(self, x, rigid, origin, spacing, lattices) -> tuple[int, int]:
         """bodies.rigid.inside_rigid on the device's positions (x, the host's, is not read)."""

@@ -45,6 +45,7 @@ def deck(dim: int = 2, shape: str = "gimp", scheme: str = "flip", stress: str = 
         "time": {"end": 1.0, "dt": 2e-4},
         "update": {"scheme": scheme, "stress": stress, "reextrapolate": reextrapolate, "position": position},
         "output": {"history_interval": 2e-4},
+        "stability": {"check_every": 1},  # (the energy check every step: on a GPU, from the device)
     }
     if gravity:
         d["gravity"] = [0.0] * (dim - 1) + [-9.81e-3]
@@ -99,6 +100,10 @@ def compare(d: dict, steps: int = STEPS) -> dict:
                          for c in ha.columns if c != "wall_s")
     out["history_columns"] = list(ha.columns) == list(hb.columns)
     out["timers"] = list(cpu.integrator.timers) == list(gpu.integrator.timers)
+    from mpmsim.bodies import KINETIC, STRAIN
+
+    sc, sg = cpu.state.particles.sums(cpu.state, False), gpu.state.particles.device_sums(gpu.state)
+    out["energy"] = max(abs(sc.total[i] - sg.total[i]) / abs(sc.total[i]) for i in (KINETIC, STRAIN))
     out["moved"] = relative(a["x"], np.asarray(cpu.state.particles.x0)) if hasattr(cpu.state.particles, "x0") else 0
     return out
 

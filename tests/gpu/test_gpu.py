@@ -1,8 +1,8 @@
 """The explicit MPM step on a GPU (mpmsim/gpu) against the CPU path, under numba's CUDA
 simulator (NUMBA_ENABLE_CUDASIM=1), in subprocesses: numba.cuda is never imported into this
 process. Each option the GPU step supports is in one scene of tests/gpu/cases.py; after a few
-steps positions, velocities, stresses, F and every history column agree with the CPU run to
-1e-10 relative (the simulator runs the threads one after another, so here they agree to the
+steps positions, velocities, stresses, F, every history column and the energy check's sums
+(computed on the device) agree with the CPU run to 1e-10 relative (the simulator runs the threads one after another, so here they agree to the
 last bit; on a device the atomic adds change the summation order)."""
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ def compared():
 def test_device_step_matches_cpu(compared, case):
     r = compared[case]
     assert r["moved"] > 1e-6  # the scene did something in its steps
-    for quantity in ("x", "v", "stress", "F", "history"):
+    for quantity in ("x", "v", "stress", "F", "history", "energy"):
         assert r[quantity] <= TOL, (quantity, r[quantity])
     assert r["history_columns"] and r["timers"]  # same history columns, same task names and timers
 
