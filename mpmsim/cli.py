@@ -131,6 +131,8 @@ def run(
             log = RunLog(Path(directory) / f"{scene.loaded.stem}_run.log", _command_line(ctx), scene.loaded,
                          numba.get_num_threads())
             log.note(thread_line)
+            if device != "cpu":
+                log.note(f"device: {device} (the explicit MPM step on the GPU: docs/performance.md#gpu)")
             for notice in scene.notices:  # (also with --quiet: a warning is not progress)
                 log.note(f"warning: {notice}")
                 err.print(f"[yellow]warning:[/] {notice}", highlight=False, soft_wrap=True)
@@ -404,18 +406,20 @@ def check(
     probe: bool = typer.Option(True, "--probe/--no-probe", help="FEM and implicit scenes: estimate the cost by "
                                "running the first steps (up to 5 s, and compiling on a first run)."),
     device: str = typer.Option("cpu", "--device", help="cuda: also refuse (exit 2, naming the key) what the GPU "
-                               "step does not do yet."),
+                               "step does not do yet (no GPU needed to check)."),
 ) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
     scene = _load_scene(deck)
-    _check_device(scene, device)
+    _check_device(scene, device, driver=False)
     with _deck_errors():
         _check(scene, probe)
+    if device != "cpu":
+        out.print(f"device {device}: everything this deck asks for runs on the GPU step", highlight=False)
 
 
-def _check_device(scene, device: str) -> None:
-    """`--device cuda`: refuse (exit 2, one line naming the key) what the GPU step lacks, and a
-    machine where CUDA cannot run."""
+def _check_device(scene, device: str, driver: bool = True) -> None:
+    """`--device cuda`: refuse (exit 2, one line naming the key) what the GPU step lacks, and
+    (`driver`: run) a machine where CUDA cannot run."""
     if device == "cpu":
         return
     from .gpu import DeviceError
@@ -423,7 +427,7 @@ def _check_device(scene, device: str) -> None:
 
     with _deck_errors():
         try:
-            check_device(scene, device)
+            check_device(scene, device, driver)
         except DeviceError as exc:
             err.print(f"mpmsim: {exc}", highlight=False, soft_wrap=True)
             raise typer.Exit(EXIT_BAD_DECK) from None

@@ -88,9 +88,9 @@ class Schedule:
     written_at: float  # time of the last VTU frame
 
 
-def check_device(scene: Scene, device: str) -> None:
-    """Refuse a run on `device` (cuda) that the device cannot take: a DeckError naming the first
-    deck key the GPU step lacks, or mpmsim.gpu.DeviceError when CUDA is not there."""
+def check_device(scene: Scene, device: str, driver: bool = True) -> None:
+    """Refuse a run on `device` (cuda) that the device cannot take: a DeckError naming each
+    deck key the GPU step lacks, or (`driver`) mpmsim.gpu.DeviceError when CUDA is not there."""
     from . import gpu
 
     if device not in gpu.DEVICES:
@@ -100,7 +100,8 @@ def check_device(scene: Scene, device: str) -> None:
         from .deck.loader import raise_at
 
         raise_at(problems, scene.loaded)
-    gpu.require_cuda()
+    if driver:
+        gpu.require_cuda()
 
 
 class StopRequested(KeyboardInterrupt):

@@ -200,7 +200,7 @@ def files(folder: str) -> dict:
         out[f"rows_{k}"] = len(hist[k])
     out["rows_cpu"] = len(hist["cpu"])
     out["vtu_sizes"] = {k: sorted((f.name, f.stat().st_size) for f in (root / k).glob("*.vtu")) for k in ("cpu", "gpu")}
-    out["log_gpu"] = (root / "gpu" / "block_run.log").read_text().count("\n") > 0
+    out["log_gpu"] = "device: cuda" in (root / "gpu" / "block_run.log").read_text()
     return out
 
 

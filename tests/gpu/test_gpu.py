@@ -90,6 +90,13 @@ def test_check_refuses_what_the_gpu_lacks_naming_the_key(tmp_path):
         assert not (tmp_path / "o").exists()
 
 
+def test_check_of_a_supported_deck_needs_no_gpu():
+    """`check --device cuda` answers where no GPU is (deck preparation): the column runs there."""
+    p = simulate("-m", "mpmsim", "check", "inputs/column.yaml", "--device", "cuda", "--no-probe", sim=False)
+    assert p.returncode == 0, p.stderr
+    assert "device cuda: everything this deck asks for runs on the GPU step" in p.stdout
+
+
 def test_no_cuda_driver_is_one_line(tmp_path):
     """Without a driver (this machine, outside the simulator) --device cuda stops with one line, exit 2."""
     p = simulate("-m", "mpmsim", "run", "inputs/column.yaml", "--device", "cuda", "-q", "--steps", "1",
