@@ -62,6 +62,9 @@ CASES = {
     "bspline2-flip-usavg-minus-updated": deck(shape="bspline2", reextrapolate=False, position="updated"),
     "gimp-apic-usl-plus-elastic": deck(scheme="apic", stress="usl", material="linear_elastic"),
     "3d-gimp-flip-usavg-neohookean-rigid": deck(dim=3),
+    "3d-bspline2-apic-usl-elastic-walls-gravity": deck(dim=3, shape="bspline2", scheme="apic", stress="usl",
+                                                       material="linear_elastic", gravity=True,
+                                                       boundaries={"zmin": "fixed", "xmin": "roller", "ymax": "fixed"}),
 }
 
 
