@@ -5,10 +5,11 @@ platen, fixed floor) at 1M and 4M particles, the LR two-block column at 1M (repo
 supported while multimaterial contact is not on the GPU), the 3D column (inputs/column_3d.yaml)
 at 1M. Particle counts are reached by the cell size (2 particles per cell and direction).
 
-For each scene: particle-steps/s and per-task seconds on the GPU (each task ends with a device
-synchronisation, so its timer is its GPU time) and on the CPU with all cores; after the same
-steps, the largest relative difference of positions, velocities and stresses (max |gpu -
-cpu| / max |cpu|, target 1e-10); an estimate of the bytes each particle-step moves (the
+For each scene: particle-steps/s and per-task seconds on the GPU, once per scatter method
+(atomic adds in the particles' storage order, or with the particles grouped by cell; each
+task ends with a device synchronisation, so its timer is its GPU time) and on the CPU with
+all cores; after the same steps, the largest relative difference of positions, velocities
+and stresses (max |gpu - cpu| / max |cpu|, target 1e-10); an estimate of the bytes each particle-step moves (the
 particle arrays each kernel reads and writes, atomic adds as read-modify-write of 8 bytes,
 grid arrays not counted) and the fraction of the card's bandwidth it implies.
 
@@ -16,7 +17,7 @@ grid arrays not counted) and the fraction of the card's bandwidth it implies.
                                               # a few minutes: scene builds, kernel compiles, CPU runs)
     python bench/gpu.py --tiny                # 2 000 particles, 3 steps: checks the script runs
     NUMBA_ENABLE_CUDASIM=1 python bench/gpu.py --tiny   # the same without a GPU (simulator)
-    options: --steps N --sizes 1e6 4e6 --size3d 1e6 --bandwidth 3.35e12 --json FILE --scatter atomic
+    options: --steps N --sizes 1e6 4e6 --size3d 1e6 --bandwidth 3.35e12 --json FILE --scatter atomic sorted
 
 Output: a table on stdout and a JSON document (--json, default bench/gpu.json).
 """
@@ -96,27 +97,33 @@ def per_particle_bytes(sim) -> float:
     return float(total)
 
 
-def run_scene(name: str, d: dict, steps: int, warmup: int, threads: int, bandwidth: float) -> dict:
+def run_scene(name: str, d: dict, steps: int, warmup: int, threads: int, bandwidth: float,
+              scatters: list[str]) -> dict:
+    """The scene on the GPU (once per scatter method) and on the CPU's threads: rates, per-task
+    seconds, bytes per particle-step, and each GPU run's agreement with the CPU run."""
+    from mpmsim.deck import as_loaded_deck
     from mpmsim.errors import DeckError
     from mpmsim.gpu import unsupported
     from mpmsim.scene import build_scene
-    from mpmsim.deck import as_loaded_deck
 
     scene = build_scene(as_loaded_deck(d, "bench", ROOT))
     missing = unsupported(scene)
-    out = {"scene": name, "particles": int(len(scene.deformable.x))}
+    out = {"scene": name, "particles": int(len(scene.deformable.x)), "steps": steps, "runs": {}}
     if missing:
         out["gpu"] = "not supported: " + "; ".join(f"{'.'.join(map(str, k))}: {m}" for k, m in missing)
         return out
     results = {}
-    for device, nthreads in (("cuda", 1), ("cpu", threads)):
+    runs = [(f"gpu {s}", "cuda", 1, s) for s in scatters] + [("cpu", "cpu", threads, None)]
+    for label, device, nthreads, scatter in runs:
         try:
             t0 = time.perf_counter()
             sim = simulation(scene, device, nthreads)
+            if scatter is not None:
+                sim.integrator.device.scatter = scatter
             sim.step()  # (compiles the kernels; timed apart)
             first = time.perf_counter() - t0
         except DeckError as exc:
-            out[device] = f"refused: {exc}"
+            out["gpu"] = f"refused: {exc}"
             return out
         for _ in range(warmup - 1):
             sim.step()
@@ -128,40 +135,49 @@ def run_scene(name: str, d: dict, steps: int, warmup: int, threads: int, bandwid
             sim.integrator.device.cuda.synchronize()
         wall = time.perf_counter() - t0
         n = sim.state.particles.n
-        results[device] = sim.particles
-        out[device] = {"threads": nthreads, "seconds": wall, "particle_steps_per_s": n * steps / wall,
-                       "first_step_s": first,
-                       "tasks_s": {k: v for k, v in sim.timers.items()}}
+        results[label] = sim.particles
+        r = out["runs"][label] = {"threads": nthreads, "seconds": wall, "particle_steps_per_s": n * steps / wall,
+                                  "first_step_s": first, "tasks_s": dict(sim.timers)}
         if device == "cuda":
             b = per_particle_bytes(sim)
-            out["bytes_per_particle_step"] = b
-            out["bandwidth_fraction"] = b * n * steps / wall / bandwidth
-    a, g = results["cpu"], results["cuda"]
-    out["agreement"] = {k: float(np.max(np.abs(a[k] - g[k])) / max(np.max(np.abs(a[k])), 1e-300))
-                        for k in ("x", "v", "stress")}
-    out["agree_1e-10"] = all(v <= 1e-10 for v in out["agreement"].values())
-    out["steps"] = steps
+            r["bytes_per_particle_step"] = b
+            r["bandwidth_fraction"] = b * n * steps / wall / bandwidth
+        del sim
+    a = results["cpu"]
+    for label in results:
+        if label != "cpu":
+            g = results[label]
+            agree = {k: float(np.max(np.abs(a[k] - g[k])) / max(np.max(np.abs(a[k])), 1e-300))
+                     for k in ("x", "v", "stress")}
+            out["runs"][label]["agreement"] = agree
+            out["runs"][label]["agree_1e-10"] = all(v <= 1e-10 for v in agree.values())
     return out
 
 
 def table(rows: list[dict]) -> str:
-    lines = [f"{'scene':<22} {'particles':>10} {'GPU Mp-s/s':>11} {'CPU Mp-s/s':>11} {'x':>5} "
-             f"{'B/p-step':>9} {'of BW':>6}  max rel. diff (x, v, stress)"]
+    lines = [f"{'scene':<22} {'run':<11} {'particles':>10} {'Mp-s/s':>8} {'x CPU':>6} {'B/p-step':>9} {'of BW':>6}"
+             "  max rel. diff from CPU (x, v, stress)"]
     for r in rows:
-        if isinstance(r.get("cuda"), dict):
-            g, c = r["cuda"], r["cpu"]
-            ag = r["agreement"]
-            lines.append(f"{r['scene']:<22} {r['particles']:>10} {g['particle_steps_per_s'] / 1e6:>11.2f} "
-                         f"{c['particle_steps_per_s'] / 1e6:>11.2f} {g['particle_steps_per_s'] / c['particle_steps_per_s']:>5.1f} "
-                         f"{r['bytes_per_particle_step']:>9.0f} {100 * r['bandwidth_fraction']:>5.1f}%  "
-                         f"{ag['x']:.1e} {ag['v']:.1e} {ag['stress']:.1e}")
-        else:
-            lines.append(f"{r['scene']:<22} {r['particles']:>10} {r.get('gpu') or r.get('cuda')}")
+        if "gpu" in r:
+            lines.append(f"{r['scene']:<22} {'gpu':<11} {r['particles']:>10} {r['gpu']}")
+            continue
+        cpu = r["runs"]["cpu"]["particle_steps_per_s"]
+        for label, g in r["runs"].items():
+            rate = g["particle_steps_per_s"]
+            row = f"{r['scene']:<22} {label:<11} {r['particles']:>10} {rate / 1e6:>8.2f} {rate / cpu:>6.1f}"
+            if "agreement" in g:
+                ag = g["agreement"]
+                row += (f" {g['bytes_per_particle_step']:>9.0f} {100 * g['bandwidth_fraction']:>5.1f}%  "
+                        f"{ag['x']:.1e} {ag['v']:.1e} {ag['stress']:.1e}")
+            lines.append(row)
     for r in rows:
-        if isinstance(r.get("cuda"), dict):
-            lines.append(f"\n{r['scene']}: seconds per task over {r['steps']} steps (GPU | CPU {r['cpu']['threads']} threads)")
-            for k, v in r["cuda"]["tasks_s"].items():
-                lines.append(f"  {k:<22} {v:>9.4f} | {r['cpu']['tasks_s'].get(k, 0.0):>9.4f}")
+        if "gpu" in r:
+            continue
+        labels = list(r["runs"])
+        lines.append(f"\n{r['scene']}: seconds per task over {r['steps']} steps ({' | '.join(labels)}; CPU "
+                     f"{r['runs']['cpu']['threads']} threads)")
+        for k in r["runs"]["cpu"]["tasks_s"]:
+            lines.append(f"  {k:<22} " + " | ".join(f"{r['runs'][lab]['tasks_s'].get(k, 0.0):>9.4f}" for lab in labels))
     return "\n".join(lines)
 
 
@@ -174,11 +190,11 @@ def main() -> None:
     ap.add_argument("--tiny", action="store_true", help="2 000 particles, 3 steps (checks the script runs)")
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     ap.add_argument("--bandwidth", type=float, default=H100_BANDWIDTH, help="card bandwidth, bytes/s")
-    ap.add_argument("--scatter", default="atomic", help="particle-to-grid scatter (atomic: float64 atomic adds)")
+    ap.add_argument("--scatter", nargs="+", default=["atomic", "sorted"], choices=["atomic", "sorted"],
+                    help="particle-to-grid scatter methods to run (float64 atomic adds in storage order, or with "
+                    "the particles grouped by cell)")
     ap.add_argument("--json", type=Path, default=ROOT / "bench" / "gpu.json")
     args = ap.parse_args()
-    if args.scatter != "atomic":
-        raise SystemExit(f"--scatter {args.scatter}: only atomic is built so far")
     if args.tiny:
         args.sizes, args.size3d, args.steps, args.warmup = [2000.0], 1000.0, 3, 1
     from mpmsim.gpu import DeviceError, require_cuda
@@ -198,7 +214,7 @@ def main() -> None:
     scenes.append((f"column 3D {args.size3d:.0e}", column_deck(args.size3d, 3, total)))
     rows = []
     for name, d in scenes:
-        rows.append(run_scene(name, d, args.steps, args.warmup, args.threads, args.bandwidth))
+        rows.append(run_scene(name, d, args.steps, args.warmup, args.threads, args.bandwidth, args.scatter))
         print(f"{name}: done", flush=True)
     doc = {"date": datetime.now(timezone.utc).isoformat(timespec="seconds"), "device": str(device),
            "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(), "threads": args.threads,

@@ -93,6 +93,9 @@ def main() -> None:
         for task in ("shape_functions", "extrapolate", "stress_first", "forces", "grid_update", "particle_update",
                      "move_rigid", "reextrapolate_task", "stress_last"):
             getattr(dev, task)(st)
+        dev.scatter, dev.since_sort = "sorted", dev.sort_every  # the scatters with the particles grouped by cell
+        for task in ("shape_functions", "extrapolate", "forces"):
+            getattr(dev, task)(st)
         dev.energy_sums(st)  # the energy check's sums
         ints = np.zeros(3, dtype=np.int64)  # the rigid-penetration watch (its lattices: int arrays)
         gpu_step.K.inside_rigid[1, 1](st.particles.x, st.grid.origin, st.grid.h, ints, ints, ints, ints, ints)

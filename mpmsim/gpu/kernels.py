@@ -191,15 +191,18 @@ def affine_kernel(dim: int):
 
 
 @cache
-def p2g_kernel(dim: int, affine: bool):
+def p2g_kernel(dim: int, affine: bool, ordered: bool = False):
     """Scatter m_p and m_p (v_p + C_p (x_i - x_p)) with float64 atomic adds (the masses only
-    with `with_mass`)."""
+    with `with_mass`); `ordered`: thread t takes particle order[t] (particles sorted by cell,
+    so a warp's atomic adds fall on a few nodes)."""
 
     @cuda.jit
-    def kernel(pmass, pvel, nodes, S, with_mass, gmass, gmom, C, lowest, offs, origin, h, xref):
+    def kernel(pmass, pvel, nodes, S, with_mass, gmass, gmom, C, lowest, offs, origin, h, xref, order):
         p = cuda.grid(1)
         if p >= S.shape[0]:
             return
+        if ordered:
+            p = order[p]
         mp = pmass[p]
         r = cuda.local.array(3, float64)
         for k in range(S.shape[1]):
@@ -362,14 +365,17 @@ def node_kernels(dim: int):
 
 
 @cache
-def forces_kernel(dim: int, has_gravity: bool):
-    """f_i = -sum_p V_p sigma_p . G_ip + sum_p S_ip m_p g (forces.py), atomic adds."""
+def forces_kernel(dim: int, has_gravity: bool, ordered: bool = False):
+    """f_i = -sum_p V_p sigma_p . G_ip + sum_p S_ip m_p g (forces.py), atomic adds (`ordered`:
+    as p2g_kernel's)."""
 
     @cuda.jit
-    def kernel(nodes, S, G, vol, stress, pmass, gravity, gforce):
+    def kernel(nodes, S, G, vol, stress, pmass, gravity, gforce, order):
         p = cuda.grid(1)
         if p >= S.shape[0]:
             return
+        if ordered:
+            p = order[p]
         vp = vol[p]
         wm = pmass[p]
         sxx, syy, szz, sxy, syz, sxz = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
@@ -626,6 +632,23 @@ def energy_kernel(codes: tuple):
         cuda.atomic.add(out, STRAIN, vol[p] * ENERGY(code[mt], props[mt], F3, stress[p], det3(F3)))
 
     return kernel
+
+
+@cuda.jit
+def count_cells(nodes, count):
+    """Particles per cell (a particle's cell: its lowest node), for the sorted scatter."""
+    p = cuda.grid(1)
+    if p < nodes.shape[0]:
+        cuda.atomic.add(count, nodes[p, 0], 1)
+
+
+@cuda.jit
+def place_by_cell(nodes, cursor, order):
+    """order[cursor[cell]++] = p: the particles grouped by cell (counting sort; within a cell
+    in no particular order)."""
+    p = cuda.grid(1)
+    if p < nodes.shape[0]:
+        order[cuda.atomic.add(cursor, nodes[p, 0], 1)] = p
 
 
 @cuda.jit

@@ -12,9 +12,12 @@ active box); nodes outside the particles' reach have zero mass and stay zero.
 Each task ends with a device synchronisation so the run's timers hold the GPU time of each
 task, as the CPU timers hold CPU time.
 
-Scatter: `scatter="atomic"` (float64 atomic adds, the only method built so far). The
-argument is where a sorted, block-local scatter would plug in; which is faster is to be
-measured on a device (bench/gpu.py --scatter).
+Scatter (particle to grid: mass, momentum, forces), float64 atomic adds in one of two orders:
+`scatter="atomic"`, thread t takes particle t (storage order); `scatter="sorted"`, thread t
+takes particle order[t], the particles grouped by cell by a counting sort on the device every
+`sort_every` steps, so the threads of a warp add into the same few nodes. Which is faster is
+to be measured on a device (bench/gpu.py --scatter); the results differ only in the order of
+the sums.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from ..shapes import BAD_SUPPORT
 from ..tasks.particle_update import POSITIONS, SCHEMES, move_rigid
 from . import kernels as K
 
-SCATTERS = ("atomic",)
+SCATTERS = ("atomic", "sorted")
 ON_DEVICE = ("time step", "shape functions", "extrapolate", "update stress first", "forces", "grid update",
              "particle update", "move rigid", "re-extrapolate", "update stress last")
 STRESS_FIRST, STRESS_LAST = K.STRESS, K.N_SLOTS  # fault slots of the two stress updates
@@ -40,13 +43,15 @@ class DeviceStep:
 
     checkpoint_skip = True  # device arrays are not saved: a checkpoint holds the host state
 
-    def __init__(self, scene, scatter: str = "atomic"):
+    def __init__(self, scene, scatter: str = "atomic", sort_every: int = 10):
         from numba import cuda
 
         if scatter not in SCATTERS:
             raise ValueError(f"scatter {scatter!r}: one of {', '.join(SCATTERS)}")
         self.cuda = cuda
         self.scatter = scatter
+        self.sort_every = sort_every
+        self.since_sort = sort_every  # steps since the particles were last grouped by cell
         run = scene.settings
         upd = run.update
         self.dim = scene.dim
@@ -105,6 +110,8 @@ class DeviceStep:
         d["reaction"] = to(np.zeros(state.reaction.shape))
         d["scalars"] = to(np.zeros(3))
         d["faults"] = to(np.full(N_FAULT_SLOTS, P.n + R.n + 1, dtype=np.int64))
+        d["order"] = to(np.arange(max(P.n, 1), dtype=np.int64))
+        self.since_sort = self.sort_every
         d["fcode"] = to(np.zeros(max(P.n, 1), dtype=np.int64))
         d["fvalue"] = to(np.zeros(max(P.n, 1)))
         self.walls = bool(np.any(g.face_type[: 2 * dim] != 0))
@@ -177,7 +184,22 @@ class DeviceStep:
         if self.nr:
             kernel[K.blocks(self.nr)](d["rx"], d["origin"], d["h"], d["shape"], d["semi"], d["rnodes"], d["rS"],
                                       d["rG"], d["rlowest"], d["faults"], K.RIGID_SHAPE)
+        if self.scatter == "sorted" and self.n:
+            self.since_sort += 1
+            if self.since_sort >= self.sort_every:
+                self._sort_by_cell()
+                self.since_sort = 0
         self._sync()
+
+    def _sort_by_cell(self) -> None:
+        """order: the particles grouped by cell (their lowest node), a counting sort."""
+        cuda, d = self.cuda, self.d
+        nn = d["gmass"].size
+        count = cuda.to_device(np.zeros(nn, dtype=np.int64))
+        K.count_cells[K.blocks(self.n)](d["nodes"], count)
+        start = np.zeros(nn, dtype=np.int64)
+        np.cumsum(count.copy_to_host()[:-1], out=start[1:])
+        K.place_by_cell[K.blocks(self.n)](d["nodes"], cuda.to_device(start), d["order"])
 
     def _zero(self, *names) -> None:
         for name in names:
@@ -192,9 +214,9 @@ class DeviceStep:
         if affine:
             K.affine_kernel(dim)[K.blocks(self.n)](d["S"], d["lowest"], d["offs"], d["origin"], d["h"], d["xref"],
                                                    d["B"], d["C"])
-        K.p2g_kernel(dim, affine)[K.blocks(self.n)](d["mass"], d["v"], d["nodes"], d["S"], with_mass, d["gmass"],
-                                                    d["gmom"], d["C"], d["lowest"], d["offs"], d["origin"], d["h"],
-                                                    d["xref"])
+        K.p2g_kernel(dim, affine, self.scatter == "sorted")[K.blocks(self.n)](
+            d["mass"], d["v"], d["nodes"], d["S"], with_mass, d["gmass"], d["gmom"], d["C"], d["lowest"], d["offs"],
+            d["origin"], d["h"], d["xref"], d["order"])
 
     def extrapolate(self, state) -> None:
         d = self.d
@@ -252,8 +274,8 @@ class DeviceStep:
         d = self.d
         self._zero("force")
         if self.n:
-            K.forces_kernel(self.dim, self.has_gravity)[K.blocks(self.n)](
-                d["nodes"], d["S"], d["G"], d["vol"], d["stress"], d["mass"], d["gravity"], d["gforce"])
+            K.forces_kernel(self.dim, self.has_gravity, self.scatter == "sorted")[K.blocks(self.n)](
+                d["nodes"], d["S"], d["G"], d["vol"], d["stress"], d["mass"], d["gravity"], d["gforce"], d["order"])
         if self.reaches_ghosts and self.walls:
             fold = K.node_kernels(self.dim)[3]
             fold[K.blocks(d["gmass"].size)](d["gsrc"], d["gface"], d["gforce"])
