@@ -124,3 +124,13 @@ def test_rigid_penetration_watch_on_the_device():
     test and reported as the CPU reports it."""
     r = last_json(simulate("-m", "tests.gpu.cases", "--penetration"))
     assert "is inside rigid material 'platen'" in r["cpu"] and r["cuda"] == r["cpu"]
+
+
+def test_the_cpu_path_does_not_import_cuda():
+    """numba.cuda (seconds of import) is loaded only when a run asks for --device cuda."""
+    code = ("import sys; from mpmsim.solver import Simulation; "
+            "sim = Simulation.from_deck('inputs/column.yaml', threads=1); sim.step(); "
+            "print(sorted(m for m in sys.modules if m.startswith(('numba.cuda', 'numba_cuda', 'mpmsim.gpu'))))")
+    p = simulate("-c", code, sim=False)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip().splitlines()[-1] == "[]"
