@@ -89,6 +89,8 @@ def run(
         None, "--restart", help="Continue the run whose output folder (and checkpoint) this is."),
     steps: Optional[int] = typer.Option(
         None, "--steps", min=1, help="Stop after this many steps (a checkpoint is written: --restart continues)."),
+    device: str = typer.Option("cpu", "--device", help="cpu, or cuda: the explicit MPM step on an NVIDIA GPU "
+                               "(pip install 'mpmsim[cuda]'; what the GPU lacks is refused, naming the key)."),
 ) -> None:
     """Run a deck: VTU series (+ .pvd for ParaView) and a CSV history."""
     import numba
@@ -101,6 +103,7 @@ def run(
 
     cold = kernel_cache.is_empty()  # before the scene's own kernels fill it
     scene = _load_scene(deck)
+    _check_device(scene, device)
     manifest = None
     if restart is not None:
         with _deck_errors():
@@ -122,12 +125,14 @@ def run(
     try:
         with _deck_errors():
             sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads(), max_steps=max_steps,
-                             max_frames=max_frames, resume=restart is not None)
+                             max_frames=max_frames, resume=restart is not None, device=device)
             if restart is not None:
                 sim.resume()
             log = RunLog(Path(directory) / f"{scene.loaded.stem}_run.log", _command_line(ctx), scene.loaded,
                          numba.get_num_threads())
             log.note(thread_line)
+            if device != "cpu":
+                log.note(f"device: {device} (the explicit MPM step on the GPU: docs/performance.md#gpu)")
             for notice in scene.notices:  # (also with --quiet: a warning is not progress)
                 log.note(f"warning: {notice}")
                 err.print(f"[yellow]warning:[/] {notice}", highlight=False, soft_wrap=True)
@@ -406,11 +411,32 @@ def check(
     deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
     probe: bool = typer.Option(True, "--probe/--no-probe", help="FEM and implicit scenes: estimate the cost by "
                                "running the first steps (up to 5 s, and compiling on a first run)."),
+    device: str = typer.Option("cpu", "--device", help="cuda: also refuse (exit 2, naming the key) what the GPU "
+                               "step does not do yet (no GPU needed to check)."),
 ) -> None:
     """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
     scene = _load_scene(deck)
+    _check_device(scene, device, driver=False)
     with _deck_errors():
         _check(scene, probe)
+    if device != "cpu":
+        out.print(f"device {device}: everything this deck asks for runs on the GPU step", highlight=False)
+
+
+def _check_device(scene, device: str, driver: bool = True) -> None:
+    """`--device cuda`: refuse (exit 2, one line naming the key) what the GPU step lacks, and
+    (`driver`: run) a machine where CUDA cannot run."""
+    if device == "cpu":
+        return
+    from .gpu import DeviceError
+    from .solver import check_device
+
+    with _deck_errors():
+        try:
+            check_device(scene, device, driver)
+        except DeviceError as exc:
+            err.print(f"mpmsim: {exc}", highlight=False, soft_wrap=True)
+            raise typer.Exit(EXIT_BAD_DECK) from None
 
 
 def _check(scene, want_probe: bool = True) -> None:

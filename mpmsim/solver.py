@@ -88,6 +88,22 @@ class Schedule:
     written_at: float  # time of the last VTU frame
 
 
+def check_device(scene: Scene, device: str, driver: bool = True) -> None:
+    """Refuse a run on `device` (cuda) that the device cannot take: a DeckError naming each
+    deck key the GPU step lacks, or (`driver`) mpmsim.gpu.DeviceError when CUDA is not there."""
+    from . import gpu
+
+    if device not in gpu.DEVICES:
+        raise gpu.DeviceError(f"device {device!r}: one of {', '.join(gpu.DEVICES)}")
+    problems = gpu.unsupported(scene)
+    if problems:
+        from .deck.loader import raise_at
+
+        raise_at(problems, scene.loaded)
+    if driver:
+        gpu.require_cuda()
+
+
 class StopRequested(KeyboardInterrupt):
     """Raised between steps (Simulation.run's `between_steps`) when the run was asked to stop,
     e.g. by a signal: the state is whole, so the run writes it (and a checkpoint) before stopping."""
@@ -100,21 +116,26 @@ class StepLimit(StopRequested):
 class Simulation:
     def __init__(self, scene: Scene, out_dir: Path | None = None, threads: int | None = None,
                  integrator: Integrator | None = None, max_steps: float | None = None,
-                 max_frames: float | None = None, resume: bool = False):
+                 max_frames: float | None = None, resume: bool = False, device: str = "cpu"):
         """`out_dir=None` keeps the history in memory and writes no files (tests, sweeps).
         `integrator=None`: the deck's (make_integrator). `max_steps`, `max_frames`: refuse (a
         DeckError, before any file is touched) a run whose estimated step count (time.end over
         the first stable step) or output count exceeds them. `resume`: the folder holds a run
         to continue (call `resume()`); otherwise an earlier run's series files and checkpoint of
-        this deck are removed."""
+        this deck are removed. `device="cuda"`: the explicit MPM step on the GPU (mpmsim/gpu);
+        what the deck asks for that is not there yet is refused (a DeckError naming the key),
+        and a machine without CUDA raises mpmsim.gpu.DeviceError."""
+        if device != "cpu":
+            check_device(scene, device)
         self.scene = scene
         run = scene.settings
         self.end = run.time.end
         self.vtu_interval = run.output.vtu_interval or self.end / 20
         self.history_interval = run.output.history_interval or self.end / 200
         self.state = State.from_scene(scene, threads)
-        self.integrator = integrator if integrator is not None else make_integrator(scene)
+        self.integrator = integrator if integrator is not None else make_integrator(scene, device)
         self.check = StabilityCheck(scene)
+        self.check.sync = lambda state: self.integrator.to_host(state)  # (its messages read the particles)
         self.loop_timers = {CHECK: 0.0, OUTPUT: 0.0}
         self.check_budget(max_steps, max_frames)
         self.out_dir = Path(out_dir) if out_dir is not None else None
@@ -182,6 +203,7 @@ class Simulation:
     def particles(self) -> dict[str, np.ndarray]:
         """The deformable particles now, as arrays (copies): x, v (n, dim), stress (n, 6: xx yy zz
         xy yz xz), F (n, dim, dim), J, mass, volume (n,), material (names), body (indices)."""
+        self.integrator.to_host(self.state)
         P = self.state.particles
         names = np.array(self.state.materials.deformable, dtype=object)
         return {"x": P.x.copy(), "v": P.v.copy(), "stress": P.stress.copy(), "F": P.F.copy(),
@@ -221,14 +243,20 @@ class Simulation:
         """A VTU frame of the state (the history appends its rows to the CSV as they are recorded)."""
         t0 = wallclock.perf_counter()
         if self.vtu is not None:
+            self.integrator.to_host(self.state)
             self.files += self.vtu.write(self.state)
         self.loop_timers[OUTPUT] += wallclock.perf_counter() - t0
+
+    def _record(self) -> None:
+        """A history row of the state now."""
+        self.integrator.to_host(self.state)
+        self.recorder.record(self.state)
 
     def _write_last(self, recorded_at: float, written_at: float) -> None:
         """The current state as the history's last row and the series' last frame, unless
         they already are (recorded or written at this time)."""
         if recorded_at != self.state.t:
-            self.recorder.record(self.state)
+            self._record()
         if written_at != self.state.t:
             self._write_frame()
 
@@ -242,6 +270,7 @@ class Simulation:
         if self.checkpoint_path is None:
             return None
         t0 = wallclock.perf_counter()
+        self.integrator.to_host(self.state)
         meta = {"mpmsim": __version__, "deck": self.scene.digest, "t": self.state.t,
                 "step": self.state.step, "threads": self.state.threads}
         write_checkpoint(self.checkpoint_path, self._checkpoint_root(), meta)
@@ -265,6 +294,7 @@ class Simulation:
             raise CheckpointError(f"{str(path)!r} was written for a different deck (or one changed since); "
                                   "rerun from the start, or restore the deck as it was")
         restore_checkpoint(path, self._checkpoint_root(), manifest)
+        self.integrator.host_changed(self.state)
         if self.vtu is not None:
             self.vtu.resumed()
             self.files = [self.vtu.directory / f for _, _, f in self.vtu.entries]
@@ -298,7 +328,7 @@ class Simulation:
             if st.step == 0:  # the energy balance starts from the state as the caller left it
                 sums = total_sums(st)
                 st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
-            self.recorder.record(st)
+            self._record()
             self._write_frame()
             self.schedule = Schedule(st.t + vtu_dt, st.t + hist_dt, st.t + self.checkpoint_every, st.t, st.t)
         sc = self.schedule
@@ -313,7 +343,7 @@ class Simulation:
                     if first_step is not None:
                         first_step(self.first_step_seconds)
                 if st.t >= sc.next_hist - eps:
-                    self.recorder.record(st)
+                    self._record()
                     sc.recorded_at = st.t
                     sc.next_hist = next_time(sc.next_hist, hist_dt, st.t + eps)
                 if st.t >= sc.next_vtu - eps:
@@ -342,7 +372,7 @@ class Simulation:
             # keep the failing state: advance the clock to the failing step, then write it
             st.t += st.dt
             st.step += 1
-            self.recorder.record(st)
+            self._record()
             self._write_frame()
             raise
         self._write_last(sc.recorded_at, sc.written_at)

@@ -41,12 +41,15 @@ class StabilityCheck:
         self.tolerance = stab.energy_tolerance
         self.every = stab.check_every
         self.units = unit_system(scene.settings.units)
+        self.sync = lambda state: None  # brings the host state up to date (a GPU run's: Simulation)
 
     def where(self, state) -> str:
         """The failing step: its number (1-based) and its end time."""
         return f"step {state.step + 1}, t = {state.t + state.dt:.6g} {self.units.time}"
 
     def __call__(self, state) -> None:
+        if state.flags.bad_particle >= 0 or state.flags.bad_rigid >= 0:
+            self.sync(state)  # (the message names the particle and where it is)
         for body in state.bodies:
             fault = body.check(state, self.units)
             if fault is not None:
@@ -61,6 +64,7 @@ class StabilityCheck:
         supplied = state.energy0 + state.work_in
         excess = total - supplied
         if excess > self.tolerance * (state.energy0 + abs(state.work_in)) + state.energy_floor:
+            self.sync(state)
             fastest = "; ".join(f for f in (b.fastest(state, self.units) for b in state.bodies) if f)
             stored = f" + {state.interface_energy:.4g} (interfaces)" if state.interface_energy else ""
             raise InstabilityError(

@@ -38,6 +38,7 @@ class RigidParticles(BodySet):
     lattices: list | None = None  # rigid_lattices, built at the first check
 
     kind = "rigid particles"
+    find_inside = None  # inside_rigid's stand-in, when the particles are on a GPU (mpmsim/gpu/step.py)
 
     @property
     def n(self) -> int:
@@ -103,7 +104,8 @@ class RigidParticles(BodySet):
         origin, spacing = g.origin[: g.dim], 2.0 * P.semi
         if self.lattices is None:  # built once: the lattices depend on the start positions only
             self.lattices = rigid_lattices(self, origin, spacing)
-        p, q = inside_rigid(P.x, self, origin, spacing, self.lattices)
+        finder = self.find_inside or inside_rigid  # (a GPU run looks on the device)
+        p, q = finder(P.x, self, origin, spacing, self.lattices)
         if p < 0:
             return None
         return "stopped", (f"{P.describe(state, p, units)} is inside rigid material '{self.names[int(self.mat[q])]}' "

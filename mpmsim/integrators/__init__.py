@@ -34,11 +34,21 @@ class Integrator:
     def advance(self, state, dt: float) -> float:  # pragma: no cover
         raise NotImplementedError
 
+    def to_host(self, state) -> None:
+        """Bring the host state up to date before it is read (an integrator that keeps the
+        state on a device copies it back here; the CPU integrators have nothing to do)."""
 
-def make_integrator(scene) -> Integrator:
-    """The deck's integrator for this scene."""
+    def host_changed(self, state) -> None:
+        """The host state was replaced from outside (a restart): a device copy is stale."""
+
+
+def make_integrator(scene, device: str = "cpu") -> Integrator:
+    """The deck's integrator for this scene; `device="cuda"`: the explicit MPM step on the GPU
+    (mpmsim/gpu: the caller has checked the scene with mpmsim.gpu.unsupported)."""
     from .explicit import ExplicitMPM
     from .implicit import ImplicitStep
 
+    if device != "cpu":
+        return ExplicitMPM(scene, device=device)
     kinds = {"explicit": ExplicitMPM, "implicit": ImplicitStep}
     return kinds[scene.settings.integrator](scene)

@@ -1,7 +1,11 @@
 """Explicit integration: one step is the task list of mpmsim/tasks, built once from the scene
 (the MPM step for particle bodies, velocity Verlet with augury contact for FEM bodies); each
 task is timed for the run's table. After the tasks, the step's reactions (walls, rigid
-materials) are added to their impulses since t = 0."""
+materials) are added to their impulses since t = 0.
+
+With `device="cuda"` the same task list runs on the GPU (mpmsim/gpu/step.py): each task is
+the device version of the CPU task of that name, the state stays on the device, and
+`to_host` brings the host state up to date when the run loop reads it."""
 
 from __future__ import annotations
 
@@ -16,11 +20,19 @@ from . import Integrator
 
 class ExplicitMPM(Integrator):
     name = "explicit"
+    device = None  # the GPU step (mpmsim/gpu/step.py) when the run is on a device
 
-    def __init__(self, scene):
+    def __init__(self, scene, device: str = "cpu"):
         super().__init__()
         time = scene.settings.time
         self.tasks, self.skipped = plan_tasks(scene)
+        if device == "cuda":  # (a CPU integrator has no attribute: its checkpoint restarts on either)
+            from ..gpu.step import DeviceStep
+            from ..tasks import Task
+
+            self.device = DeviceStep(scene)
+            runs = self.device.tasks(self.tasks)
+            self.tasks = [Task(t.name, runs[t.name], t.why) for t in self.tasks]
         self.plan = [(t.name, t.why) for t in self.tasks]
         self.timers = {t.name: 0.0 for t in self.tasks}
         self.cfl = time.cfl if time.cfl is not None else 0.5
@@ -40,9 +52,22 @@ class ExplicitMPM(Integrator):
 
     def advance(self, state, dt: float) -> float:
         timers = self.timers
-        for task in self.tasks:
-            t0 = wallclock.perf_counter()
-            task.run(state)
-            timers[task.name] += wallclock.perf_counter() - t0
+        if self.device is not None:
+            from ..gpu.step import timed_step
+
+            timed_step(self.device, self.tasks, timers, state)
+        else:
+            for task in self.tasks:
+                t0 = wallclock.perf_counter()
+                task.run(state)
+                timers[task.name] += wallclock.perf_counter() - t0
         state.impulse += state.reaction * dt  # the walls' and rigid materials' impulse since t = 0
         return dt
+
+    def to_host(self, state) -> None:
+        if self.device is not None:
+            self.device.to_host(state)
+
+    def host_changed(self, state) -> None:
+        if self.device is not None:
+            self.device.state = None  # copied to the device again at the next step

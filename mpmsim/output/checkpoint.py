@@ -91,6 +91,8 @@ class _Encoder:
     def node(self, value, path: str):
         if value is None:
             return {"t": "none"}
+        if getattr(type(value), "checkpoint_skip", False):  # (device copies: the host state is saved)
+            return None
         if isinstance(value, bool):
             return {"t": "bool", "v": value}
         if isinstance(value, np.generic):

@@ -1,0 +1,664 @@
+"""CUDA kernels of the explicit MPM step (numba-cuda): one thread per particle or per grid node.
+
+Imported only when a run asks for `device: cuda` (mpmsim/gpu/step.py), never on the CPU path.
+The per-particle and per-node physics is the CPU path's own compiled functions, which
+numba-cuda compiles again as device functions: the 1D shape-function weights
+(shapes/grid_functions.py), the velocity conditions and ghost mirrors (bc.py), the 3x3
+inverse (materials/kernels.py) and each material model's stress update
+(materials/<model>.py). What differs from the CPU kernels is how the work is spread: a
+thread per particle or node instead of a chunk per CPU thread, float64 atomic adds where
+particles scatter to the grid (the CPU path colours slabs instead), and scratch in per-thread
+local arrays. Each kernel is built once per set of constants (dimension, shape function,
+scheme, material model) so the compiler drops the branches a scene does not use.
+
+Fault slots (`faults`, int64, lowest particle index wins, `n` when none): SHAPE, RIGID_SHAPE,
+STRESS, UPDATE; the stress and particle-update codes and values sit in `fcode`/`fvalue` at
+the flagged particle's index.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+
+import numpy as np
+from numba import cuda, float64, int64
+
+from numba.cuda.core import config as cuda_config
+
+from .. import bc
+from ..bc import NO_BC, RIGID_OWNER
+from ..faults import BAD_INVERTED, BAD_LEFT_GRID, BAD_NAN
+from .. import gridops
+from ..materials import kernels as mk
+from ..bodies import KINETIC, STRAIN
+from ..materials.dispatch import energy_dispatch
+from ..materials.kernels import EOS_N
+from ..materials.model import model_of
+from ..shapes.grid_functions import weights_1d as _weights_1d
+from ..tasks.extrapolate import RIGID_MIN_WEIGHT
+from ..tasks.particle_update import APIC, FLIP, PIC, UPDATED
+
+SIMULATOR = bool(cuda_config.ENABLE_CUDASIM)
+
+
+def _add_ufunc_loops() -> None:
+    """numba-cuda 0.30 has no float64 loops for np.floor and np.cbrt, which the shared shape
+    functions and the neo-Hookean stress call: add them (LLVM's floor, libdevice's cbrt) to its
+    ufunc table, so the CPU path's functions compile for the device unchanged."""
+    from llvmlite import ir
+    from numba.cuda import cgutils, ufuncs
+    from numba.cuda.cudaimpl import ptx_cbrt
+
+    def floor(context, builder, sig, args):
+        fnty = ir.FunctionType(ir.DoubleType(), [ir.DoubleType()])
+        return builder.call(cgutils.get_or_insert_function(builder.module, fnty, "llvm.floor.f64"), args)
+
+    db = ufuncs.ufunc_db()
+    db.setdefault(np.floor, {}).setdefault("d->d", floor)
+    db.setdefault(np.cbrt, {}).setdefault("d->d", ptx_cbrt)
+
+
+if not SIMULATOR:
+    _add_ufunc_loops()
+
+
+def device_function(f):
+    """The CPU path's compiled function `f` for use in a kernel: as it is on a GPU (numba-cuda
+    compiles a numba.njit function called from a kernel again for the device); under the
+    simulator (kernels run as Python), called on the numpy arrays its device arrays wrap."""
+    if not SIMULATOR:
+        return f
+
+    def call(*args):
+        return f(*[getattr(a, "_ary", a) for a in args])
+
+    return call
+
+
+weights_1d = device_function(_weights_1d)
+ghost_mirror, node_bc, rigid_holds = (device_function(f) for f in (bc.ghost_mirror, bc.node_bc, bc.rigid_holds))
+det3, inv3 = device_function(mk.det3), device_function(mk.inv3)
+node_ijk = device_function(gridops.node_ijk)
+TPB = 16 if SIMULATOR else 128  # threads per block (the simulator runs each as a Python thread)
+SHAPE, RIGID_SHAPE, STRESS, UPDATE = 0, 1, 2, 3
+N_SLOTS = 4
+WAVE, GRID_WORK, GRAVITY_WORK = 0, 1, 2  # entries of the step's scalars
+
+
+def blocks(n: int) -> tuple[int, int]:
+    return (max(1, (n + TPB - 1) // TPB), TPB)
+
+
+@cuda.jit
+def zero(a):
+    """a[:] = 0 for a flat array."""
+    i = cuda.grid(1)
+    if i < a.size:
+        a[i] = 0.0
+
+
+@cache
+def shape_kernel(dim: int, kind: int, per_axis: int):
+    """Node lists, S_ip and G_ip of tensor-product shape functions (tensor.py's kernel, one
+    particle per thread); a particle whose support leaves the grid weighs nothing and is flagged."""
+
+    @cuda.jit
+    def kernel(x, origin, h, shape, semi, nodes, S, G, lowest, faults, slot):
+        p = cuda.grid(1)
+        if p >= x.shape[0]:
+            return
+        w = cuda.local.array((3, 4), float64)
+        dw = cuda.local.array((3, 4), float64)
+        base = cuda.local.array(3, int64)
+        for d in range(3):
+            base[d] = 0
+            for a in range(4):
+                w[d, a] = 1.0
+                dw[d, a] = 0.0
+        inside = True
+        for d in range(dim):
+            xi = (x[p, d] - origin[d]) / h[d]
+            if not (xi > -1e9 and xi < 1e9):
+                xi = 0.0
+                inside = False
+            base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
+            if base[d] < 0 or base[d] + per_axis > shape[d]:
+                inside = False
+        if not inside:
+            for k in range(S.shape[1]):
+                nodes[p, k] = 0
+                S[p, k] = 0.0
+                for d in range(dim):
+                    G[p, k, d] = 0.0
+            cuda.atomic.min(faults, slot, p)
+            return
+        for d in range(dim):
+            lowest[p, d] = base[d]
+        k = 0
+        b0, b1, b2 = base[0], base[1], base[2]
+        for cc in range(per_axis if dim == 3 else 1):
+            wz, dwz = w[2, cc], dw[2, cc]
+            for b in range(per_axis):
+                wy, dwy = w[1, b], dw[1, b]
+                row = (b1 + b) + shape[1] * (b2 + cc)
+                for a in range(per_axis):
+                    nodes[p, k] = (b0 + a) + shape[0] * row
+                    wx = w[0, a]
+                    S[p, k] = wx * wy * wz
+                    G[p, k, 0] = dw[0, a] * wy * wz
+                    G[p, k, 1] = wx * dwy * wz
+                    if dim == 3:
+                        G[p, k, 2] = wx * wy * dwz
+                    k += 1
+
+    return kernel
+
+
+@cache
+def affine_kernel(dim: int):
+    """APIC: C_p = B_p D_p^-1, D_p = sum_i S_ip (x_i - x_p)(x_i - x_p)^T (extrapolate.py)."""
+
+    @cuda.jit
+    def kernel(S, lowest, offs, origin, h, x, B, C):
+        p = cuda.grid(1)
+        if p >= S.shape[0]:
+            return
+        D = cuda.local.array((3, 3), float64)
+        Di = cuda.local.array((3, 3), float64)
+        r = cuda.local.array(3, float64)
+        for a in range(3):
+            r[a] = 0.0
+            for b in range(3):
+                D[a, b] = 0.0
+        D[2, 2] = 1.0 if dim == 2 else 0.0
+        for k in range(S.shape[1]):
+            w = S[p, k]
+            for b in range(dim):
+                r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
+            for a in range(dim):
+                for b in range(dim):
+                    D[a, b] += w * r[a] * r[b]
+        inv3(D, Di)
+        for a in range(dim):
+            for b in range(dim):
+                cab = 0.0
+                for m in range(dim):
+                    cab += B[p, a, m] * Di[m, b]
+                C[p, a, b] = cab
+
+    return kernel
+
+
+@cache
+def p2g_kernel(dim: int, affine: bool, ordered: bool = False):
+    """Scatter m_p and m_p (v_p + C_p (x_i - x_p)) with float64 atomic adds (the masses only
+    with `with_mass`); `ordered`: thread t takes particle order[t] (particles sorted by cell,
+    so a warp's atomic adds fall on a few nodes)."""
+
+    @cuda.jit
+    def kernel(pmass, pvel, nodes, S, with_mass, gmass, gmom, C, lowest, offs, origin, h, xref, order):
+        p = cuda.grid(1)
+        if p >= S.shape[0]:
+            return
+        if ordered:
+            p = order[p]
+        mp = pmass[p]
+        r = cuda.local.array(3, float64)
+        for k in range(S.shape[1]):
+            w = S[p, k]
+            if w == 0.0:
+                continue
+            i = nodes[p, k]
+            wm = w * mp
+            if with_mass:
+                cuda.atomic.add(gmass, i, wm)
+            if affine:
+                for b in range(dim):
+                    r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - xref[p, b]
+                for d in range(dim):
+                    vd = pvel[p, d]
+                    for b in range(dim):
+                        vd += C[p, d, b] * r[b]
+                    cuda.atomic.add(gmom, (i, d), wm * vd)
+            else:
+                for d in range(dim):
+                    cuda.atomic.add(gmom, (i, d), wm * pvel[p, d])
+
+    return kernel
+
+
+@cuda.jit
+def rigid_volume(nodes, S, vol, mat, rigid_vol):
+    p = cuda.grid(1)
+    if p >= S.shape[0]:
+        return
+    r = mat[p]
+    for k in range(S.shape[1]):
+        w = S[p, k]
+        if w > RIGID_MIN_WEIGHT:
+            cuda.atomic.add(rigid_vol, (nodes[p, k], r), w * vol[p])
+
+
+@cache
+def node_kernels(dim: int):
+    """The per-node passes: ghost table, grid velocity, mirrors, the momentum update."""
+
+    @cuda.jit
+    def ghosts(shape, face_type, wall_index, rigid_vol, constrain, src, face):
+        """boundary.ghost_table for one field per node (no contact slots)."""
+        node = cuda.grid(1)
+        if node >= src.shape[0]:
+            return
+        i, j, k = node_ijk(node, shape)
+        for d in range(dim):
+            mirror, f = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
+            face[node, d] = f
+            if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
+                src[node, d] = -1
+            else:
+                src[node, d] = mirror
+
+    @cuda.jit
+    def velocity(shape, face_type, wall_index, rigid_vol, constrain, rig_vel, mass, mom, vel):
+        """boundary.grid_velocity: vel = p/m with velocity conditions imposed."""
+        node = cuda.grid(1)
+        if node >= mass.shape[0]:
+            return
+        i, j, k = node_ijk(node, shape)
+        m = mass[node]
+        for d in range(dim):
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+            if owner != NO_BC:
+                vel[node, d] = vbc
+            elif m > 0.0:
+                vel[node, d] = mom[node, d] / m
+            else:
+                vel[node, d] = 0.0
+
+    @cuda.jit
+    def mirror(src, field):
+        """boundary.mirror_ghosts."""
+        node = cuda.grid(1)
+        if node >= src.shape[0]:
+            return
+        for d in range(dim):
+            mf = src[node, d]
+            if mf != -1:
+                field[node, d] = -field[mf, d] if mf >= 0 else 0.0
+
+    @cuda.jit
+    def fold(src, face, force):
+        """boundary.fold_ghost_forces (B-splines)."""
+        node = cuda.grid(1)
+        if node >= src.shape[0]:
+            return
+        for d in range(dim):
+            mf = src[node, d]
+            if mf >= 0 and face[node, d] // 2 == d:
+                cuda.atomic.add(force, (mf, d), -force[node, d])
+
+    @cuda.jit
+    def update(shape, face_type, wall_index, rigid_vol, constrain, v_start, v_end, mass, mom, force, vnew, acc,
+               vstart, dt, reaction, scalars):
+        """grid_update.grid_update_kernel, reactions and work added atomically."""
+        node = cuda.grid(1)
+        if node >= mass.shape[0]:
+            return
+        i, j, k = node_ijk(node, shape)
+        m = mass[node]
+        if m <= 0.0:
+            for d in range(dim):
+                vnew[node, d] = 0.0
+                acc[node, d] = 0.0
+                vstart[node, d] = 0.0
+            return
+        work = 0.0
+        for d in range(dim):
+            fd = force[node, d]
+            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
+            if owner != NO_BC:
+                owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
+                vstart[node, d] = vbc0
+            else:
+                vstart[node, d] = mom[node, d] / m
+            if owner != NO_BC:
+                f_bc = (m * vbc - mom[node, d]) / dt
+                dfc = f_bc - fd
+                work += dfc * vbc * dt
+                if owner != RIGID_OWNER:
+                    cuda.atomic.add(reaction, (owner, d), dfc)
+                else:  # shared by the rigid materials holding the node, by their volumes (bc.add_reaction)
+                    wsum = 0.0
+                    for r in range(constrain.shape[0]):
+                        if constrain[r, d]:
+                            wsum += rigid_vol[node, r]
+                    for r in range(constrain.shape[0]):
+                        if constrain[r, d] and rigid_vol[node, r] > 0.0:
+                            cuda.atomic.add(reaction, (RIGID_OWNER + r, d), dfc * rigid_vol[node, r] / wsum)
+                fd = f_bc
+            acc[node, d] = fd / m
+            vnew[node, d] = (mom[node, d] + fd * dt) / m
+        if work != 0.0:
+            cuda.atomic.add(scalars, GRID_WORK, work)
+
+    @cuda.jit
+    def mirror_update(src, face, mass, mom, vnew, acc, vstart, dt, reaction):
+        """grid_update.mirror_update."""
+        node = cuda.grid(1)
+        if node >= src.shape[0]:
+            return
+        m = mass[node]
+        if m <= 0.0:
+            return
+        for d in range(dim):
+            mf = src[node, d]
+            if mf == -1:
+                continue
+            v = -vnew[mf, d] if mf >= 0 else 0.0
+            cuda.atomic.add(reaction, (face[node, d], d), m * (v - vnew[node, d]) / dt)
+            vnew[node, d] = v
+            acc[node, d] = (v - mom[node, d] / m) / dt
+            vstart[node, d] = -vstart[mf, d] if mf >= 0 else 0.0
+
+    return ghosts, velocity, mirror, fold, update, mirror_update
+
+
+@cache
+def forces_kernel(dim: int, has_gravity: bool, ordered: bool = False):
+    """f_i = -sum_p V_p sigma_p . G_ip + sum_p S_ip m_p g (forces.py), atomic adds (`ordered`:
+    as p2g_kernel's)."""
+
+    @cuda.jit
+    def kernel(nodes, S, G, vol, stress, pmass, gravity, gforce, order):
+        p = cuda.grid(1)
+        if p >= S.shape[0]:
+            return
+        if ordered:
+            p = order[p]
+        vp = vol[p]
+        wm = pmass[p]
+        sxx, syy, szz, sxy, syz, sxz = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
+                                        stress[p, 5])
+        for k in range(S.shape[1]):
+            w = S[p, k]
+            i = nodes[p, k]
+            gx, gy = G[p, k, 0], G[p, k, 1]
+            if dim == 3:
+                gz = G[p, k, 2]
+                fx = (0.0 - sxx * gx - sxy * gy - sxz * gz) * vp
+                fy = (0.0 - sxy * gx - syy * gy - syz * gz) * vp
+                fz = (0.0 - sxz * gx - syz * gy - szz * gz) * vp
+            else:
+                fx = (0.0 - sxx * gx - sxy * gy) * vp
+                fy = (0.0 - sxy * gx - syy * gy) * vp
+                fz = 0.0
+            if has_gravity:
+                fx += w * wm * gravity[0]
+                fy += w * wm * gravity[1]
+                if dim == 3:
+                    fz += w * wm * gravity[2]
+            cuda.atomic.add(gforce, (i, 0), fx)
+            cuda.atomic.add(gforce, (i, 1), fy)
+            if dim == 3:
+                cuda.atomic.add(gforce, (i, 2), fz)
+
+    return kernel
+
+
+@cache
+def stress_kernel(model: int, dim: int):
+    """tasks/stress.py's update for the particles of one material model (no internal energy):
+    F <- (I + dt L) F, V = J V0, the model's stress, the largest wave speed + |v|."""
+    m = model_of(model)
+    STRESS = device_function(m.stress(dim))
+    CODE = m.code
+    READS_L_2D, READS_F3_2D = m.reads_L_2d, m.reads_F3_2d
+
+    @cuda.jit
+    def kernel(nodes, G, gvel, dt, v, F, stress, vol, vol0, mat, code, props, density, scalars, faults, slot, fcode,
+               fvalue):
+        p = cuda.grid(1)
+        if p >= nodes.shape[0]:
+            return
+        mt = mat[p]
+        if code[mt] != CODE:
+            return
+        K = nodes.shape[1]
+        L = cuda.local.array((3, 3), float64)
+        F3 = cuda.local.array((3, 3), float64)
+        W = cuda.local.array((3, 3), float64)
+        A = cuda.local.array((3, 3), float64)
+        Ai = cuda.local.array((3, 3), float64)
+        Q = cuda.local.array((3, 3), float64)
+        eos = cuda.local.array(EOS_N, float64)
+        for a in range(3):
+            for b in range(3):
+                L[a, b] = 0.0
+                F3[a, b] = 0.0
+        n00 = n01 = n10 = n11 = 0.0
+        if dim == 2:
+            l00 = 0.0
+            l01 = 0.0
+            l10 = 0.0
+            l11 = 0.0
+            for k in range(K):
+                i = nodes[p, k]
+                v0, v1 = gvel[i, 0], gvel[i, 1]
+                g0, g1 = G[p, k, 0], G[p, k, 1]
+                l00 += v0 * g0
+                l01 += v0 * g1
+                l10 += v1 * g0
+                l11 += v1 * g1
+            if READS_L_2D:
+                L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
+            f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
+            n00 = f00 + dt * l00 * f00 + dt * l01 * f10
+            n01 = f01 + dt * l00 * f01 + dt * l01 * f11
+            n10 = f10 + dt * l10 * f00 + dt * l11 * f10
+            n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+            if READS_F3_2D:
+                F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
+                F3[2, 2] = 1.0
+            J = n00 * n11 - n01 * n10
+        else:
+            for k in range(K):
+                i = nodes[p, k]
+                for a in range(3):
+                    va = gvel[i, a]
+                    for b in range(3):
+                        L[a, b] += va * G[p, k, b]
+            for a in range(3):
+                for b in range(3):
+                    s = F[p, a, b]
+                    for mm in range(3):
+                        s += dt * L[a, mm] * F[p, mm, b]
+                    F3[a, b] = s
+            J = det3(F3)
+        if not (J > 0.0):
+            fcode[p] = BAD_INVERTED
+            fvalue[p] = J
+            cuda.atomic.min(faults, slot, p)
+            return
+        if dim == 2:
+            F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1] = n00, n01, n10, n11
+        else:
+            for a in range(3):
+                for b in range(3):
+                    F[p, a, b] = F3[a, b]
+        vol[p] = vol0[p] * J
+        modulus = STRESS(props[mt], L, dt, F3, J, n00, n01, n10, n11, stress[p], W, A, Ai, Q, eos)
+        speed2 = 0.0
+        for a in range(dim):
+            speed2 += v[p, a] * v[p, a]
+        cp = math.sqrt(modulus * J / density[mt]) + math.sqrt(speed2)
+        cuda.atomic.max(scalars, WAVE, cp)
+        finite = True
+        for a in range(6):
+            s = stress[p, a]
+            if not math.isfinite(s):
+                finite = False
+        if not finite:
+            fcode[p] = BAD_NAN
+            fvalue[p] = 0.0
+            cuda.atomic.min(faults, slot, p)
+
+    return kernel
+
+
+@cache
+def particle_kernel(scheme: int, position: int, dim: int):
+    """particle_update.py's FLIP, PIC and APIC updates, one particle per thread."""
+    use_a = scheme == FLIP
+    use_v = scheme == FLIP or scheme == PIC or scheme == APIC or position == UPDATED
+    use_0 = scheme == FLIP or scheme == PIC
+
+    @cuda.jit
+    def kernel(nodes, S, lowest, offs, origin, h, vnew, acc, vstart, dt, x, v, B, pmass, gravity, lo, hi, scalars,
+               faults, slot, fcode):
+        p = cuda.grid(1)
+        if p >= S.shape[0]:
+            return
+        K = S.shape[1]
+        sa = cuda.local.array(3, float64)
+        sv = cuda.local.array(3, float64)
+        s0 = cuda.local.array(3, float64)
+        for d in range(3):
+            sa[d] = 0.0
+            sv[d] = 0.0
+            s0[d] = 0.0
+        if scheme == APIC:
+            for a in range(dim):
+                for b in range(dim):
+                    B[p, a, b] = 0.0
+        for k in range(K):
+            w = S[p, k]
+            i = nodes[p, k]
+            for d in range(dim):
+                if use_a:
+                    sa[d] += w * acc[i, d]
+                if use_v:
+                    sv[d] += w * vnew[i, d]
+                if use_0:
+                    s0[d] += w * vstart[i, d]
+            if scheme == APIC:
+                for b in range(dim):
+                    rb = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
+                    for a in range(dim):
+                        B[p, a, b] += w * vnew[i, a] * rb
+        outside = False
+        finite = True
+        gwork = 0.0
+        for d in range(dim):
+            vold = v[p, d]
+            if scheme == FLIP:
+                vn = vold + dt * sa[d]
+                dx = 0.5 * dt * (s0[d] + sv[d])
+            elif scheme == PIC:
+                vn = sv[d]
+                dx = dt * (s0[d] + 0.5 * (vn - vold))
+            else:  # APIC
+                vn = sv[d]
+                dx = dt * vn
+            if position == UPDATED:
+                dx = dt * sv[d]
+                gwork += pmass[p] * gravity[d] * 0.5 * dt * (vold + vn)
+            else:
+                gwork += pmass[p] * gravity[d] * dx
+            x[p, d] += dx
+            v[p, d] = vn
+            if x[p, d] < lo[d] or x[p, d] > hi[d]:
+                outside = True
+            if not (math.isfinite(vn) and math.isfinite(x[p, d])):
+                finite = False
+        if gwork != 0.0:
+            cuda.atomic.add(scalars, GRAVITY_WORK, gwork)
+        if not finite:
+            fcode[p] = BAD_NAN
+            cuda.atomic.min(faults, slot, p)
+        elif outside:
+            fcode[p] = BAD_LEFT_GRID
+            cuda.atomic.min(faults, slot, p)
+
+    return kernel
+
+
+@cuda.jit
+def inside_rigid(x, origin, spacing, lo, span, owner, first, found):
+    """bodies/rigid.py's penetration watch: the lowest particle inside a rigid body's lattice."""
+    p = cuda.grid(1)
+    if p >= x.shape[0]:
+        return
+    dim = x.shape[1]
+    k = cuda.local.array(3, int64)
+    for a in range(dim):
+        k[a] = int(math.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
+        if k[a] < 0 or k[a] + 1 >= span[a]:
+            return
+    corner = 0
+    for c in range(2 ** dim):
+        flat = 0
+        for a in range(dim):
+            flat = flat * span[a] + k[a] + ((c >> a) & 1)
+        if owner[flat] < 0:
+            return
+        if c == 0:
+            corner = owner[flat]
+    found[p] = corner
+    cuda.atomic.min(first, 0, p)
+
+
+@cache
+def energy_kernel(codes: tuple):
+    """The kinetic and strain energy of the particles (bodies/particles.py's sums, the two the
+    energy check reads), atomic adds into out[KINETIC], out[STRAIN]."""
+    ENERGY = device_function(energy_dispatch(codes)[1])
+
+    @cuda.jit
+    def kernel(v, mass, vol, F, stress, mat, code, props, out):
+        p = cuda.grid(1)
+        if p >= v.shape[0]:
+            return
+        dim = v.shape[1]
+        F3 = cuda.local.array((3, 3), float64)
+        v2 = 0.0
+        for d in range(dim):
+            v2 += v[p, d] * v[p, d]
+        for a in range(3):
+            for b in range(3):
+                F3[a, b] = F[p, a, b] if (a < dim and b < dim) else (1.0 if a == b else 0.0)
+        mt = mat[p]
+        cuda.atomic.add(out, KINETIC, 0.5 * mass[p] * v2)
+        cuda.atomic.add(out, STRAIN, vol[p] * ENERGY(code[mt], props[mt], F3, stress[p], det3(F3)))
+
+    return kernel
+
+
+@cuda.jit
+def count_cells(nodes, count):
+    """Particles per cell (a particle's cell: its lowest node), for the sorted scatter."""
+    p = cuda.grid(1)
+    if p < nodes.shape[0]:
+        cuda.atomic.add(count, nodes[p, 0], 1)
+
+
+@cuda.jit
+def place_by_cell(nodes, cursor, order):
+    """order[cursor[cell]++] = p: the particles grouped by cell (counting sort; within a cell
+    in no particular order)."""
+    p = cuda.grid(1)
+    if p < nodes.shape[0]:
+        order[cuda.atomic.add(cursor, nodes[p, 0], 1)] = p
+
+
+@cuda.jit
+def move_rigid(x, v, mat, v_start, v_end, dt):
+    """Rigid particles: x += dt (v(t) + v(t+dt))/2, V = v(t+dt)."""
+    p = cuda.grid(1)
+    if p >= x.shape[0]:
+        return
+    r = mat[p]
+    for d in range(x.shape[1]):
+        x[p, d] += dt * (0.5 * (v_start[r, d] + v_end[r, d]))
+        v[p, d] = v_end[r, d]
+
