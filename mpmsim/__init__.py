@@ -8,14 +8,41 @@ from importlib.metadata import PackageNotFoundError, version
 # user's own setting wins; numpy imported before mpmsim keeps whatever it loaded with.
 for _blas in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_blas, "1")
-# Threads that wait at the end of a parallel region sleep instead of spinning. With numba's
-# OpenMP layer (libgomp) spinning is the default: a waiting thread keeps its core, and when
-# other processes want the cores the spinning thread steals time from the thread the region
-# waits for. Measured on the 2-core bench machine (bench/contention.py): --threads 2 ran 2.4x
-# (one busy neighbour) to 12x (three) slower than --threads 1 while spinning, and no slower
-# than --threads 1 while sleeping (docs/performance.md). libgomp reads this when it loads
-# (numba's first threaded kernel), so it must be set before; OMP_WAIT_POLICY=ACTIVE restores
-# spinning.
+
+
+def _load_tbb() -> bool:
+    """Make numba's TBB threading layer loadable: the `tbb` wheel (a dependency on x86-64
+    Linux) puts libtbb in the environment's lib folder, where the dynamic loader does not look,
+    so it is loaded here by path; numba's default layer (the first of tbb, omp, workqueue that
+    loads) is then TBB. A NUMBA_THREADING_LAYER the user set wins."""
+    if os.environ.get("NUMBA_THREADING_LAYER", "default") not in ("default", "tbb", ""):
+        return False
+    import ctypes
+    import sys
+
+    for name in ("libtbb.so.12", "libtbb.12.dylib"):
+        path = os.path.join(sys.prefix, "lib", name)
+        if os.path.exists(path):
+            try:
+                ctypes.CDLL(path, mode=ctypes.RTLD_GLOBAL)
+                return True
+            except OSError:
+                return False
+    return False
+
+
+# Threads wait at the end of each parallel region (about 20 a step). TBB's workers share the
+# region's chunks as they go and sleep soon after running out of work; numba's OpenMP layer
+# (libgomp) hands each thread a fixed share and by default spins while it waits, so a thread
+# sharing a core with a busy process stalls the region and the spinning one takes the time
+# the stalled one needs. Measured on the 2-core bench machine (bench/contention.py,
+# docs/performance.md): OpenMP with spinning waits ran --threads 2 2.4x (one busy neighbour)
+# to 12x (three) slower than --threads 1; TBB, or OpenMP with sleeping waits, no slower than
+# one thread, and TBB as fast as spinning OpenMP on the idle machine where sleeping OpenMP
+# waits lose 35% on the 16 000-particle column. So: TBB where it is installed, else OpenMP
+# with sleeping waits (libgomp reads this when it loads, at numba's first threaded kernel;
+# OMP_WAIT_POLICY=ACTIVE restores spinning).
+TBB = _load_tbb()
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 try:

@@ -274,19 +274,22 @@ class Terminated(KeyboardInterrupt):
 
 def default_threads(cpus: set[int] | None = None, busy: float | None = None,
                     load: float | None = None) -> tuple[int, str]:
-    """(threads, why): every core this process may run on (its affinity). Threads that wait at
-    the end of a parallel region sleep (mpmsim sets OMP_WAIT_POLICY=PASSIVE), so a busy
-    neighbour takes its share of the cores and no more: on the 2-core bench machine two
-    threads ran at least as fast as one beside one or three busy processes, started before or
-    during the run (bench/contention.py, docs/performance.md). Where the user makes waiting
-    threads spin (OMP_WAIT_POLICY=ACTIVE) a thread sharing a core with a busy process stalls
-    every region (2-12x slower measured), so then only the cores other processes leave idle
-    are taken: `busy` is how many cores' worth of CPU they used over the last 0.2 s
-    (/proc/stat; rounded); without /proc, the 1-minute load average (`load`)."""
+    """(threads, why): every core this process may run on (its affinity). Threads share out a
+    region's work as they go (TBB) or sleep while they wait (OpenMP with OMP_WAIT_POLICY=PASSIVE,
+    mpmsim's default), so a busy neighbour takes its share of the cores and no more: on the
+    2-core bench machine two threads ran at least as fast as one beside one or three busy
+    processes, started before or during the run (bench/contention.py, docs/performance.md).
+    Where the user makes OpenMP's waiting threads spin (OMP_WAIT_POLICY=ACTIVE, without TBB) a
+    thread sharing a core with a busy process stalls every region (2-12x slower measured), so
+    then only the cores other processes leave idle are taken: `busy` is how many cores' worth
+    of CPU they used over the last 0.2 s (/proc/stat; rounded); without /proc, the 1-minute
+    load average (`load`)."""
+    from . import TBB
+
     if cpus is None:
         cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else set(range(os.cpu_count() or 1))
     n_cpus = len(cpus)
-    if os.environ.get("OMP_WAIT_POLICY", "").strip().upper() != "ACTIVE":
+    if TBB or os.environ.get("OMP_WAIT_POLICY", "").strip().upper() != "ACTIVE":
         return n_cpus, f"{n_cpus} cores"
     how = "over the last 0.2 s"
     if busy is None and load is None:

@@ -1,10 +1,12 @@
-"""Threads beside other processes: waiting threads sleep, and the per-step sorts that feed
+"""Threads beside other processes: numba's TBB layer where the tbb wheel is installed (x86-64
+Linux), else OpenMP whose waiting threads sleep; and the per-step sorts that feed
 the threaded kernels (particles into slabs, contact point clouds) give the same order for any
 chunking, as a serial sort would. Timings are bench/contention.py's and bench/scaling.py's."""
 
 from __future__ import annotations
 
 import os
+import platform
 import subprocess
 import sys
 
@@ -28,6 +30,23 @@ def test_importing_mpmsim_makes_waiting_threads_sleep_unless_the_user_says(given
     code = "import os, mpmsim; print(os.environ['OMP_WAIT_POLICY'])"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.strip() == (given or "PASSIVE")
+
+
+def test_threaded_kernels_run_on_tbb_where_it_is_installed():
+    """A fresh process: the threaded step's layer is TBB on x86-64 Linux (where the project
+    installs the tbb wheel), OpenMP elsewhere; a layer the user names wins."""
+    code = ("import mpmsim, numba\nfrom mpmsim.solver import Simulation\n"
+            "numba.set_num_threads(2)\n"
+            "sim = Simulation.from_deck(%r, threads=2)\nsim.step()\nprint(mpmsim.TBB, numba.threading_layer())"
+            % str(ROOT / "bench" / "column.yaml"))
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+    env["PYTHONPATH"] = str(ROOT)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    tbb_here = sys.platform == "linux" and platform.machine() == "x86_64"
+    assert out.stdout.split() == (["True", "tbb"] if tbb_here else ["False", "omp"])
+    env["NUMBA_THREADING_LAYER"] = "omp"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["False", "omp"]
 
 
 @pytest.mark.parametrize("threaded", [False, True])

@@ -184,17 +184,23 @@ def test_stepping_past_the_end_is_refused(finished):
 
 
 def test_default_threads_take_every_core_unless_threads_spin(monkeypatch):
-    """Threads that sleep while they wait (mpmsim's OMP_WAIT_POLICY=PASSIVE) share cores with
-    busy neighbours without stalling, so the default is every core of the affinity; where the
-    user makes them spin, only the idle cores (a spinning thread sharing a core with a busy
-    process stalls every parallel region), never below one."""
+    """Threads that share out the work (TBB) or sleep while they wait (OpenMP with mpmsim's
+    OMP_WAIT_POLICY=PASSIVE) share cores with busy neighbours without stalling, so the default
+    is every core of the affinity; where the user makes OpenMP's threads spin, only the idle
+    cores (a spinning thread sharing a core with a busy process stalls every parallel region),
+    never below one."""
+    import mpmsim
     from mpmsim.cli import default_threads
 
     two, eight = {0, 1}, set(range(8))
+    monkeypatch.setattr(mpmsim, "TBB", False)
     monkeypatch.setenv("OMP_WAIT_POLICY", "PASSIVE")
     assert default_threads(two, busy=2.0) == (2, "2 cores")
     assert default_threads(eight, busy=2.6)[0] == 8
     monkeypatch.setenv("OMP_WAIT_POLICY", "active")
+    monkeypatch.setattr(mpmsim, "TBB", True)
+    assert default_threads(two, busy=2.0)[0] == 2
+    monkeypatch.setattr(mpmsim, "TBB", False)
     assert default_threads(two, busy=0.1)[0] == 2
     assert default_threads(two, busy=0.6)[0] == 1  # a neighbour on one core and a bit
     assert default_threads(two, busy=2.0)[0] == 1
