@@ -25,7 +25,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .parallel import chunk_kernel
+from .parallel import chunk_kernel, chunks_for
 from .views import ActiveFields, Scatter
 
 
@@ -166,4 +166,4 @@ class ActiveBox:
             axis = int(np.argmax(extent))
         nslab = max(1, int(np.ceil(extent[axis] / width)))
         self.ptr = np.zeros(nslab + 1, dtype=np.int64)
-        bin_slabs(lowest, axis, self.lo[axis], width, nslab, 4 * threads, self.order, self.ptr)
+        bin_slabs(lowest, axis, self.lo[axis], width, nslab, chunks_for(threads), self.order, self.ptr)

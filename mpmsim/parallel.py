@@ -42,6 +42,12 @@ def auto_threads(available: int, n_particles: int) -> tuple[int, str]:
     return available, ""
 
 
+def chunks_for(threads: int) -> int:
+    """The chunks a chunked kernel's loop runs over with `threads` threads (four each, so a
+    thread that falls behind holds up a quarter of its share)."""
+    return max(1, 4 * threads)
+
+
 def use_threads(threads: int) -> None:
     """Run the parallel form of every chunk kernel when threads > 1, the serial one otherwise."""
     _mode["parallel"] = threads > 1

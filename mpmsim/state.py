@@ -25,7 +25,7 @@ from .contact.grid.workspace import ContactWorkspace
 from .gridops import ActiveBox, n_threads
 from .loads import build_loads
 from .materials import MaterialTable
-from .parallel import auto_threads, use_threads
+from .parallel import auto_threads, chunks_for, use_threads
 from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
@@ -163,7 +163,7 @@ class State:
         rigid = RigidParticles.from_seed(scene.rigid, mats, [], dim)
         state = cls(dim=dim, grid=None, materials=mats, shape=None, particles=particles, rigid=rigid,
                     bodies=[particles, rigid], sd=None, rigid_sd=None, fields=None, box=None, gravity=g,
-                    threads=threads, nchunk=max(1, 4 * threads), entry_offsets=None, contact=None, loads=None,
+                    threads=threads, nchunk=chunks_for(threads), entry_offsets=None, contact=None, loads=None,
                     damping=0.0)
         state.reaction = np.zeros((6 + len(mats.rigid), dim))
         state.impulse = np.zeros_like(state.reaction)
@@ -196,7 +196,7 @@ class State:
             bodies=[particles, rigid], sd=ShapeData.empty(particles.n, K, dim),
             rigid_sd=ShapeData.empty(rigid.n, K, dim),
             fields=GridFields.allocate(nn, dim, nr, scheme in ("xpic", "fmpm")),
-            box=ActiveBox(scene.grid.shape), gravity=g, threads=threads, nchunk=max(1, 4 * threads),
+            box=ActiveBox(scene.grid.shape), gravity=g, threads=threads, nchunk=chunks_for(threads),
             entry_offsets=offsets, contact=contact, loads=build_loads(scene, particles.x, particles.vol),
             damping=run.damping,
         )
