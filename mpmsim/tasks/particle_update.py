@@ -34,7 +34,7 @@ from functools import cache
 from typing import NamedTuple
 
 import numpy as np
-from numba import prange
+from numba import njit, prange
 
 from ..gridops import chunk_range
 from ..faults import BAD_LEFT_GRID, BAD_NAN
@@ -134,27 +134,8 @@ def particle_update_kernel(scheme: int, position: int, dim: int):
                 finite = True
                 for d in range(dim):
                     vold = v[p, d]
-                    if scheme == FLIP:
-                        vn = vold + dt * sa[d]
-                        dx = 0.5 * dt * (s0[d] + sv[d])
-                    elif scheme == PIC:
-                        vn = sv[d]
-                        dx = dt * (s0[d] + 0.5 * (vn - vold))
-                    elif scheme == XPIC:
-                        vn = ss[d]
-                        dx = dt * (s0[d] + 0.5 * (vn - vold))
-                    elif scheme == FMPM:
-                        vn = ss[d]
-                        dx = 0.5 * dt * (vn + vold)
-                    else:  # APIC
-                        vn = sv[d]
-                        dx = dt * vn
-                    if position == UPDATED:
-                        dx = dt * sv[d]
-                        # the work that changes 1/2 m V^2 by exactly m g (V_new^2 - V_old^2)/2g in free fall
-                        gwork += pmass[p] * gravity[d] * 0.5 * dt * (vold + vn)
-                    else:
-                        gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
+                    vn, dx, gw = advance(scheme, position, vold, dt, sa[d], sv[d], s0[d], ss[d], pmass[p], gravity[d])
+                    gwork += gw
                     x[p, d] += dx
                     v[p, d] = vn
                     if x[p, d] < lo[d] or x[p, d] > hi[d]:
@@ -170,6 +151,32 @@ def particle_update_kernel(scheme: int, position: int, dim: int):
             chunk_code[c] = code
 
     return kernel
+
+
+@njit(cache=True, inline="always")
+def advance(scheme, position, vold, dt, a, vplus, vbegin, vstar, mass, g):
+    """One velocity component of a particle: (new velocity, displacement, work of gravity g on
+    mass m) from the gathered a, v+, start v and filtered v* of the scheme. Also the GPU step's."""
+    if scheme == FLIP:
+        vn = vold + dt * a
+        dx = 0.5 * dt * (vbegin + vplus)
+    elif scheme == PIC:
+        vn = vplus
+        dx = dt * (vbegin + 0.5 * (vn - vold))
+    elif scheme == XPIC:
+        vn = vstar
+        dx = dt * (vbegin + 0.5 * (vn - vold))
+    elif scheme == FMPM:
+        vn = vstar
+        dx = 0.5 * dt * (vn + vold)
+    else:  # APIC
+        vn = vplus
+        dx = dt * vn
+    if position == UPDATED:
+        dx = dt * vplus
+        # the work that changes 1/2 m V^2 by exactly m g (V_new^2 - V_old^2)/2g in free fall
+        return vn, dx, mass * g * 0.5 * dt * (vold + vn)
+    return vn, dx, mass * g * dx  # exact work of a constant body force
 
 
 def particle_update(scheme: str, position: str, dim: int):

@@ -14,7 +14,7 @@ from __future__ import annotations
 from functools import cache
 
 import numpy as np
-from numba import prange
+from numba import njit, prange
 
 from ..faults import BAD_EOS, BAD_INVERTED, BAD_NAN
 from ..gridops import chunk_range
@@ -59,18 +59,7 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
             if DIM == 2:
                 # in 2D the sums run in scalar locals: a compiled plain loop must assume the
                 # scratch rows may overlap the arrays it reads, and reloads them (1.5x slower)
-                l00 = 0.0
-                l01 = 0.0
-                l10 = 0.0
-                l11 = 0.0
-                for k in range(K):
-                    i = nodes[p, k]
-                    v0, v1 = gvel[i, 0], gvel[i, 1]
-                    g0, g1 = G[p, k, 0], G[p, k, 1]
-                    l00 += v0 * g0
-                    l01 += v0 * g1
-                    l10 += v1 * g0
-                    l11 += v1 * g1
+                l00, l01, l10, l11 = velocity_gradient_2d(p, nodes, G, gvel)
                 if READS_L_2D or TRACKED:  # (the 2D neo-Hookean path reads neither)
                     L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
                 f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
@@ -167,6 +156,25 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
         chunk_bad[c] = bad
         chunk_code[c] = bad_code
         chunk_value[c] = bad_value
+
+
+@njit(cache=True, inline="always")
+def velocity_gradient_2d(p, nodes, G, gvel):
+    """The 2D velocity gradient (l00, l01, l10, l11) of particle p, sum_k v_i (x) G_pk, summed
+    in scalar locals. Also the GPU step's."""
+    l00 = 0.0
+    l01 = 0.0
+    l10 = 0.0
+    l11 = 0.0
+    for k in range(nodes.shape[1]):
+        i = nodes[p, k]
+        v0, v1 = gvel[i, 0], gvel[i, 1]
+        g0, g1 = G[p, k, 0], G[p, k, 1]
+        l00 += v0 * g0
+        l01 += v0 * g1
+        l10 += v1 * g0
+        l11 += v1 * g1
+    return l00, l01, l10, l11
 
 
 @cache
