@@ -36,13 +36,13 @@ from ..materials.dispatch import energy_dispatch
 from ..materials.kernels import EOS_N
 from ..materials.model import model_of
 from ..shapes import tensor
-from ..shapes.grid_functions import weights_1d as _weights_1d
 from ..tasks.boundary import velocity_of as _velocity_of
-from ..tasks.extrapolate import RIGID_MIN_WEIGHT, affine_of as _affine_of
+from ..tasks.extrapolate import RIGID_MIN_WEIGHT, affine_of as _affine_of, affine_velocity as _affine_velocity, \
+    node_offset as _node_offset
 from ..tasks.forces import node_force as _node_force
 from ..tasks.grid_update import held_force as _held_force
-from ..tasks.particle_update import APIC, FLIP, PIC, UPDATED, advance as _advance
-from ..tasks.stress import velocity_gradient_2d as _velocity_gradient_2d
+from ..tasks.particle_update import APIC, FLIP, MOVED, NOT_FINITE, PIC, UPDATED, advance as _advance
+from ..tasks.stress import deform_2d as _deform_2d, velocity_gradient_2d as _velocity_gradient_2d
 
 SIMULATOR = bool(cuda_config.ENABLE_CUDASIM)
 
@@ -81,14 +81,15 @@ def device_function(f):
     return call
 
 
-weights_1d = device_function(_weights_1d)
 ghost_mirror, node_bc, rigid_holds = (device_function(f) for f in (bc.ghost_mirror, bc.node_bc, bc.rigid_holds))
-det3, inv3 = device_function(mk.det3), device_function(mk.inv3)
+det3 = device_function(mk.det3)
 node_ijk = device_function(gridops.node_ijk)
 # the per-particle and per-node bodies the CPU kernels share with these
-fill_entries, affine_of = device_function(tensor.fill_entries), device_function(_affine_of)
+axis_weights, fill_entries = device_function(tensor.axis_weights), device_function(tensor.fill_entries)
+affine_of, node_offset, affine_velocity = (device_function(f) for f in (_affine_of, _node_offset, _affine_velocity))
 velocity_of, held_force, held_volume = (device_function(f) for f in (_velocity_of, _held_force, bc.held_volume))
-node_force, velocity_gradient_2d = device_function(_node_force), device_function(_velocity_gradient_2d)
+node_force, deform_2d = device_function(_node_force), device_function(_deform_2d)
+velocity_gradient_2d = device_function(_velocity_gradient_2d)
 advance = device_function(_advance)
 TPB = 16 if SIMULATOR else 128  # threads per block (the simulator runs each as a Python thread)
 SHAPE, RIGID_SHAPE, STRESS, UPDATE = 0, 1, 2, 3
@@ -128,13 +129,8 @@ def shape_kernel(dim: int, kind: int, per_axis: int):
                 dw[d, a] = 0.0
         inside = True
         for d in range(dim):
-            xi = (x[p, d] - origin[d]) / h[d]
-            if not (xi > -1e9 and xi < 1e9):
-                xi = 0.0
-                inside = False
-            base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
-            if base[d] < 0 or base[d] + per_axis > shape[d]:
-                inside = False
+            base[d], ok = axis_weights(kind, x[p, d], origin[d], h[d], semi[d], per_axis, shape[d], w[d], dw[d])
+            inside = inside and ok
         if not inside:
             for k in range(S.shape[1]):
                 nodes[p, k] = 0
@@ -191,13 +187,9 @@ def p2g_kernel(dim: int, affine: bool, ordered: bool = False):
             if with_mass:
                 cuda.atomic.add(gmass, i, wm)
             if affine:
-                for b in range(dim):
-                    r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - xref[p, b]
+                node_offset(p, k, lowest, offs, origin, h, xref, dim, r)
                 for d in range(dim):
-                    vd = pvel[p, d]
-                    for b in range(dim):
-                        vd += C[p, d, b] * r[b]
-                    cuda.atomic.add(gmom, (i, d), wm * vd)
+                    cuda.atomic.add(gmom, (i, d), wm * affine_velocity(p, d, pvel, C, r, dim))
             else:
                 for d in range(dim):
                     cuda.atomic.add(gmom, (i, d), wm * pvel[p, d])
@@ -394,11 +386,7 @@ def stress_kernel(model: int, dim: int):
             l00, l01, l10, l11 = velocity_gradient_2d(p, nodes, G, gvel)
             if READS_L_2D:
                 L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
-            f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
-            n00 = f00 + dt * l00 * f00 + dt * l01 * f10
-            n01 = f01 + dt * l00 * f01 + dt * l01 * f11
-            n10 = f10 + dt * l10 * f00 + dt * l11 * f10
-            n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+            n00, n01, n10, n11 = deform_2d(dt, l00, l01, l10, l11, F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1])
             if READS_F3_2D:
                 F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
                 F3[2, 2] = 1.0
@@ -488,26 +476,17 @@ def particle_kernel(scheme: int, position: int, dim: int):
                     rb = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
                     for a in range(dim):
                         B[p, a, b] += w * vnew[i, a] * rb
-        outside = False
-        finite = True
         gwork = 0.0
+        worst = MOVED
         for d in range(dim):
-            vold = v[p, d]
-            vn, dx, gw = advance(scheme, position, vold, dt, sa[d], sv[d], s0[d], 0.0, pmass[p], gravity[d])
+            v[p, d], x[p, d], gw, status = advance(scheme, position, v[p, d], x[p, d], dt, sa[d], sv[d], s0[d], 0.0,
+                                                   pmass[p], gravity[d], lo[d], hi[d])
             gwork += gw
-            x[p, d] += dx
-            v[p, d] = vn
-            if x[p, d] < lo[d] or x[p, d] > hi[d]:
-                outside = True
-            if not (math.isfinite(vn) and math.isfinite(x[p, d])):
-                finite = False
+            worst = max(worst, status)
         if gwork != 0.0:
             cuda.atomic.add(scalars, GRAVITY_WORK, gwork)
-        if not finite:
-            fcode[p] = BAD_NAN
-            cuda.atomic.min(faults, slot, p)
-        elif outside:
-            fcode[p] = BAD_LEFT_GRID
+        if worst != MOVED:
+            fcode[p] = BAD_NAN if worst == NOT_FINITE else BAD_LEFT_GRID
             cuda.atomic.min(faults, slot, p)
 
     return kernel

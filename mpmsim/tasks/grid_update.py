@@ -76,8 +76,9 @@ def held_force(held, vbc, v0, m, p, f, dt):
     """One component of a field (mass m > 0, momentum p, force f): (start velocity, force,
     force change). Where a velocity condition holds it (imposed vbc at the step's end, v0 at
     its start) the force is the one that lands it on vbc, and the change is the condition's
-    reaction. Also the GPU step's. Scalars in and out: a helper taking the field arrays kept
-    an NRT incref/decref pair per array per call (2x slower grid update)."""
+    reaction. Also the GPU step's. Scalars in and out: the same helper taking the field and
+    condition arrays (and calling node_bc itself) made the kernel 4.2x slower, as numba then
+    keeps an NRT incref/decref call per array argument per call (see shapes/tensor.fill_entries)."""
     if held:
         f_bc = (m * vbc - p) / dt
         return v0, f_bc, f_bc - f

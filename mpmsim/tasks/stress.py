@@ -62,11 +62,7 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
                 l00, l01, l10, l11 = velocity_gradient_2d(p, nodes, G, gvel)
                 if READS_L_2D or TRACKED:  # (the 2D neo-Hookean path reads neither)
                     L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
-                f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
-                n00 = f00 + dt * l00 * f00 + dt * l01 * f10
-                n01 = f01 + dt * l00 * f01 + dt * l01 * f11
-                n10 = f10 + dt * l10 * f00 + dt * l11 * f10
-                n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+                n00, n01, n10, n11 = deform_2d(dt, l00, l01, l10, l11, F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1])
                 if READS_F3_2D:
                     F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
                     F3[0, 2] = 0.0
@@ -175,6 +171,16 @@ def velocity_gradient_2d(p, nodes, G, gvel):
         l10 += v1 * g0
         l11 += v1 * g1
     return l00, l01, l10, l11
+
+
+@njit(cache=True, inline="always")
+def deform_2d(dt, l00, l01, l10, l11, f00, f01, f10, f11):
+    """The in-plane entries of (I + dt L) F. Also the GPU step's."""
+    n00 = f00 + dt * l00 * f00 + dt * l01 * f10
+    n01 = f01 + dt * l00 * f01 + dt * l01 * f11
+    n10 = f10 + dt * l10 * f00 + dt * l11 * f10
+    n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+    return n00, n01, n10, n11
 
 
 @cache
