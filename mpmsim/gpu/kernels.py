@@ -1,15 +1,19 @@
 """CUDA kernels of the explicit MPM step (numba-cuda): one thread per particle or per grid node.
 
 Imported only when a run asks for `device: cuda` (mpmsim/gpu/step.py), never on the CPU path.
-The per-particle and per-node physics is the CPU path's own compiled functions, which
-numba-cuda compiles again as device functions: the 1D shape-function weights
-(shapes/grid_functions.py), the velocity conditions and ghost mirrors (bc.py), the 3x3
-inverse (materials/kernels.py) and each material model's stress update
-(materials/<model>.py). What differs from the CPU kernels is how the work is spread: a
-thread per particle or node instead of a chunk per CPU thread, float64 atomic adds where
-particles scatter to the grid (the CPU path colours slabs instead), and scratch in per-thread
-local arrays. Each kernel is built once per set of constants (dimension, shape function,
-scheme, material model) so the compiler drops the branches a scene does not use.
+The per-particle and per-node work is the CPU path's own compiled code, which numba-cuda
+compiles again as device functions: the inlined helpers the CPU kernels call per item (the
+shape-function weights per axis and node entries, shapes/tensor.py; the APIC node offset,
+affine velocity and affine matrix, tasks/extrapolate.py; a node's force, tasks/forces.py; the
+2D velocity gradient and F update, tasks/stress.py; a held component's force and a node's
+velocity, tasks/grid_update.py and tasks/boundary.py; the particle advance,
+tasks/particle_update.py), the velocity conditions and ghost mirrors (bc.py), the 3x3
+determinant and each material model's stress update (materials/<model>.py). What differs
+from the CPU kernels is how the work is spread: a thread per particle or node instead of a
+chunk per CPU thread, float64 atomic adds where particles scatter to the grid (the CPU path
+colours slabs instead), and scratch in per-thread local arrays. Each kernel is built once per
+set of constants (dimension, shape function, scheme, material model) so the compiler drops
+the branches a scene does not use.
 
 Fault slots (`faults`, int64, lowest particle index wins, `n` when none): SHAPE, RIGID_SHAPE,
 STRESS, UPDATE; the stress and particle-update codes and values sit in `fcode`/`fvalue` at
