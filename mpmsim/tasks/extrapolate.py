@@ -49,30 +49,18 @@ def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, off
                     if with_mass:
                         gmass[i] += wm
                     if affine:
-                        node_offset(p, k, lowest, offs, origin, h, xref, dim, r)
+                        for b in range(dim):
+                            r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - xref[p, b]
                         for d in range(dim):
-                            gmom[i, d] += wm * affine_velocity(p, d, pvel, C, r, dim)
+                            vd = pvel[p, d]
+                            for b in range(dim):
+                                vd += C[p, d, b] * r[b]
+                            gmom[i, d] += wm * vd
                     else:
                         gmom[i, 0] += wm * vx
                         gmom[i, 1] += wm * vy
                         if dim == 3:
                             gmom[i, 2] += wm * vz
-
-
-@njit(cache=True, inline="always")
-def node_offset(p, k, lowest, offs, origin, h, x, dim, r):
-    """r = x_i - x_p for the k-th node of particle p. Also the GPU step's."""
-    for b in range(dim):
-        r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
-
-
-@njit(cache=True, inline="always")
-def affine_velocity(p, d, pvel, C, r, dim):
-    """Component d of v_p + C_p r. Also the GPU step's."""
-    vd = pvel[p, d]
-    for b in range(dim):
-        vd += C[p, d, b] * r[b]
-    return vd
 
 
 @chunk_kernel
