@@ -104,10 +104,18 @@ def add_reaction(chunk_reaction, ch, owner, node, d, amount, rigid_vol, constrai
     if owner != RIGID_OWNER:
         chunk_reaction[ch, owner, d] += amount
         return
+    wsum = held_volume(node, d, rigid_vol, constrain)
+    for r in range(constrain.shape[0]):
+        if constrain[r, d] and rigid_vol[node, r] > 0.0:
+            chunk_reaction[ch, RIGID_OWNER + r, d] += amount * rigid_vol[node, r] / wsum
+
+
+@njit(cache=True, inline="always")
+def held_volume(node, d, rigid_vol, constrain):
+    """The volume of the rigid materials that hold component d at `node` (their shares of a
+    reaction go by volume). Also the GPU step's."""
     wsum = 0.0
     for r in range(constrain.shape[0]):
         if constrain[r, d]:
             wsum += rigid_vol[node, r]
-    for r in range(constrain.shape[0]):
-        if constrain[r, d] and rigid_vol[node, r] > 0.0:
-            chunk_reaction[ch, RIGID_OWNER + r, d] += amount * rigid_vol[node, r] / wsum
+    return wsum

@@ -1,15 +1,19 @@
 """CUDA kernels of the explicit MPM step (numba-cuda): one thread per particle or per grid node.
 
 Imported only when a run asks for `device: cuda` (mpmsim/gpu/step.py), never on the CPU path.
-The per-particle and per-node physics is the CPU path's own compiled functions, which
-numba-cuda compiles again as device functions: the 1D shape-function weights
-(shapes/grid_functions.py), the velocity conditions and ghost mirrors (bc.py), the 3x3
-inverse (materials/kernels.py) and each material model's stress update
-(materials/<model>.py). What differs from the CPU kernels is how the work is spread: a
-thread per particle or node instead of a chunk per CPU thread, float64 atomic adds where
-particles scatter to the grid (the CPU path colours slabs instead), and scratch in per-thread
-local arrays. Each kernel is built once per set of constants (dimension, shape function,
-scheme, material model) so the compiler drops the branches a scene does not use.
+The per-particle and per-node work is the CPU path's own compiled code, which numba-cuda
+compiles again as device functions: the inlined helpers the CPU kernels call per item (the
+shape-function weights per axis and node entries, shapes/tensor.py; the APIC affine matrix,
+tasks/extrapolate.py; a node's force, tasks/forces.py; the
+2D velocity gradient and F update, tasks/stress.py; a held component's force and a node's
+velocity, tasks/grid_update.py and tasks/boundary.py; the particle advance,
+tasks/particle_update.py), the velocity conditions and ghost mirrors (bc.py), the 3x3
+determinant and each material model's stress update (materials/<model>.py). What differs
+from the CPU kernels is how the work is spread: a thread per particle or node instead of a
+chunk per CPU thread, float64 atomic adds where particles scatter to the grid (the CPU path
+colours slabs instead), and scratch in per-thread local arrays. Each kernel is built once per
+set of constants (dimension, shape function, scheme, material model) so the compiler drops
+the branches a scene does not use.
 
 Fault slots (`faults`, int64, lowest particle index wins, `n` when none): SHAPE, RIGID_SHAPE,
 STRESS, UPDATE; the stress and particle-update codes and values sit in `fcode`/`fvalue` at
@@ -35,9 +39,13 @@ from ..bodies import KINETIC, STRAIN
 from ..materials.dispatch import energy_dispatch
 from ..materials.kernels import EOS_N
 from ..materials.model import model_of
-from ..shapes.grid_functions import weights_1d as _weights_1d
-from ..tasks.extrapolate import RIGID_MIN_WEIGHT
-from ..tasks.particle_update import APIC, FLIP, PIC, UPDATED
+from ..shapes import tensor
+from ..tasks.boundary import velocity_of as _velocity_of
+from ..tasks.extrapolate import RIGID_MIN_WEIGHT, affine_of as _affine_of
+from ..tasks.forces import node_force as _node_force
+from ..tasks.grid_update import held_force as _held_force
+from ..tasks.particle_update import APIC, FLIP, MOVED, NOT_FINITE, PIC, UPDATED, advance as _advance
+from ..tasks.stress import deform_2d as _deform_2d, velocity_gradient_2d as _velocity_gradient_2d
 
 SIMULATOR = bool(cuda_config.ENABLE_CUDASIM)
 
@@ -76,10 +84,16 @@ def device_function(f):
     return call
 
 
-weights_1d = device_function(_weights_1d)
 ghost_mirror, node_bc, rigid_holds = (device_function(f) for f in (bc.ghost_mirror, bc.node_bc, bc.rigid_holds))
-det3, inv3 = device_function(mk.det3), device_function(mk.inv3)
+det3 = device_function(mk.det3)
 node_ijk = device_function(gridops.node_ijk)
+# the per-particle and per-node bodies the CPU kernels share with these
+axis_weights, fill_entries = device_function(tensor.axis_weights), device_function(tensor.fill_entries)
+affine_of = device_function(_affine_of)
+velocity_of, held_force, held_volume = (device_function(f) for f in (_velocity_of, _held_force, bc.held_volume))
+node_force, deform_2d = device_function(_node_force), device_function(_deform_2d)
+velocity_gradient_2d = device_function(_velocity_gradient_2d)
+advance = device_function(_advance)
 TPB = 16 if SIMULATOR else 128  # threads per block (the simulator runs each as a Python thread)
 SHAPE, RIGID_SHAPE, STRESS, UPDATE = 0, 1, 2, 3
 N_SLOTS = 4
@@ -118,13 +132,8 @@ def shape_kernel(dim: int, kind: int, per_axis: int):
                 dw[d, a] = 0.0
         inside = True
         for d in range(dim):
-            xi = (x[p, d] - origin[d]) / h[d]
-            if not (xi > -1e9 and xi < 1e9):
-                xi = 0.0
-                inside = False
-            base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
-            if base[d] < 0 or base[d] + per_axis > shape[d]:
-                inside = False
+            base[d], ok = axis_weights(kind, x[p, d], origin[d], h[d], semi[d], per_axis, shape[d], w[d], dw[d])
+            inside = inside and ok
         if not inside:
             for k in range(S.shape[1]):
                 nodes[p, k] = 0
@@ -135,22 +144,7 @@ def shape_kernel(dim: int, kind: int, per_axis: int):
             return
         for d in range(dim):
             lowest[p, d] = base[d]
-        k = 0
-        b0, b1, b2 = base[0], base[1], base[2]
-        for cc in range(per_axis if dim == 3 else 1):
-            wz, dwz = w[2, cc], dw[2, cc]
-            for b in range(per_axis):
-                wy, dwy = w[1, b], dw[1, b]
-                row = (b1 + b) + shape[1] * (b2 + cc)
-                for a in range(per_axis):
-                    nodes[p, k] = (b0 + a) + shape[0] * row
-                    wx = w[0, a]
-                    S[p, k] = wx * wy * wz
-                    G[p, k, 0] = dw[0, a] * wy * wz
-                    G[p, k, 1] = wx * dwy * wz
-                    if dim == 3:
-                        G[p, k, 2] = wx * wy * dwz
-                    k += 1
+        fill_entries(p, base, w, dw, per_axis, dim, shape, nodes, S, G)
 
     return kernel
 
@@ -167,25 +161,7 @@ def affine_kernel(dim: int):
         D = cuda.local.array((3, 3), float64)
         Di = cuda.local.array((3, 3), float64)
         r = cuda.local.array(3, float64)
-        for a in range(3):
-            r[a] = 0.0
-            for b in range(3):
-                D[a, b] = 0.0
-        D[2, 2] = 1.0 if dim == 2 else 0.0
-        for k in range(S.shape[1]):
-            w = S[p, k]
-            for b in range(dim):
-                r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
-            for a in range(dim):
-                for b in range(dim):
-                    D[a, b] += w * r[a] * r[b]
-        inv3(D, Di)
-        for a in range(dim):
-            for b in range(dim):
-                cab = 0.0
-                for m in range(dim):
-                    cab += B[p, a, m] * Di[m, b]
-                C[p, a, b] = cab
+        affine_of(p, S, lowest, offs, origin, h, x, B, dim, D, Di, r, C)
 
     return kernel
 
@@ -213,7 +189,8 @@ def p2g_kernel(dim: int, affine: bool, ordered: bool = False):
             wm = w * mp
             if with_mass:
                 cuda.atomic.add(gmass, i, wm)
-            if affine:
+            if affine:  # (written out in both: as inlined helpers, node offset and affine velocity made
+                # the CPU scatter 2-3% slower, NRT decref calls 57 -> 61)
                 for b in range(dim):
                     r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - xref[p, b]
                 for d in range(dim):
@@ -269,12 +246,7 @@ def node_kernels(dim: int):
         m = mass[node]
         for d in range(dim):
             owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
-            if owner != NO_BC:
-                vel[node, d] = vbc
-            elif m > 0.0:
-                vel[node, d] = mom[node, d] / m
-            else:
-                vel[node, d] = 0.0
+            vel[node, d] = velocity_of(owner != NO_BC, vbc, m, mom[node, d])
 
     @cuda.jit
     def mirror(src, field):
@@ -301,7 +273,9 @@ def node_kernels(dim: int):
     @cuda.jit
     def update(shape, face_type, wall_index, rigid_vol, constrain, v_start, v_end, mass, mom, force, vnew, acc,
                vstart, dt, reaction, scalars):
-        """grid_update.grid_update_kernel, reactions and work added atomically."""
+        """grid_update.grid_update_kernel, reactions and work added atomically. (The calls to
+        node_bc and held_force stay written out here and there: one helper taking the condition
+        and field arrays and calling node_bc made the CPU kernel 4.2x slower.)"""
         node = cuda.grid(1)
         if node >= mass.shape[0]:
             return
@@ -315,30 +289,22 @@ def node_kernels(dim: int):
             return
         work = 0.0
         for d in range(dim):
-            fd = force[node, d]
             owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
+            v0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)[1] \
+                if owner != NO_BC else 0.0
+            pd = mom[node, d]
+            vstart[node, d], fd, dfc = held_force(owner != NO_BC, vbc, v0, m, pd, force[node, d], dt)
+            acc[node, d] = fd / m
+            vnew[node, d] = (pd + fd * dt) / m
             if owner != NO_BC:
-                owner0, vbc0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)
-                vstart[node, d] = vbc0
-            else:
-                vstart[node, d] = mom[node, d] / m
-            if owner != NO_BC:
-                f_bc = (m * vbc - mom[node, d]) / dt
-                dfc = f_bc - fd
                 work += dfc * vbc * dt
                 if owner != RIGID_OWNER:
                     cuda.atomic.add(reaction, (owner, d), dfc)
                 else:  # shared by the rigid materials holding the node, by their volumes (bc.add_reaction)
-                    wsum = 0.0
-                    for r in range(constrain.shape[0]):
-                        if constrain[r, d]:
-                            wsum += rigid_vol[node, r]
+                    wsum = held_volume(node, d, rigid_vol, constrain)
                     for r in range(constrain.shape[0]):
                         if constrain[r, d] and rigid_vol[node, r] > 0.0:
                             cuda.atomic.add(reaction, (RIGID_OWNER + r, d), dfc * rigid_vol[node, r] / wsum)
-                fd = f_bc
-            acc[node, d] = fd / m
-            vnew[node, d] = (mom[node, d] + fd * dt) / m
         if work != 0.0:
             cuda.atomic.add(scalars, GRID_WORK, work)
 
@@ -380,24 +346,13 @@ def forces_kernel(dim: int, has_gravity: bool, ordered: bool = False):
         wm = pmass[p]
         sxx, syy, szz, sxy, syz, sxz = (stress[p, 0], stress[p, 1], stress[p, 2], stress[p, 3], stress[p, 4],
                                         stress[p, 5])
+        g0, g1, g2 = gravity[0], gravity[1], gravity[dim - 1]
         for k in range(S.shape[1]):
             w = S[p, k]
             i = nodes[p, k]
-            gx, gy = G[p, k, 0], G[p, k, 1]
-            if dim == 3:
-                gz = G[p, k, 2]
-                fx = (0.0 - sxx * gx - sxy * gy - sxz * gz) * vp
-                fy = (0.0 - sxy * gx - syy * gy - syz * gz) * vp
-                fz = (0.0 - sxz * gx - syz * gy - szz * gz) * vp
-            else:
-                fx = (0.0 - sxx * gx - sxy * gy) * vp
-                fy = (0.0 - sxy * gx - syy * gy) * vp
-                fz = 0.0
-            if has_gravity:
-                fx += w * wm * gravity[0]
-                fy += w * wm * gravity[1]
-                if dim == 3:
-                    fz += w * wm * gravity[2]
+            gz = G[p, k, 2] if dim == 3 else 0.0
+            fx, fy, fz = node_force(G[p, k, 0], G[p, k, 1], gz, w, vp, wm, sxx, syy, szz, sxy, syz, sxz, g0, g1, g2,
+                                    has_gravity, dim)
             cuda.atomic.add(gforce, (i, 0), fx)
             cuda.atomic.add(gforce, (i, 1), fy)
             if dim == 3:
@@ -438,25 +393,10 @@ def stress_kernel(model: int, dim: int):
                 F3[a, b] = 0.0
         n00 = n01 = n10 = n11 = 0.0
         if dim == 2:
-            l00 = 0.0
-            l01 = 0.0
-            l10 = 0.0
-            l11 = 0.0
-            for k in range(K):
-                i = nodes[p, k]
-                v0, v1 = gvel[i, 0], gvel[i, 1]
-                g0, g1 = G[p, k, 0], G[p, k, 1]
-                l00 += v0 * g0
-                l01 += v0 * g1
-                l10 += v1 * g0
-                l11 += v1 * g1
+            l00, l01, l10, l11 = velocity_gradient_2d(p, nodes, G, gvel)
             if READS_L_2D:
                 L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
-            f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
-            n00 = f00 + dt * l00 * f00 + dt * l01 * f10
-            n01 = f01 + dt * l00 * f01 + dt * l01 * f11
-            n10 = f10 + dt * l10 * f00 + dt * l11 * f10
-            n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+            n00, n01, n10, n11 = deform_2d(dt, l00, l01, l10, l11, F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1])
             if READS_F3_2D:
                 F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
                 F3[2, 2] = 1.0
@@ -546,38 +486,17 @@ def particle_kernel(scheme: int, position: int, dim: int):
                     rb = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
                     for a in range(dim):
                         B[p, a, b] += w * vnew[i, a] * rb
-        outside = False
-        finite = True
         gwork = 0.0
+        worst = MOVED
         for d in range(dim):
-            vold = v[p, d]
-            if scheme == FLIP:
-                vn = vold + dt * sa[d]
-                dx = 0.5 * dt * (s0[d] + sv[d])
-            elif scheme == PIC:
-                vn = sv[d]
-                dx = dt * (s0[d] + 0.5 * (vn - vold))
-            else:  # APIC
-                vn = sv[d]
-                dx = dt * vn
-            if position == UPDATED:
-                dx = dt * sv[d]
-                gwork += pmass[p] * gravity[d] * 0.5 * dt * (vold + vn)
-            else:
-                gwork += pmass[p] * gravity[d] * dx
-            x[p, d] += dx
-            v[p, d] = vn
-            if x[p, d] < lo[d] or x[p, d] > hi[d]:
-                outside = True
-            if not (math.isfinite(vn) and math.isfinite(x[p, d])):
-                finite = False
+            v[p, d], x[p, d], gw, status = advance(scheme, position, v[p, d], x[p, d], dt, sa[d], sv[d], s0[d], 0.0,
+                                                   pmass[p], gravity[d], lo[d], hi[d])
+            gwork += gw
+            worst = max(worst, status)
         if gwork != 0.0:
             cuda.atomic.add(scalars, GRAVITY_WORK, gwork)
-        if not finite:
-            fcode[p] = BAD_NAN
-            cuda.atomic.min(faults, slot, p)
-        elif outside:
-            fcode[p] = BAD_LEFT_GRID
+        if worst != MOVED:
+            fcode[p] = BAD_NAN if worst == NOT_FINITE else BAD_LEFT_GRID
             cuda.atomic.min(faults, slot, p)
 
     return kernel

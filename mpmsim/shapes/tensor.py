@@ -48,13 +48,8 @@ def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
         for p in range(start, stop):
             inside = True
             for d in range(dim):
-                xi = (x[p, d] - origin[d]) / h[d]
-                if not (xi > -1e9 and xi < 1e9):  # NaN or absurd position
-                    xi = 0.0
-                    inside = False
-                base[d] = weights_1d(kind, xi, semi[d] / h[d], 1.0 / h[d], w[d], dw[d])
-                if base[d] < 0 or base[d] + per_axis > shape[d]:
-                    inside = False
+                base[d], ok = axis_weights(kind, x[p, d], origin[d], h[d], semi[d], per_axis, shape[d], w[d], dw[d])
+                inside = inside and ok
             if not inside:
                 clear_entries(p, nodes, S, G)
                 if chunk_bad[c] < 0:
@@ -64,22 +59,56 @@ def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
                 lowest[p, d] = base[d]
                 chunk_lo[c, d] = min(chunk_lo[c, d], base[d])
                 chunk_hi[c, d] = max(chunk_hi[c, d], base[d] + per_axis - 1)
-            # node k = a + per_axis (b + per_axis cc): nested loops, no divisions; what the inner
-            # loop reuses is read into locals first (the stores into nodes, S and G would
-            # otherwise force reloads of the scratch rows)
-            k = 0
-            b0, b1, b2 = base[0], base[1], base[2]
-            for cc in range(per_axis if dim == 3 else 1):
-                wz, dwz = w[2, cc], dw[2, cc]
-                for b in range(per_axis):
-                    wy, dwy = w[1, b], dw[1, b]
-                    row = (b1 + b) + shape[1] * (b2 + cc)
-                    for a in range(per_axis):
-                        nodes[p, k] = (b0 + a) + shape[0] * row
-                        wx = w[0, a]
-                        S[p, k] = wx * wy * wz
-                        G[p, k, 0] = dw[0, a] * wy * wz
-                        G[p, k, 1] = wx * dwy * wz
-                        if dim == 3:
-                            G[p, k, 2] = wx * wy * dwz
-                        k += 1
+            fill_entries(p, base, w, dw, per_axis, dim, shape, nodes, S, G)
+
+
+@njit(cache=True, inline="always")
+def fill_entries(p, base, w, dw, per_axis, dim, shape, nodes, S, G):
+    """Node list, S and G of particle p from its 1D weights w, dw (3, 4) and lowest node `base`
+    (node k = a + per_axis (b + per_axis cc): nested loops, no divisions; what the inner loop
+    reuses is read into locals first, as the stores into nodes, S and G would otherwise force
+    reloads of the scratch rows). Also the GPU step's (gpu/kernels.py).
+
+    Inlined at numba's IR level (inline="always") it costs nothing here (same time as the loops
+    written in place, the same NRT calls in the kernel's LLVM). That does not hold for every
+    helper taking arrays: numba binds each array argument of an inlined call with an NRT
+    incref/decref, and where its reference-count pruning does not remove them they stay, a
+    call per array per particle. Measured: the weights loop above as a helper taking x, w, dw,
+    base whole (making the rows w[d], dw[d] for weights_1d itself) made this kernel 2.6x
+    slower, where axis_weights (scalars and the rows, made by the caller) costs nothing; a
+    helper taking the grid update's arrays and calling node_bc 4.2x, the node force taking G
+    3%. So the helpers take scalars where they can (axis_weights, forces.node_force,
+    grid_update.held_force); a new helper is checked by timing and by counting `NRT_incref`
+    in the kernel's `inspect_llvm()` against the kernel without it."""
+    k = 0
+    b0, b1, b2 = base[0], base[1], base[2]
+    for cc in range(per_axis if dim == 3 else 1):
+        wz, dwz = w[2, cc], dw[2, cc]
+        for b in range(per_axis):
+            wy, dwy = w[1, b], dw[1, b]
+            row = (b1 + b) + shape[1] * (b2 + cc)
+            for a in range(per_axis):
+                nodes[p, k] = (b0 + a) + shape[0] * row
+                wx = w[0, a]
+                S[p, k] = wx * wy * wz
+                G[p, k, 0] = dw[0, a] * wy * wz
+                G[p, k, 1] = wx * dwy * wz
+                if dim == 3:
+                    G[p, k, 2] = wx * wy * dwz
+                k += 1
+
+
+@njit(cache=True, inline="always")
+def axis_weights(kind, xp, o, h, semi, per_axis, n, w, dw):
+    """The 1D weights w, dw (that axis's rows) of a particle at xp along one axis (grid origin
+    o, spacing h, n nodes; semi: its half-length for uGIMP); returns (lowest node, whether its
+    support lies on the grid). Also the GPU step's."""
+    ok = True
+    xi = (xp - o) / h
+    if not (xi > -1e9 and xi < 1e9):  # NaN or absurd position
+        xi = 0.0
+        ok = False
+    b = weights_1d(kind, xi, semi / h, 1.0 / h, w, dw)
+    if b < 0 or b + per_axis > n:
+        ok = False
+    return b, ok

@@ -38,12 +38,18 @@ def grid_velocity(active, grid, held, mass, mom, vel):
         m = mass[f]
         for d in range(dim):
             owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
-            if owner != NO_BC:
-                vel[f, d] = vbc
-            elif m > 0.0:
-                vel[f, d] = mom[f, d] / m
-            else:
-                vel[f, d] = 0.0
+            vel[f, d] = velocity_of(owner != NO_BC, vbc, m, mom[f, d])
+
+
+@njit(cache=True, inline="always")
+def velocity_of(held, vbc, m, p):
+    """A node's velocity component: vbc where a velocity condition holds it, else p/m (0
+    without mass). Also the GPU step's."""
+    if held:
+        return vbc
+    if m > 0.0:
+        return p / m
+    return 0.0
 
 
 def slot_info(state):

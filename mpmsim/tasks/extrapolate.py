@@ -76,24 +76,30 @@ def apic_affine(sd, offs, grid, x, B, nchunk, C):
         D, Di = inertia[0], inertia[1]
         r = np.zeros(3)
         for p in range(start, stop):
-            for a in range(3):
-                for b in range(3):
-                    D[a, b] = 0.0
-            D[2, 2] = 1.0 if dim == 2 else 0.0  # plane strain: pad so the 3x3 inverse serves
-            for k in range(K):
-                w = S[p, k]
-                for b in range(dim):
-                    r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
-                for a in range(dim):
-                    for b in range(dim):
-                        D[a, b] += w * r[a] * r[b]
-            inv3(D, Di)
-            for a in range(dim):
-                for b in range(dim):
-                    cab = 0.0
-                    for m in range(dim):
-                        cab += B[p, a, m] * Di[m, b]
-                    C[p, a, b] = cab
+            affine_of(p, S, lowest, offs, origin, h, x, B, dim, D, Di, r, C)
+
+
+@njit(cache=True, inline="always")
+def affine_of(p, S, lowest, offs, origin, h, x, B, dim, D, Di, r, C):
+    """C_p = B_p D_p^-1 of particle p (D, Di: 3x3 scratch, r: 3). Also the GPU step's."""
+    for a in range(3):
+        for b in range(3):
+            D[a, b] = 0.0
+    D[2, 2] = 1.0 if dim == 2 else 0.0  # plane strain: pad so the 3x3 inverse serves
+    for k in range(S.shape[1]):
+        w = S[p, k]
+        for b in range(dim):
+            r[b] = origin[b] + (lowest[p, b] + offs[k, b]) * h[b] - x[p, b]
+        for a in range(dim):
+            for b in range(dim):
+                D[a, b] += w * r[a] * r[b]
+    inv3(D, Di)
+    for a in range(dim):
+        for b in range(dim):
+            cab = 0.0
+            for m in range(dim):
+                cab += B[p, a, m] * Di[m, b]
+            C[p, a, b] = cab
 
 
 @njit(cache=True)

@@ -33,8 +33,10 @@ from __future__ import annotations
 from functools import cache
 from typing import NamedTuple
 
+import math
+
 import numpy as np
-from numba import prange
+from numba import njit, prange
 
 from ..gridops import chunk_range
 from ..faults import BAD_LEFT_GRID, BAD_NAN
@@ -130,46 +132,59 @@ def particle_update_kernel(scheme: int, position: int, dim: int):
                 sv[0], sv[1], sv[2] = vx, vy, vz
                 s0[0], s0[1], s0[2] = zx, zy, zz
                 ss[0], ss[1], ss[2] = sx, sy, sz
-                outside = False
-                finite = True
+                worst = MOVED
                 for d in range(dim):
-                    vold = v[p, d]
-                    if scheme == FLIP:
-                        vn = vold + dt * sa[d]
-                        dx = 0.5 * dt * (s0[d] + sv[d])
-                    elif scheme == PIC:
-                        vn = sv[d]
-                        dx = dt * (s0[d] + 0.5 * (vn - vold))
-                    elif scheme == XPIC:
-                        vn = ss[d]
-                        dx = dt * (s0[d] + 0.5 * (vn - vold))
-                    elif scheme == FMPM:
-                        vn = ss[d]
-                        dx = 0.5 * dt * (vn + vold)
-                    else:  # APIC
-                        vn = sv[d]
-                        dx = dt * vn
-                    if position == UPDATED:
-                        dx = dt * sv[d]
-                        # the work that changes 1/2 m V^2 by exactly m g (V_new^2 - V_old^2)/2g in free fall
-                        gwork += pmass[p] * gravity[d] * 0.5 * dt * (vold + vn)
-                    else:
-                        gwork += pmass[p] * gravity[d] * dx  # exact work of a constant body force
-                    x[p, d] += dx
-                    v[p, d] = vn
-                    if x[p, d] < lo[d] or x[p, d] > hi[d]:
-                        outside = True
-                    if not (np.isfinite(vn) and np.isfinite(x[p, d])):
-                        finite = False
-                if bad < 0 and not finite:
-                    bad, code = p, BAD_NAN
-                elif bad < 0 and outside:
-                    bad, code = p, BAD_LEFT_GRID
+                    v[p, d], x[p, d], gw, status = advance(scheme, position, v[p, d], x[p, d], dt, sa[d], sv[d], s0[d],
+                                                           ss[d], pmass[p], gravity[d], lo[d], hi[d])
+                    gwork += gw
+                    worst = max(worst, status)
+                if bad < 0 and worst != MOVED:
+                    bad, code = p, (BAD_NAN if worst == NOT_FINITE else BAD_LEFT_GRID)
             chunk_gwork[c] = gwork
             chunk_bad[c] = bad
             chunk_code[c] = code
 
     return kernel
+
+
+MOVED, LEFT, NOT_FINITE = 0, 1, 2  # advance's status, worst last
+
+
+@njit(cache=True, inline="always")
+def advance(scheme, position, vold, xold, dt, a, vplus, vbegin, vstar, mass, g, lo, hi):
+    """One component of a particle's velocity and position: (new velocity, new position, work
+    of gravity g on mass m, status) from the gathered a, v+, start v and filtered v* of the
+    scheme; status NOT_FINITE where either is not finite, else LEFT where the position left
+    [lo, hi], else MOVED. Also the GPU step's. (The status is set, not returned early: with a
+    return per case the inlined helper made the FLIP kernel 8% slower.)"""
+    if scheme == FLIP:
+        vn = vold + dt * a
+        dx = 0.5 * dt * (vbegin + vplus)
+    elif scheme == PIC:
+        vn = vplus
+        dx = dt * (vbegin + 0.5 * (vn - vold))
+    elif scheme == XPIC:
+        vn = vstar
+        dx = dt * (vbegin + 0.5 * (vn - vold))
+    elif scheme == FMPM:
+        vn = vstar
+        dx = 0.5 * dt * (vn + vold)
+    else:  # APIC
+        vn = vplus
+        dx = dt * vn
+    if position == UPDATED:
+        dx = dt * vplus
+        # the work that changes 1/2 m V^2 by exactly m g (V_new^2 - V_old^2)/2g in free fall
+        gw = mass * g * 0.5 * dt * (vold + vn)
+    else:
+        gw = mass * g * dx  # exact work of a constant body force
+    x = xold + dx
+    status = MOVED
+    if x < lo or x > hi:
+        status = LEFT
+    if not (math.isfinite(vn) and math.isfinite(x)):
+        status = NOT_FINITE
+    return vn, x, gw, status
 
 
 def particle_update(scheme: str, position: str, dim: int):

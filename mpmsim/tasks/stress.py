@@ -14,7 +14,7 @@ from __future__ import annotations
 from functools import cache
 
 import numpy as np
-from numba import prange
+from numba import njit, prange
 
 from ..faults import BAD_EOS, BAD_INVERTED, BAD_NAN
 from ..gridops import chunk_range
@@ -59,25 +59,10 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
             if DIM == 2:
                 # in 2D the sums run in scalar locals: a compiled plain loop must assume the
                 # scratch rows may overlap the arrays it reads, and reloads them (1.5x slower)
-                l00 = 0.0
-                l01 = 0.0
-                l10 = 0.0
-                l11 = 0.0
-                for k in range(K):
-                    i = nodes[p, k]
-                    v0, v1 = gvel[i, 0], gvel[i, 1]
-                    g0, g1 = G[p, k, 0], G[p, k, 1]
-                    l00 += v0 * g0
-                    l01 += v0 * g1
-                    l10 += v1 * g0
-                    l11 += v1 * g1
+                l00, l01, l10, l11 = velocity_gradient_2d(p, nodes, G, gvel)
                 if READS_L_2D or TRACKED:  # (the 2D neo-Hookean path reads neither)
                     L[0, 0], L[0, 1], L[1, 0], L[1, 1] = l00, l01, l10, l11
-                f00, f01, f10, f11 = F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1]
-                n00 = f00 + dt * l00 * f00 + dt * l01 * f10
-                n01 = f01 + dt * l00 * f01 + dt * l01 * f11
-                n10 = f10 + dt * l10 * f00 + dt * l11 * f10
-                n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+                n00, n01, n10, n11 = deform_2d(dt, l00, l01, l10, l11, F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1])
                 if READS_F3_2D:
                     F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1] = n00, n01, n10, n11
                     F3[0, 2] = 0.0
@@ -167,6 +152,35 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
         chunk_bad[c] = bad
         chunk_code[c] = bad_code
         chunk_value[c] = bad_value
+
+
+@njit(cache=True, inline="always")
+def velocity_gradient_2d(p, nodes, G, gvel):
+    """The 2D velocity gradient (l00, l01, l10, l11) of particle p, sum_k v_i (x) G_pk, summed
+    in scalar locals. Also the GPU step's."""
+    l00 = 0.0
+    l01 = 0.0
+    l10 = 0.0
+    l11 = 0.0
+    for k in range(nodes.shape[1]):
+        i = nodes[p, k]
+        v0, v1 = gvel[i, 0], gvel[i, 1]
+        g0, g1 = G[p, k, 0], G[p, k, 1]
+        l00 += v0 * g0
+        l01 += v0 * g1
+        l10 += v1 * g0
+        l11 += v1 * g1
+    return l00, l01, l10, l11
+
+
+@njit(cache=True, inline="always")
+def deform_2d(dt, l00, l01, l10, l11, f00, f01, f10, f11):
+    """The in-plane entries of (I + dt L) F. Also the GPU step's."""
+    n00 = f00 + dt * l00 * f00 + dt * l01 * f10
+    n01 = f01 + dt * l00 * f01 + dt * l01 * f11
+    n10 = f10 + dt * l10 * f00 + dt * l11 * f10
+    n11 = f11 + dt * l10 * f01 + dt * l11 * f11
+    return n00, n01, n10, n11
 
 
 @cache
