@@ -1,31 +1,40 @@
 """A converged reference for the Hertz cylinder of bench/hertz.py: the same body and load solved
 by plane-strain finite elements with exact (Signorini) frictionless contact on a rigid flat.
 
-    python bench/hertz_reference.py run [--levels 0 1 2 3] [--model linear|neo_hookean|svk]
-                                        [--a 2.0] [--gap circle|parabola]
-    python bench/hertz_reference.py table
+    python bench/hertz_reference.py run [--levels 0 1 2 3] [--model linear|neo_hookean|svk|hencky|hypo_log]
+                                        [--a 2.0] [--gap circle|parabola] [--direction normal|vertical]
+    python bench/hertz_reference.py table     # results/bench_hertz_reference/*.json: table and p(x)/p0
 
 The body: a half-disk (R = 10 mm, E = 1000 MPa, nu = 0.3, plane strain, thickness 1 mm; the
 symmetry u_x = 0 on x = 0) resting at the origin on the rigid flat y = 0 and loaded by a uniform
 body force (gravity) of total P per unit thickness over the whole disk, P chosen so that the
-Hertz half-width is `a` (2 mm: P = 345.2 N, the MPM scene; 0.5 mm: a/R = 0.05, near Hertz's
-limit). Six-node (quadratic, isoparametric: midside nodes of the circle on the circle)
-triangles on a Delaunay mesh of arcs centred on the contact point: spacing h0 = a/(20 2^level)
-within 1.25 a of it (surface nodes h0/2 apart), growing linearly beyond to R/(10 2^level); a
-level halves every element size (about 4 times the nodes).
+Hertz half-width is `a` (2 mm: P = 345.2 N, the MPM scene of bench/hertz.py; 0.5 mm: a/R = 0.05).
+Six-node (quadratic, isoparametric: midside nodes of the circle on the circle) triangles on a
+Delaunay mesh of arcs centred on the contact point: spacing h0 = a/(20 2^level) within 1.25 a of
+it (surface nodes h0/2 apart), growing linearly beyond to R/(10 2^level); a level halves every
+element size (about 4 times the nodes).
 
 Contact: every surface node of the lower half is a candidate; active nodes are held on the
-flat (u_y = -g0 with g0 the node's initial gap; frictionless: u_x free), and a primal-dual
-active-set iteration adds the inactive nodes that penetrate and drops the active ones whose
-reaction (K u - f, the flat's push on the body) is tensile, until the set does not change. The
-vertical rigid motion is fixed by the active nodes themselves (nothing else holds the body).
+flat (frictionless: their tangential motion free), and a primal-dual active-set iteration adds
+the free nodes that penetrate and releases the held ones whose reaction (K u - f, the flat's
+push on the body) is tensile, until the set does not change. Nothing else holds the body
+vertically: the active nodes fix its rigid motion.
 
-Models (--model): linear, small-strain elasticity (Signorini; gap g0 = the node's height on the
-undeformed circle, or with --gap parabola g0 = x^2 / (2R), Hertz's gap on the same body);
-neo_hookean, total Lagrangian with psi = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2 (the
-project's compressible_neo_hookean, plane strain), load steps and Newton, the body force per
-reference area (dead load) and contact on the deformed position (y >= 0); svk, the same with
-St Venant-Kirchhoff (S = lambda tr E I + 2 mu E), a second finite-strain law as a bracket.
+Models (--model): linear, small strain, one solve per active set, with the contact either along
+the body's normal (--direction normal: the classical Kikuchi-Oden form, u . nu <= g, g the
+distance to the flat along the outward normal nu, no tangential traction on the surface) or
+vertical (--direction vertical: u_y >= -g, a vertical reaction; the linearisation of the rigid
+flat's y >= 0 about the undeformed body, as the FEM bodies' linear_elastic with contact on the
+deformed positions solves it); the gap g from the circle, or Hertz's parabola x^2 / (2R) with
+--gap parabola (the same body). The two contact forms agree with Hertz to first order and
+differ from each other by O(a/R). Finite strain (total Lagrangian, 5 load steps, Newton, the
+body force per reference area, contact y = Y + u_y >= 0 on the deformed position): neo_hookean,
+psi = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2 (the project's compressible_neo_hookean,
+plane strain); svk, St Venant-Kirchhoff; hencky, tau = lambda tr(ln V) I + 2 mu ln V (Kirchhoff);
+hypo_log, the same with sigma (Cauchy) in place of tau: the exact integral of the hypoelastic law
+sigma' = lambda tr(D) I + 2 mu D with the logarithmic rate, the finite-strain counterpart of the
+MPM's linear_elastic (Hughes-Winget, a Jaumann-type rate; the rates differ only where the
+principal axes turn).
 
 Measured per level: the load carried (the active nodes' reactions, 2 x the half model's); the
 half-width a_edge where the contact ends (between the last active and the first free node: the
@@ -632,7 +641,8 @@ def table(rows: list[dict]) -> str:
         if len(rs) >= 3:
             ex = {k: richardson([r[k] for r in rs]) for k in KEYS}
             lines.append(f"| {name}, {gap}, {a:g} | Richardson (order) | | | "
-                         + " | ".join(f"{100 * ex[k]['extrapolated']:+.2f}% ({ex[k]['order']:.1f})"
+                         + " | ".join(f"{100 * ex[k]['extrapolated']:+.2f}% "
+                                      + (f"({ex[k]['order']:.1f})" if ex[k]["order"] == ex[k]["order"] else "(osc.)")
                                       for k in KEYS[:5]) + f" | {100 * ex[KEYS[5]]['extrapolated']:.2f}% | | |")
     return "\n".join(lines)
 
