@@ -443,6 +443,9 @@ def _solve_finite(model: Model, mesh: Mesh, law: str, cand, g0, d, fixed_x, acti
             guess = u2 + (u2 - u1) * (t - t2) / (t2 - t1)
             if model.forces(guess, law, tangent=False)[2] > 0.05:
                 u = guess
+        if len(history) >= 2:  # the contact grows as sqrt(load) (Hertz): the set's first guess
+            xa = mesh.X[cand[active], 0].max() * math.sqrt(t / history[-1][0])
+            active = mesh.X[cand, 0] <= xa
         fixed, free, target = sets(active)
         seen = {active.tobytes()}
         last_du = np.inf
