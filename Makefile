@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-hertz-fem bench-scaling examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-hertz-fem bench-hertz-reference bench-scaling examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -98,6 +98,22 @@ bench-hertz-fem: $(STAMP)
 	$(BIN)/python bench/hertz.py run --augury --rh 20 40 --threads 1
 	$(BIN)/python bench/hertz.py run --augury --rh 20 --hc 1 --threads 1
 	$(BIN)/python bench/hertz.py run --barrier --rh 20 40 80 --threads 1
+
+# the finite-element reference of the Hertz cylinder (the same half-disk and gravity load, exact frictionless
+# contact; docs/contact.md): small-strain (contact along the normal or vertical, circle or parabola gap) at four
+# levels, the finite-strain laws at three (four for hypo_log and neo_hookean), a/R = 0.2 and 0.05; about 20 minutes
+# on one core
+bench-hertz-reference: $(STAMP)
+	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 3 --a 2
+	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 3 --a 2 --direction vertical
+	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 3 --a 2 --gap parabola
+	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 3 --a 2 --gap parabola --direction vertical
+	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 --a 0.5
+	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 --a 0.5 --direction vertical
+	for m in hypo_log neo_hookean; do $(BIN)/python bench/hertz_reference.py run --levels 0 1 2 3 --a 2 --model $$m || exit 1; done
+	for m in svk hencky; do $(BIN)/python bench/hertz_reference.py run --levels 0 1 2 --a 2 --model $$m || exit 1; done
+	for m in hypo_log neo_hookean; do $(BIN)/python bench/hertz_reference.py run --levels 0 1 2 --a 0.5 --model $$m || exit 1; done
+	$(BIN)/python bench/hertz_reference.py table
 
 # imperfect interfaces: the 2013 paper's specimens swept (hours on 2 cores; resumes), the chart
 # in docs/figures/interfaces.png, and the cost of an interface
