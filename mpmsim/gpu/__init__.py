@@ -4,7 +4,7 @@
 material 2D and 3D particle scenes (several materials sharing one velocity field too), shape
 functions linear, gimp (uGIMP) and bspline2; update schemes FLIP, PIC and APIC with either
 position form; stress updates USF, USL and USAVG (with or without re-extrapolation); linear
-elastic and neo-Hookean materials; rigid materials; fixed and roller grid faces; gravity.
+elastic and neo-Hookean materials; rigid materials; fixed and roller grid faces; gravity; grid damping.
 Everything else a deck may ask for is refused by `unsupported` with the key that asks for it
 (`mpmsim check --device cuda` and `run --device cuda` exit 2 with that line), never run on
 the CPU in its place.
@@ -53,8 +53,6 @@ def unsupported(scene) -> list[tuple[tuple, str]]:
         out.append((("artificial_viscosity",), f"artificial viscosity {later}"))
     if deck.loads:
         out.append((("loads",), f"traction loads {later}"))
-    if deck.damping is not None and run.damping > 0:
-        out.append((("damping", "grid"), f"grid damping {later}"))
     if deck.output.energy_ledger:
         out.append((("output", "energy_ledger"), f"the energy ledger {later}"))
     return out

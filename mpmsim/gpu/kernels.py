@@ -112,6 +112,15 @@ def zero(a):
         a[i] = 0.0
 
 
+@cuda.jit
+def damp(mom, alpha, force):
+    """Grid damping (loads.damp_grid): f -= alpha p on every node (p = 0 where no mass is)."""
+    node = cuda.grid(1)
+    if node < force.shape[0]:
+        for d in range(force.shape[1]):
+            force[node, d] -= alpha * mom[node, d]
+
+
 @cache
 def shape_kernel(dim: int, kind: int, per_axis: int):
     """Node lists, S_ip and G_ip of tensor-product shape functions (tensor.py's kernel, one

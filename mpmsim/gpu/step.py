@@ -59,6 +59,7 @@ class DeviceStep:
         self.position = POSITIONS[upd.position]
         self.fraction = 0.5 if upd.stress == "usavg" else 1.0
         self.reextrapolate = upd.reextrapolate
+        self.damping = run.damping  # grid damping alpha (1/time), 0: none
         self.models = [int(m) for m in np.unique(np.asarray(scene.materials.type_code))]
         self.state = None
         self.host_stale = False  # the host's particle arrays lag the device's
@@ -279,6 +280,8 @@ class DeviceStep:
         if self.reaches_ghosts and self.walls:
             fold = K.node_kernels(self.dim)[3]
             fold[K.blocks(d["gmass"].size)](d["gsrc"], d["gface"], d["gforce"])
+        if self.damping > 0.0:
+            K.damp[K.blocks(d["gmass"].size)](d["gmom"], self.damping, d["gforce"])
         self._sync()
 
     def grid_update(self, state) -> None:

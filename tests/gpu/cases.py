@@ -18,7 +18,7 @@ STEPS = 3
 
 def deck(dim: int = 2, shape: str = "gimp", scheme: str = "flip", stress: str = "usavg", material: str = "neo_hookean",
          reextrapolate: bool = True, position: str = "midpoint", boundaries: dict | None = None,
-         gravity: bool = False, platen: bool = True) -> dict:
+         gravity: bool = False, platen: bool = True, damping: float = 0.0) -> dict:
     """A block of 4 x 4 (3D: 2 x 2 x 2) cells of 2 mm, 2 particles per cell and direction, on a fixed
     floor, pressed by a rigid platen (or free) and pulled by gravity if asked; fixed dt."""
     mat = ({"type": "neo_hookean", "K": 2450.0, "G": 940.0, "density": 0.001} if material == "neo_hookean"
@@ -49,14 +49,18 @@ def deck(dim: int = 2, shape: str = "gimp", scheme: str = "flip", stress: str = 
     }
     if gravity:
         d["gravity"] = [0.0] * (dim - 1) + [-9.81e-3]
+    if damping:
+        d["damping"] = {"grid": damping}
     return d
 
 
 CASES = {
     "gimp-flip-usavg-neohookean-rigid": deck(),
-    "linear-pic-usl-elastic-gravity-roller": deck(shape="linear", scheme="pic", stress="usl", material="linear_elastic",
-                                                  gravity=True, platen=False,
-                                                  boundaries={"ymin": "roller", "xmin": "roller", "xmax": "roller"}),
+    "linear-pic-usl-elastic-gravity-roller-damped": deck(shape="linear", scheme="pic", stress="usl",
+                                                         material="linear_elastic", gravity=True, platen=False,
+                                                         damping=50.0,  # 1% of the momentum per step
+                                                         boundaries={"ymin": "roller", "xmin": "roller",
+                                                                     "xmax": "roller"}),
     "bspline2-apic-usf-elastic-walls": deck(shape="bspline2", scheme="apic", stress="usf", material="linear_elastic",
                                             boundaries={"ymin": "fixed", "xmin": "fixed", "xmax": "roller"}),
     "bspline2-flip-usavg-minus-updated": deck(shape="bspline2", reextrapolate=False, position="updated"),
