@@ -172,6 +172,6 @@ figure-column-history: $(STAMP)
 docs: $(STAMP)
 	$(BIN)/python -m mpmsim.deck.reference > docs/deck-reference.md
 
-# numba caches kernels next to the sources; clear them after editing a shared helper
+# numba caches kernels next to the sources (emptied by mpmsim itself when its sources change); clear by hand
 clean-cache:
 	find mpmsim -name '*.nbi' -delete -o -name '*.nbc' -delete

@@ -10,11 +10,17 @@ picks the directory when it is imported, before any kernel is defined:
 3. otherwise the user's cache directory, $XDG_CACHE_HOME/mpmsim/numba (default
    ~/.cache/mpmsim/numba).
 
-A cached kernel's index names the types of its arguments by module. When modules of mpmsim
-move (an update of the package), the index of a kernel whose own file did not change names a
-module that no longer exists, and numba fails loading it (ModuleNotFoundError) instead of
-compiling again. So the cache root keeps a stamp of the package's module layout, and the
-cached kernels are dropped when the layout differs (`drop_if_moved`).
+Numba checks a cached kernel only against its own source file. Two changes it misses:
+- a kernel calls (or inlines) compiled helpers from other files; when a helper's file
+  changes (an update of the package, an edit) and the kernel's file does not, numba loads
+  the kernel compiled with the old helper, silently (measured: f(x) = 2 g(x) cached with
+  g(x) = x + 1 still returned 4 for f(1) after g became x + 100);
+- the index names the types of a kernel's arguments by module; when modules of mpmsim move,
+  that index names a module that no longer exists and numba fails loading it
+  (ModuleNotFoundError) instead of compiling again.
+So the cache root keeps a stamp of the package's sources (their paths and contents), and the
+cached kernels are dropped when the stamp differs (`drop_if_moved`): after any change to the
+package's code, every kernel compiles again once.
 """
 
 from __future__ import annotations
@@ -65,14 +71,17 @@ STAMP = ".mpmsim-layout"
 
 
 def layout(package_dir: Path = PACKAGE_DIR) -> str:
-    """A digest of the package's module paths."""
-    names = sorted(str(p.relative_to(package_dir)) for p in package_dir.rglob("*.py"))
-    return hashlib.sha256("\n".join(names).encode()).hexdigest()[:16]
+    """A digest of the package's modules: their paths and contents (a few ms at import)."""
+    digest = hashlib.sha256()
+    for path in sorted(package_dir.rglob("*.py")):
+        digest.update(str(path.relative_to(package_dir)).encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
 
 
 def drop_if_moved(root: Path, package_dir: Path = PACKAGE_DIR) -> bool:
     """Delete the cached kernels under `root` when the stamp there is not the package's current
-    module layout, then stamp it; True when kernels were dropped. Silent where root is not
+    sources' digest (`layout`), then stamp it; True when kernels were dropped. Silent where root is not
     writable (numba then reports its own error)."""
     stamp = Path(root) / STAMP
     now = layout(package_dir)

@@ -4,6 +4,9 @@ writes, and the command line's files and exit codes."""
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 import xml.etree.ElementTree as ET
 
 from pathlib import Path
@@ -20,7 +23,7 @@ from mpmsim.output.history import read_history
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation
 
-from ..conftest import deck_from
+from ..conftest import ROOT, deck_from
 
 DECK = {
     "title": "two blocks and a platen", "units": "mm-g-ms",
@@ -284,6 +287,37 @@ def test_cached_kernels_are_dropped_when_the_package_modules_move(tmp_path):
     assert drop_if_moved(root, pkg) and not any(f.exists() for f in old)
     assert (root / STAMP).read_text() == layout(pkg)
     assert not drop_if_moved(root, pkg)
+    old[0].write_bytes(b"stale")
+    (pkg / "contact" / "fields.py").write_text("X = 1\n")  # a module's code changed (its callers' kernels too)
+    assert drop_if_moved(root, pkg) and not old[0].exists() and (root / STAMP).read_text() == layout(pkg)
+
+
+def test_a_kernel_is_compiled_again_when_a_helper_in_another_file_changes(tmp_path):
+    """Numba checks a cached kernel against its own file only: f(x) = 2 g(x) cached with g
+    from another file kept the old g after g's file changed. With the package's source stamp
+    the change drops the cache and f compiles again (subprocesses: a fresh import each)."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text(
+        "from pathlib import Path\nimport numba\nfrom mpmsim.kernel_cache import drop_if_moved\n"
+        "numba.config.CACHE_DIR = str(Path(__file__).parent.parent / 'cache')\n"
+        "drop_if_moved(Path(numba.config.CACHE_DIR), Path(__file__).parent)\n")
+    (pkg / "b.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef g(x):\n    return x + 1\n")
+    (pkg / "a.py").write_text("from numba import njit\nfrom .b import g\n\n@njit(cache=True)\n"
+                              "def f(x):\n    return 2 * g(x)\n")
+    (tmp_path / "cache").mkdir()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), str(ROOT)]))
+
+    def f1():
+        p = subprocess.run([sys.executable, "-c", "from pkg.a import f; print(f(1))"], env=env, cwd=tmp_path,
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0, p.stderr
+        return int(p.stdout.strip())
+
+    assert f1() == 4 and f1() == 4  # compiled, then loaded from the cache
+    assert list((tmp_path / "cache").rglob("*.nbi"))
+    (pkg / "b.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef g(x):\n    return x + 100\n")
+    assert f1() == 202
 
 
 def test_a_read_only_install_imports_with_the_cache_in_the_users_directory(tmp_path):
