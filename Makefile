@@ -81,9 +81,13 @@ bench-hertz: $(STAMP)
 	$(BIN)/python bench/hertz.py table --tags rh20_rings rh40_rings rh80_rings pair_rh20_rings pair_rh40_rings
 	$(BIN)/python bench/hertz.py chart --tags rh20_rings rh40_rings rh80_rings
 
-# two Hertz cylinders at R/h = 80 (about 2 hours on one core)
+# two Hertz cylinders at R/h = 80, seeded in rings and in half-step rings, and the cylinder on the flat in
+# half-step rings (about 16 + 16 + 5 minutes on one core each)
 bench-hertz-pair80: $(STAMP)
-	$(BIN)/python bench/hertz.py run --rh 80 --seeding rings --pair --end 0.9
+	$(BIN)/python bench/hertz.py run --rh 80 --seeding rings --pair --end 0.9 --threads 1
+	$(BIN)/python bench/hertz.py run --rh 80 --seeding rings_half_step --pair --end 0.9 --threads 1
+	$(BIN)/python bench/hertz.py run --rh 80 --seeding rings_half_step --threads 1
+	$(BIN)/python bench/hertz.py table --tags pair_rh80_rings pair_rh80_rings_half_step rh80_rings_half_step
 
 # a quarter Hertz sphere on a rigid flat, R/h = 20, lattice-seeded and seeded in shells (3D; about 6 + 10 minutes
 # on one core)

@@ -617,8 +617,8 @@ def main(argv=None) -> int:
     ap.add_argument("what", choices=["run", "chart", "table"])
     ap.add_argument("--rh", type=float, nargs="+", default=[20.0, 40.0, 80.0])
     ap.add_argument("--set", nargs="*", default=[], help="deck overrides key=value (YAML values)")
-    ap.add_argument("--seeding", choices=["lattice", "rings", "shells"], default="lattice",
-                    help="circles: lattice or rings; the sphere (--sphere): lattice or shells")
+    ap.add_argument("--seeding", choices=["lattice", "rings", "rings_half_step", "shells"], default="lattice",
+                    help="circles: lattice, rings or rings_half_step; the sphere (--sphere): lattice or shells")
     ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
     ap.add_argument("--sphere", action="store_true", help="3D: a quarter sphere on the flat (lattice-seeded)")
     ap.add_argument("--augury", action="store_true", help="an FEM cylinder on an FEM block, augury contact")

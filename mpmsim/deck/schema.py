@@ -358,7 +358,10 @@ SEEDING_DESCRIPTION = (
     "spacing (cell_size / particles_per_direction) apart, each ring's particles spaced as close to it as a "
     "whole number allows, one at the bottom of every ring, each with its ring sector's exact area (the areas "
     "sum to the shape's); the particles' domains stay squares of the lattice spacing (the same area to within "
-    "a few percent). For curved bodies in contact: the staircase's corners bias contact pressure and width "
+    "a few percent). rings_half_step: the same rings, each turned by half its particle spacing (none at the "
+    "bottom: the two lowest half a spacing either side of the vertical through the centre). For curved bodies in "
+    "contact: the staircase's corners bias contact pressure and width; with a deformable partner "
+    "rings_half_step keeps the pressure of neighbouring grid columns from alternating "
     "(docs/contact.md, docs/bfemp.md). A rings body may not overlap another particle body nor be clipped; "
     "the grid cell size must be the same along x and y.")
 
@@ -369,7 +372,7 @@ def _seeding():
 
 class Circle(Round):
     shape: Literal["circle"]
-    seeding: Literal["lattice", "rings"] = _seeding()
+    seeding: Literal["lattice", "rings", "rings_half_step"] = _seeding()
 
 
 SHELLS_DESCRIPTION = (
@@ -412,7 +415,7 @@ class Annulus(BodyBase):
     center: Vector
     inner_radius: float = Field(ge=0)
     outer_radius: float = Field(gt=0)
-    seeding: Literal["lattice", "rings"] = _seeding()
+    seeding: Literal["lattice", "rings", "rings_half_step"] = _seeding()
 
 
 class MeshFile(BodyBase):

@@ -27,6 +27,8 @@ from .grid import FACE_CODES, FACES, GridSpec, plan_grid
 from .rings import ring_seed, shell_seed
 from .memory import CANDIDATE_BYTES, NODE_BYTES, PARTICLE_BYTES, too_big
 
+SURFACE_SEEDINGS = ("rings", "rings_half_step", "shells")  # seedings that follow the surface, not the lattice
+
 
 @dataclass
 class ParticleSeed:
@@ -171,8 +173,8 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     n_rings = 0  # ring-seeded particles so far: their keys are -1, -2, ... (no lattice site)
     for (i, body), (blo, bhi) in zip(particle_bodies, boxes):
         seeding = getattr(body, "seeding", "lattice")
-        if seeding in ("rings", "shells"):
-            problem = _rings_problem(body, dim, h) if seeding == "rings" else _shells_problem(body, dim, h)
+        if seeding in SURFACE_SEEDINGS:
+            problem = _shells_problem(body, dim, h) if seeding == "shells" else _rings_problem(body, dim, h)
             if problem:
                 problems.append((("bodies", i, "seeding"), problem))
                 continue
@@ -184,7 +186,8 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
             else:
                 r_in = body.inner_radius if body.shape == "annulus" else 0.0
                 r_out = body.outer_radius if body.shape == "annulus" else body.radius
-                pts, vol = ring_seed(body.center, r_in, r_out, float(spacing[0]), deck.thickness)
+                pts, vol = ring_seed(body.center, r_in, r_out, float(spacing[0]), deck.thickness,
+                                     half_step=seeding == "rings_half_step")
             if np.any((pts < grid.domain_lo) | (pts > grid.domain_hi)):
                 who = f"body '{body.name}'" if body.name else "the body"
                 problems.append((("bodies", i), f"{who} extends outside grid.domain; enlarge grid.domain or move the body"))
@@ -336,7 +339,7 @@ def _rings_overlaps(deck, base, particle_bodies, where) -> list:
     another particle body (a particle of either inside the other's shape)."""
     problems = []
     for (i, bi), pi in zip(particle_bodies, where):
-        if getattr(bi, "seeding", "lattice") not in ("rings", "shells"):
+        if getattr(bi, "seeding", "lattice") not in SURFACE_SEEDINGS:
             continue
         for (j, bj), pj in zip(particle_bodies, where):
             if j != i and (inside(bi, pj, base).any() or _inside_body(bj, pi, base).any()):

@@ -18,9 +18,12 @@ import math
 import numpy as np
 
 
-def ring_seed(center, r_in: float, r_out: float, spacing: float, thickness: float = 1.0
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """(x (n, 2), volume (n,)) of the particles of the ring-seeded disk or annulus."""
+def ring_seed(center, r_in: float, r_out: float, spacing: float, thickness: float = 1.0,
+              half_step: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(x (n, 2), volume (n,)) of the particles of the ring-seeded disk or annulus: ring k's m
+    particles at angles -pi/2 + 2 pi j / m (one at the bottom), or with half_step (`seeding:
+    rings_half_step`) at -pi/2 + 2 pi (j + 1/2) / m (the two lowest at +-half a spacing from the
+    vertical through the centre, none below the centre on it)."""
     n = max(1, int(round((r_out - r_in) / spacing)))
     dr = (r_out - r_in) / n
     c = np.asarray(center, float)[:2]
@@ -28,7 +31,7 @@ def ring_seed(center, r_in: float, r_out: float, spacing: float, thickness: floa
     for k in range(n):
         r = r_in + (k + 0.5) * dr
         m = max(3, int(round(2.0 * math.pi * r / dr)))
-        th = -0.5 * math.pi + 2.0 * math.pi * np.arange(m) / m
+        th = -0.5 * math.pi + 2.0 * math.pi * (np.arange(m) + (0.5 if half_step else 0.0)) / m
         xs.append(c + np.stack([r * np.cos(th), r * np.sin(th)], axis=1))
         vols.append(np.full(m, 2.0 * math.pi * r * dr / m * thickness))
     return np.concatenate(xs), np.concatenate(vols)

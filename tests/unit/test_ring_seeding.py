@@ -100,3 +100,28 @@ def test_what_rings_cannot_do_is_refused_in_one_line(extra, bodies, message):
 def test_rings_need_square_cells():
     with pytest.raises(DeckError, match=r"bodies\.0\.seeding.*same along x and y"):
         build_scene(deck_from(deck(circle(), cell=[0.5, 0.25])))
+
+
+def test_half_step_rings_are_the_rings_turned_by_half_their_spacing():
+    """`seeding: rings_half_step`: each ring's particles turned by half their angular step, so none
+    sits on the vertical below the centre (the two lowest half a spacing either side of it);
+    the same radii, areas and symmetry as `rings`."""
+    plain = build_scene(deck_from(deck(circle()))).deformable
+    half = build_scene(deck_from(deck(circle("rings_half_step")))).deformable
+    c = np.array([0.0, 1.0])
+    assert half.x.shape == plain.x.shape
+    assert half.vol.sum() == pytest.approx(math.pi * R**2, rel=1e-13)
+    r_plain, r_half = np.linalg.norm(plain.x - c, axis=1), np.linalg.norm(half.x - c, axis=1)
+    assert np.allclose(np.sort(r_half), np.sort(r_plain), rtol=0, atol=1e-12)
+    for radius in np.unique(np.round(r_plain, 9)):  # ring by ring: the angles shifted by half the step
+        a = np.sort(np.arctan2(*(plain.x[np.isclose(r_plain, radius)] - c).T[::-1]))
+        b = np.sort(np.arctan2(*(half.x[np.isclose(r_half, radius)] - c).T[::-1]))
+        turned = np.exp(1j * (a + math.pi / a.size))  # each angle plus half the step 2 pi / m
+        assert b.size == a.size and np.abs(np.exp(1j * b)[:, None] - turned[None, :]).min(axis=1).max() < 1e-12
+    below = half.x[:, 1] < c[1]
+    assert np.abs(half.x[below, 0] - c[0]).min() > 0.05  # nothing on the vertical axis below the centre
+    low = np.argsort(half.x[:, 1])[:2]
+    assert half.x[low[0], 1] == pytest.approx(half.x[low[1], 1], abs=1e-12)
+    assert half.x[low[0], 0] == pytest.approx(-half.x[low[1], 0], abs=1e-12)
+    mirror = np.stack([2 * c[0] - half.x[:, 0], half.x[:, 1]], axis=1)
+    assert np.linalg.norm(mirror[:, None, :] - half.x[None, :, :], axis=2).min(axis=1).max() < 1e-12
