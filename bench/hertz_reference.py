@@ -3,6 +3,7 @@ by plane-strain finite elements with exact (Signorini) frictionless contact on a
 
     python bench/hertz_reference.py run [--levels 0 1 2 3] [--model linear|neo_hookean|svk|hencky|hypo_log]
                                         [--a 2.0] [--gap circle|parabola] [--direction normal|vertical]
+    python bench/hertz_reference.py run --pair --direction vertical [--model hypo_log [--segment]] [--levels ...]
     python bench/hertz_reference.py table     # results/bench_hertz_reference/*.json: table and p(x)/p0
 
 The body: a half-disk (R = 10 mm, E = 1000 MPa, nu = 0.3, plane strain, thickness 1 mm; the
@@ -44,6 +45,20 @@ over the nodal reactions and a_fit, Hertz's ellipse p^2 = p0^2 (1 - x^2/a^2) fit
 nodes above a tenth of the peak; the pressure p(x) from the reactions through the surface's
 consistent (P2 edge) mass matrix, M p = F, on the deformed surface; the centre pressure p(0);
 p(x)/p0 against Hertz. Richardson extrapolation over the last three levels.
+
+Two cylinders (--pair; the MPM's pair scene of bench/hertz.py): the lower disk (centre (0, R))
+on the flat, the upper one (centre (0, 3R)) on it, both under one cylinder's weight P; the
+lower's mesh is graded to both its contacts (its lower half's points mirrored in y = R), the
+upper's is the single disk's moved up by 2R, so that the upper's bottom surface nodes and the
+lower's top ones pair up at the same x. Frictionless node-to-node contact between the pairs
+(small strain: u_y(upper) - u_y(lower) >= -(Y(upper) - Y(lower)), the two circles' gap
+2 (R - sqrt(R^2 - x^2)); finite strain: y(upper) >= y(lower) on the deformed positions, with
+--segment the lower surface's height taken at the upper node's deformed x instead, to a fixed
+point), the flat's contact as above, the active constraints eliminated, the same active-set
+iteration on both contacts. Measured: the pair contact against Hertz for two identical
+cylinders (R* = R/2, E* = E / (2 (1 - nu^2)): the same a for the same P as one cylinder on the
+flat), the flat's (load 2P) against Hertz for 2P, and at finite strain the paired nodes'
+relative sliding.
 """
 
 from __future__ import annotations
@@ -127,8 +142,9 @@ class Mesh:
     12, 23, 31, counter-clockwise), sym (nodes on x = 0), surf (the circle's nodes of the lower
     half, sorted by x), sedges (the surface's P2 edges among them: node ids a, mid, b)."""
 
-    def __init__(self, a_ref: float, level: int, **kw):
-        pts = arc_points(a_ref, level, **kw)
+    def __init__(self, a_ref: float, level: int, pts: np.ndarray | None = None, **kw):
+        if pts is None:
+            pts = arc_points(a_ref, level, **kw)
         tri = Delaunay(pts).simplices
         v = pts[tri]
         area = 0.5 * ((v[:, 1, 0] - v[:, 0, 0]) * (v[:, 2, 1] - v[:, 0, 1])
@@ -159,6 +175,16 @@ class Mesh:
         flip = self.X[se[:, 0], 0] > self.X[se[:, 2], 0]
         se[flip] = se[flip][:, ::-1]
         self.sedges = se[np.argsort(self.X[se[:, 0], 0])]
+        # the same on the upper half (the circle's nodes above y = 1.5 R, sorted by x): the top
+        # contact of the lower disk of a pair
+        high = circle_nodes[self.X[circle_nodes, 1] > 1.5 * R]
+        self.top = high[np.argsort(self.X[high, 0])]
+        te = uniq[bnd]
+        te = np.stack([te[:, 0], nv + np.flatnonzero(bnd), te[:, 1]], 1)
+        te = te[(self.X[te[:, 0], 1] > 1.5 * R) & (self.X[te[:, 2], 1] > 1.5 * R)]
+        flip = self.X[te[:, 0], 0] > self.X[te[:, 2], 0]
+        te[flip] = te[flip][:, ::-1]
+        self.tedges = te[np.argsort(self.X[te[:, 0], 0])]
         self.h0 = a_ref / (20 * 2**level)
         # minimum angle of the vertex triangles (mesh quality, reported)
         v = pts[tri]
@@ -499,6 +525,295 @@ def _solve_finite(model: Model, mesh: Mesh, law: str, cand, g0, d, fixed_x, acti
             "residual_free": float(np.abs(r[free]).max()), "area": model.area}
 
 
+# ---------------------------------------------------------------- two cylinders
+
+def pair_points(a_ref: float, level: int, **kw) -> np.ndarray:
+    """Points of the lower disk of a pair: those of `arc_points` below y = R - hmax/2 (graded to
+    the contact with the flat), their mirror images in y = R (graded to the contact with the
+    upper disk, the circle's points the mirror of the bottom's, so that they pair up with the
+    upper disk's), and a row on y = R about hmax apart."""
+    hmax = kw.get("hmax0", 1.0) / 2.0**level
+    p = arc_points(a_ref, level, **kw)
+    p = p[p[:, 1] < R - 0.5 * hmax]
+    n = max(1, int(round(R / hmax)))
+    mid = np.stack([np.linspace(0.0, R, n + 1), np.full(n + 1, R)], 1)
+    return np.concatenate([p, mid, np.stack([p[:, 0], 2 * R - p[:, 1]], 1)])
+
+
+def pair_meshes(a_ref: float, level: int, **kw) -> tuple[Mesh, Mesh, np.ndarray]:
+    """The lower disk (centre (0, R), graded at both contacts) and the upper one (centre (0, 3R),
+    the single disk's mesh moved up by 2R: graded at its bottom), and the pairs: index j of the
+    upper's bottom surface nodes (mesh.surf) and the lower's top ones (mesh.top) at the same x."""
+    kw.setdefault("core", 1.25 * math.sqrt(2.0))  # the flat's contact: the load 2P, its half-width sqrt(2) a
+    lower = Mesh(a_ref, level, pts=pair_points(a_ref, level, **kw))
+    upper = Mesh(a_ref, level, **kw)
+    upper.X = upper.X + np.array([0.0, 2 * R])
+    xu, xl = upper.X[upper.surf, 0], lower.X[lower.top, 0]
+    if len(xu) != len(xl) or np.abs(xu - xl).max() > 1e-9 * R:
+        raise RuntimeError("the two disks' contact surface nodes do not pair up")
+    return lower, upper
+
+
+def _pair_transform(ndof: int, fixed_x, yf, g0f, act_f, yup, ylo, g0p, act_p):
+    """The active constraints of the pair eliminated: u = C w + c, w the free dofs; the
+    symmetry's u_x = 0, the held flat nodes' u_y = -g0f, an active pair's upper u_y = its lower
+    partner's u_y - g0p. Returns C, c and the mask of the free dofs."""
+    dep = np.concatenate([fixed_x, yf[act_f], yup[act_p]])
+    free = np.ones(ndof, bool)
+    free[dep] = False
+    col = -np.ones(ndof, int)
+    col[free] = np.arange(free.sum())
+    c = np.zeros(ndof)
+    c[yf[act_f]] = -g0f[act_f]
+    c[yup[act_p]] = -g0p[act_p]
+    rows = np.concatenate([np.flatnonzero(free), yup[act_p]])
+    cols = np.concatenate([col[free], col[ylo[act_p]]])
+    C = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(ndof, int(free.sum())))
+    return C, c, free
+
+
+def solve_pair(lower: Mesh, upper: Mesh, P: float, verbose: bool = False) -> dict:
+    """Small strain, contact linearised about the undeformed bodies (vertical gaps and
+    reactions, the circles' gaps): the lower disk on the flat (u_y >= -Y at its bottom surface
+    nodes) and the upper one on the lower (u_y(upper_j) - u_y(lower_j) >= -g_j, g_j = Y(upper_j)
+    - Y(lower_j) = 2 (R - sqrt(R^2 - x_j^2)) for the pairs j at the same x), both under the body
+    force of one cylinder's weight P (P/2 per half-disk). The active constraints are eliminated
+    (a held node's u_y prescribed; an active pair's upper u_y = its lower partner's - g_j), the
+    reduced system solved; the reactions are the residuals K u - f at the held dofs (the flat's
+    push on the lower disk; the lower's push on the upper one, equal and opposite on the lower
+    node). Primal-dual active sets on both contacts: tensile ones released, penetrating ones
+    added, until neither set changes."""
+    ml, mu = Model(lower, P), Model(upper, P)
+    nl = ml.ndof
+    ndof = nl + mu.ndof
+    K = sp.block_diag([ml.forces(np.zeros(nl), "linear")[1], mu.forces(np.zeros(mu.ndof), "linear")[1]]).tocsr()
+    f = np.concatenate([ml.f, mu.f])
+    fixed_x = np.concatenate([2 * lower.sym, nl + 2 * upper.sym])
+    cf = lower.surf
+    yf = 2 * cf + 1
+    g0f = lower.X[cf, 1]
+    lo, up = lower.top, upper.surf
+    ylo, yup = 2 * lo + 1, nl + 2 * up + 1
+    g0p = upper.X[up, 1] - lower.X[lo, 1]
+    a_guess = hertz(P)[0]
+    act_f = lower.X[cf, 0] <= 0.9 * a_guess * math.sqrt(2.0)
+    act_p = upper.X[up, 0] <= 0.9 * a_guess
+    act_f[0] = act_p[0] = True
+    counts = {"active_set": 0, "newton": 0, "factorisations": 0}
+    seen = set()
+    for it in range(60):
+        counts["active_set"] += 1
+        C, c, free = _pair_transform(ndof, fixed_x, yf, g0f, act_f, yup, ylo, g0p, act_p)
+        w = solve_spd((C.T @ K @ C).tocsr(), C.T @ (f - K @ c))
+        counts["factorisations"] += 1
+        u = C @ w + c
+        r = K @ u - f
+        gap_f = g0f + u[yf]
+        gap_p = g0p + u[yup] - u[ylo]
+        new_f = np.where(act_f, r[yf] > 0.0, gap_f < -1e-12 * R)
+        new_p = np.where(act_p, r[yup] > 0.0, gap_p < -1e-12 * R)
+        if verbose:
+            print(f"  active sets {it}: flat {act_f.sum()}, pair {act_p.sum()} active, "
+                  f"{int((new_f != act_f).sum() + (new_p != act_p).sum())} changes", flush=True)
+        if (new_f == act_f).all() and (new_p == act_p).all():
+            break
+        key = new_f.tobytes() + new_p.tobytes()
+        if key in seen:
+            raise RuntimeError("active sets cycle")
+        seen.add(key)
+        act_f, act_p = new_f, new_p
+    else:
+        raise RuntimeError("active sets did not settle")
+    react_f = np.where(act_f, r[yf], 0.0)
+    react_p = np.where(act_p, r[yup], 0.0)
+    other = np.ones(ndof, bool)
+    other[np.concatenate([fixed_x, yf[act_f], yup[act_p], ylo[act_p]])] = False
+    d = np.tile([0.0, 1.0], (len(up), 1))
+    common = {"law": "linear", "counts": counts, "deformed": False}
+    flat = {**common, "u": u[:nl], "cand": cf, "active": act_f, "react": react_f, "g0": g0f, "gap": gap_f,
+            "d": np.tile([0.0, 1.0], (len(cf), 1)), "load_carried_half": float(react_f.sum()), "area": ml.area}
+    pair = {**common, "u": u[nl:], "cand": up, "active": act_p, "react": react_p, "g0": g0p, "gap": gap_p, "d": d,
+            "load_carried_half": float(react_p.sum()), "area": mu.area,
+            # equal and opposite on the lower node (the eliminated pair's residual)
+            "action_reaction": float(np.abs(r[ylo[act_p]] + r[yup[act_p]]).max()),
+            "residual_free": float(np.abs(r[other]).max())}
+    return {"flat": flat, "pair": pair}
+
+
+def solve_pair_finite(lower: Mesh, upper: Mesh, P: float, law: str, steps: int = 5, tol: float = 1e-10,
+                      segment_passes: int = 0, verbose: bool = False) -> dict:
+    """The pair at finite strain (total Lagrangian, load steps, Newton): the lower disk's bottom
+    nodes on the flat (y = Y + u_y >= 0) and node-to-node contact between the paired surface
+    nodes on their deformed positions, y(upper_j) - y(lower_j) >= 0, vertical reactions. Valid
+    while the paired nodes stay above one another, i.e. their relative sliding (measured,
+    `slide`) is small against the surface node spacing: for two identical bodies Hertz's
+    tangential surface displacements are equal (no relative slip), only the bodies' different
+    far fields (the lower one carries the upper's weight at its top) make them differ. The
+    constraints are linear in u, so they are eliminated as in the small-strain solve; Newton on
+    the reduced unknowns, the active sets updated whenever the residual is below 1e-6 of the load."""
+    ml, mu = Model(lower, P), Model(upper, P)
+    nl = ml.ndof
+    ndof = nl + mu.ndof
+    f = np.concatenate([ml.f, mu.f])
+    fnorm = np.linalg.norm(f)
+    fixed_x = np.concatenate([2 * lower.sym, nl + 2 * upper.sym])
+    cf = lower.surf
+    yf = 2 * cf + 1
+    g0f = lower.X[cf, 1]
+    lo, up = lower.top, upper.surf
+    ylo, yup = 2 * lo + 1, nl + 2 * up + 1
+    g0p = upper.X[up, 1] - lower.X[lo, 1]
+    a_guess = hertz(P)[0]
+    counts = {"active_set": 0, "newton": 0, "factorisations": 0}
+
+    def forces(u, tangent=True):
+        fa, Ka, ja = ml.forces(u[:nl], law, tangent)
+        fb, Kb, jb = mu.forces(u[nl:], law, tangent)
+        if fa is None or fb is None:
+            return None, None, min(ja, jb)
+        K = sp.block_diag([Ka, Kb]).tocsr() if tangent else None
+        return np.concatenate([fa, fb]), K, min(ja, jb)
+
+    def transform(act_f, act_p):
+        return _pair_transform(ndof, fixed_x, yf, g0f, act_f, yup, ylo, g0p, act_p)
+
+    def newton(t, act_f, act_p):
+        """Newton at load t from the present u, the active sets updated on the way."""
+        nonlocal u
+        C, c, free = transform(act_f, act_p)
+        seen = {act_f.tobytes() + act_p.tobytes()}
+        last_du = np.inf
+        for nit in range(80):
+            fint, K, jmin = forces(u)
+            if fint is None:
+                raise RuntimeError(f"inverted element at load {t:.2f}")
+            res = fint - t * f
+            rr = C.T @ res
+            rn = np.linalg.norm(rr) / fnorm
+            target = C @ u[free] + c  # the constraints applied to the present free dofs
+            dp = target - u
+            if verbose:
+                print(f"    t={t:.2f} newton {nit}: |res| {rn:.3e}, |dp| {np.abs(dp).max():.1e}, "
+                      f"flat {act_f.sum()}, pair {act_p.sum()}, min J {jmin:.4f}", flush=True)
+            if rn < 1e-6 and np.abs(dp).max() < 1e-13 * R:  # (an active pair's dp is a difference: round-off)
+                gap_f = g0f + u[yf]
+                gap_p = g0p + u[yup] - u[ylo]
+                new_f = np.where(act_f, res[yf] > 0.0, gap_f < -1e-12 * R)
+                new_p = np.where(act_p, res[yup] > 0.0, gap_p < -1e-12 * R)
+                if (new_f == act_f).all() and (new_p == act_p).all():
+                    if rn < tol or (rn < 1e-8 and last_du < 1e-10 * np.abs(u).max()):
+                        break
+                else:
+                    counts["active_set"] += 1
+                    key = new_f.tobytes() + new_p.tobytes()
+                    if key in seen:
+                        raise RuntimeError("active sets cycle")
+                    seen.add(key)
+                    act_f, act_p = new_f, new_p
+                    C, c, free = transform(act_f, act_p)
+                    target = C @ u[free] + c
+                    dp = target - u
+                    rr = C.T @ res
+            # du = C dw + dp: C^T K (C dw + dp) = -C^T res
+            dw = solve_spd((C.T @ K @ C).tocsr(), -rr - C.T @ (K @ dp), symmetric=law != "hypo_log")
+            du = C @ dw + dp
+            counts["factorisations"] += 1
+            counts["newton"] += 1
+            step = 1.0
+            for _ in range(30):
+                if forces(u + step * du, tangent=False)[2] > 0.05:
+                    break
+                step *= 0.5
+            u = u + step * du
+            last_du = float(np.abs(step * du).max())
+        else:
+            raise RuntimeError(f"Newton did not converge at load {t:.2f}: |res| {rn:.3e}")
+        return act_f, act_p
+
+    u = np.zeros(ndof)
+    for t in np.linspace(0, 1, steps + 1)[1:]:
+        act_f = lower.X[cf, 0] <= 0.9 * a_guess * math.sqrt(2.0 * t)
+        act_p = upper.X[up, 0] <= 0.9 * a_guess * math.sqrt(t)
+        act_f[0] = act_p[0] = True
+        act_f, act_p = newton(t, act_f, act_p)
+    g0p_node = g0p.copy()
+    shift = np.zeros(len(up))
+    for npass in range(segment_passes):
+        # the lower surface's deformed height at the upper node's x (linear between its nodes)
+        # against the paired node's: the node-to-node gap less the true one; lagged, to a
+        # fixed point
+        xu = upper.X[up, 0] + u[nl + 2 * up]
+        xl = lower.X[lo, 0] + u[2 * lo]
+        yl = lower.X[lo, 1] + u[ylo]
+        new_shift = np.interp(xu, xl, yl) - yl
+        change = float(np.abs(new_shift - shift).max())
+        if verbose:
+            print(f"  segment pass {npass}: gap shift change {change:.1e} mm", flush=True)
+        if change < 1e-10 * R:
+            break
+        shift = new_shift
+        g0p = g0p_node - shift
+        act_f, act_p = newton(1.0, act_f, act_p)
+    else:
+        if segment_passes:
+            raise RuntimeError("the segment gaps did not settle")
+
+    res = forces(u, tangent=False)[0] - f
+    react_f = np.where(act_f, res[yf], 0.0)
+    react_p = np.where(act_p, res[yup], 0.0)
+    gap_f = g0f + u[yf]
+    gap_p = g0p + u[yup] - u[ylo]
+    other = np.ones(ndof, bool)
+    other[np.concatenate([fixed_x, yf[act_f], yup[act_p], ylo[act_p]])] = False
+    # relative sliding of the paired nodes (deformed x) over the contact and just beyond it
+    xu = upper.X[up, 0] + u[nl + 2 * up]
+    xl = lower.X[lo, 0] + u[2 * lo]
+    near = upper.X[up, 0] <= 1.5 * a_guess
+    slide = float(np.abs(xu - xl)[near].max())
+    # what the sliding does to the gaps: the lower surface's height at the upper node's x (linear
+    # between its deformed nodes) against its height at the paired node
+    yl = lower.X[lo, 1] + u[ylo]
+    gap_shift = float(np.abs(np.interp(xu, xl, yl) - yl)[near].max())
+    common = {"law": law, "counts": counts, "deformed": True}
+    flat = {**common, "u": u[:nl], "cand": cf, "active": act_f, "react": react_f, "g0": g0f, "gap": gap_f,
+            "d": np.tile([0.0, 1.0], (len(cf), 1)), "load_carried_half": float(react_f.sum()), "area": ml.area}
+    pair = {**common, "u": u[nl:], "cand": up, "active": act_p, "react": react_p, "g0": g0p, "gap": gap_p,
+            "d": np.tile([0.0, 1.0], (len(up), 1)), "load_carried_half": float(react_p.sum()), "area": mu.area,
+            "action_reaction": float(np.abs(res[ylo[act_p]] + res[yup[act_p]]).max()),
+            "residual_free": float(np.abs(res[other]).max()), "slide": slide, "gap_shift": gap_shift,
+            "slide_edge_ux": float(u[nl + 2 * up][act_p].min())}
+    return {"flat": flat, "pair": pair}
+
+
+def run_pair(a: float, level: int, law: str = "linear", steps: int = 5, segment: bool = False,
+             verbose: bool = False) -> dict:
+    """Mesh, solve and measure the pair (small strain, vertical, circle gaps): the contact
+    between the disks (Hertz for two identical cylinders, R* = R/2, E* = E/(2(1 - nu^2)): the
+    same a for the same P as one cylinder on the flat) and the lower disk's on the flat (load 2P)."""
+    t0 = time.perf_counter()
+    lower, upper = pair_meshes(a, level)
+    P = load_for(a)
+    if law == "linear":
+        sol = solve_pair(lower, upper, P, verbose=verbose)
+    else:
+        sol = solve_pair_finite(lower, upper, P, law, steps=steps, segment_passes=20 if segment else 0,
+                                verbose=verbose)
+    out = measure(upper, sol["pair"], P)
+    if "slide" in sol["pair"]:  # relative sliding of the paired nodes against the surface node spacing
+        out.update({"slide": sol["pair"]["slide"], "slide_over_spacing": sol["pair"]["slide"] / (0.5 * upper.h0),
+                    "gap_shift": sol["pair"]["gap_shift"],
+                    "edge_ux_over_a": sol["pair"]["slide_edge_ux"] / hertz(P)[0]})
+    out["flat"] = {k: v for k, v in measure(lower, sol["flat"], 2 * P).items()}
+    out.update({"a": a, "level": level, "model": law, "gap": "circle", "segment": segment,
+                "direction": "vertical" if law == "linear" else "vertical (deformed)",
+                "case": "pair", "h0": upper.h0, "nodes": len(lower.X) + len(upper.X),
+                "elements": len(lower.tri) + len(upper.tri), "min_angle_deg": min(lower.min_angle, upper.min_angle),
+                "counts": sol["pair"]["counts"], "residual_free": sol["pair"]["residual_free"],
+                "action_reaction": sol["pair"]["action_reaction"],
+                "wall_s": time.perf_counter() - t0, "solver": "cholmod" if _cholesky is not None else "splu"})
+    return out
+
+
 # ---------------------------------------------------------------- measures
 
 def configuration(mesh: Mesh, sol: dict) -> np.ndarray:
@@ -626,7 +941,10 @@ def table(rows: list[dict]) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     groups: dict = {}
     for r in rows:
-        if r["model"] == "linear":
+        if r.get("case") == "pair":  # the contact between the two cylinders
+            name = f"pair: {r['model']}{', segment gaps' if r.get('segment') else ''}"
+            groups.setdefault((name, r["gap"], r["a"]), []).append(r)
+        elif r["model"] == "linear":
             name = f"linear, {r['direction']}"
             groups.setdefault((name, r["gap"], r["a"]), []).append(r)
             if r["direction"] == "vertical" and "current" in r:
@@ -654,7 +972,8 @@ def profiles(rows: list[dict]) -> str:
     """p(x)/p0 at x/a = 0, 1/8, ..., 1 (Hertz's a and p0) of the finest level of each case."""
     best: dict = {}
     for r in rows:
-        key = (r["model"], r.get("direction", ""), r["gap"], r["a"])
+        key = (("pair: " if r.get("case") == "pair" else "") + r["model"]
+               + (", segment gaps" if r.get("segment") else ""), r.get("direction", ""), r["gap"], r["a"])
         if key not in best or r["level"] > best[key]["level"]:
             best[key] = r
     xs = best[next(iter(best))]["profile_x_over_a"] if best else []
@@ -662,7 +981,7 @@ def profiles(rows: list[dict]) -> str:
            "|---|" + "---|" * len(xs),
            "| Hertz | " + " | ".join(f"{math.sqrt(max(1 - x * x, 0.0)):.3f}" for x in xs) + " |"]
     for (law, direction, gap, a), r in sorted(best.items()):
-        name = f"{law}{', ' + direction if law == 'linear' else ''}, {gap}, a = {a:g}"
+        name = f"{law}{', ' + direction if law.endswith('linear') else ''}, {gap}, a = {a:g}"
         out.append(f"| {name} | " + " | ".join(f"{p:.3f}" for p in r["profile_p_over_p0"]) + " |")
     return "\n".join(out)
 
@@ -678,6 +997,11 @@ def main(argv=None) -> int:
     run.add_argument("--direction", choices=["normal", "vertical"], default="normal",
                      help="linear model: the contact along the body's normal (classical Signorini) or vertical")
     run.add_argument("--steps", type=int, default=5, help="load steps (finite-strain models)")
+    run.add_argument("--pair", action="store_true",
+                     help="two cylinders stacked on the flat (small strain, vertical contact, circle gaps)")
+    run.add_argument("--segment", action="store_true",
+                     help="--pair at finite strain: the pairs' gaps corrected for their relative sliding "
+                          "(the lower surface's height at the upper node's x), to a fixed point")
     run.add_argument("--verbose", action="store_true")
     tb = sub.add_parser("table", help="the table of saved runs")
     tb.add_argument("--tags", nargs="*", help="result tags (default: all)")
@@ -685,6 +1009,26 @@ def main(argv=None) -> int:
     RESULTS.mkdir(parents=True, exist_ok=True)
     if args.cmd == "run":
         for level in args.levels:
+            if args.pair:
+                if args.gap != "circle" or (args.model == "linear" and args.direction != "vertical"):
+                    print("--pair: the circles' gaps, vertical contact (--gap circle --direction vertical)")
+                    return 2
+                out = run_pair(args.a, level, args.model, args.steps, args.segment, args.verbose)
+                name = f"pair_{args.model}{'_segment' if args.segment else ''}_vertical_circle_a{args.a:g}_L{level}"
+                (RESULTS / f"{name}.json").write_text(json.dumps(out, indent=1))
+                fl = out["flat"]
+                print(f"{name}: nodes {out['nodes']}, min angle {out['min_angle_deg']:.1f}, pair contact: load "
+                      f"{out['load_error']:+.1e}, a_edge {100 * out['a_edge_error']:+.3f}%, a_moment "
+                      f"{100 * out['a_moment_error']:+.3f}%, a_fit {100 * out['a_fit_error']:+.3f}%, p(0) "
+                      f"{100 * out['centre_error']:+.3f}%, profile {100 * out['profile_max_error']:.2f}%; flat (2P): "
+                      f"load {fl['load_error']:+.1e}, a_edge {100 * fl['a_edge_error']:+.3f}%, a_moment "
+                      f"{100 * fl['a_moment_error']:+.3f}%, a_fit {100 * fl['a_fit_error']:+.3f}%, p(0) "
+                      f"{100 * fl['centre_error']:+.3f}%"
+                      + (f"; slide {out['slide']:.2e} mm = {out['slide_over_spacing']:.3f} of the surface spacing, "
+                         f"gap shift {out['gap_shift']:.1e} mm, edge u_x "
+                         f"{100 * out['edge_ux_over_a']:+.2f}% of a" if "slide" in out else "")
+                      + f"; {out['wall_s']:.1f} s", flush=True)
+                continue
             out = run_one(args.a, level, args.model, args.gap, args.direction, args.steps, args.verbose)
             name = tag(args.a, args.model, args.gap, level, args.direction)
             (RESULTS / f"{name}.json").write_text(json.dumps(out, indent=1))

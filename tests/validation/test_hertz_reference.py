@@ -13,7 +13,17 @@
    first order in a/R), which is why the two forms are reported apart.
 3. Neo-Hookean at finite strain, a/R = 0.05, coarsest mesh: equilibrium, no penetration, no
    tension, half-width -0.97% and centre +1.00% (converged -0.96%, +1.05%).
-4. The finite-strain laws' tangent stiffness is the derivative of their internal forces
+4. Two identical cylinders stacked on the flat (the lower graded to both its contacts, the
+   upper's bottom surface nodes at the x of the lower's top ones), small strain with the contact
+   linearised about the undeformed bodies (vertical gaps of the two circles, node to node), at
+   a/R = 0.05 on the coarsest mesh: their contact gives Hertz for two cylinders (R* = R/2,
+   E* = E/(2(1 - nu^2)): the half-width of one cylinder on the flat under the same load) within
+   0.2% (measured -0.04% edge, -0.07% moment, -0.16% fit, centre +0.01%), the flat's (load 2P)
+   within 0.4%; each contact carries what is above it to 1e-12, action equals reaction, no node
+   pair interpenetrates, none pulls. A single circle's gap (the rigid flat's: R* = R) or one
+   body's compliance only (a rigid partner: E* = E/(1 - nu^2)) would put the half-width +41% or
+   -29% off.
+5. The finite-strain laws' tangent stiffness is the derivative of their internal forces
    (directional finite differences, 1e-6 relative), so that Newton converges to their
    equilibrium; the logarithmic laws tend to linear elasticity at small strain.
 """
@@ -97,3 +107,23 @@ def test_small_strain_limit_is_linear(law):
     f_lin = model.forces(u, "linear", tangent=False)[0]
     f = model.forces(u, law, tangent=False)[0]
     assert np.abs(f - f_lin).max() < 1e-5 * np.abs(f_lin).max()
+
+
+def test_two_cylinders_small_load_give_hertz():
+    lower, upper = ref.pair_meshes(0.5, 0)
+    P = ref.load_for(0.5)
+    sol = ref.solve_pair(lower, upper, P)
+    m = ref.measure(upper, sol["pair"], P)
+    fl = ref.measure(lower, sol["flat"], 2 * P)
+    for x in (m, fl):
+        assert abs(x["load_error"]) < 1e-8, x["load_error"]
+        assert x["max_penetration"] > -1e-12 * ref.R
+        assert x["min_active_reaction"] > 0.0
+    assert sol["pair"]["action_reaction"] < 1e-10 * P
+    assert sol["pair"]["residual_free"] < 1e-10 * P
+    for k in ("a_edge_error", "a_moment_error", "a_fit_error", "centre_error"):
+        assert abs(m[k]) < 0.002, (k, m[k])
+        assert abs(fl[k]) < 0.004, (k, fl[k])
+    assert m["profile_max_error"] < 0.006, m["profile_max_error"]
+    lo, hi = m["a_bracket"]
+    assert m["n_active"] > 30 and lo <= m["a_edge"] <= hi
