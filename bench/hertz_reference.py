@@ -572,6 +572,21 @@ def _pair_transform(ndof: int, fixed_x, yf, g0f, act_f, yup, ylo, g0p, act_p):
     return C, c, free
 
 
+def _pair_dofs(lower: Mesh, upper: Mesh, nl: int):
+    """The pair's constrained unknowns (the lower disk's nl dofs first): the symmetry-plane x dofs
+    of both; the lower's flat candidates (nodes cf, their y dofs yf, initial gaps g0f); the
+    contact pairs (lower top nodes lo, upper bottom nodes up, their y dofs ylo, yup, and the
+    initial vertical gaps g0p between them)."""
+    fixed_x = np.concatenate([2 * lower.sym, nl + 2 * upper.sym])
+    cf = lower.surf
+    yf = 2 * cf + 1
+    g0f = lower.X[cf, 1]
+    lo, up = lower.top, upper.surf
+    ylo, yup = 2 * lo + 1, nl + 2 * up + 1
+    g0p = upper.X[up, 1] - lower.X[lo, 1]
+    return fixed_x, cf, yf, g0f, lo, up, ylo, yup, g0p
+
+
 def solve_pair(lower: Mesh, upper: Mesh, P: float, verbose: bool = False) -> dict:
     """Small strain, contact linearised about the undeformed bodies (vertical gaps and
     reactions, the circles' gaps): the lower disk on the flat (u_y >= -Y at its bottom surface
@@ -588,13 +603,7 @@ def solve_pair(lower: Mesh, upper: Mesh, P: float, verbose: bool = False) -> dic
     ndof = nl + mu.ndof
     K = sp.block_diag([ml.forces(np.zeros(nl), "linear")[1], mu.forces(np.zeros(mu.ndof), "linear")[1]]).tocsr()
     f = np.concatenate([ml.f, mu.f])
-    fixed_x = np.concatenate([2 * lower.sym, nl + 2 * upper.sym])
-    cf = lower.surf
-    yf = 2 * cf + 1
-    g0f = lower.X[cf, 1]
-    lo, up = lower.top, upper.surf
-    ylo, yup = 2 * lo + 1, nl + 2 * up + 1
-    g0p = upper.X[up, 1] - lower.X[lo, 1]
+    fixed_x, cf, yf, g0f, lo, up, ylo, yup, g0p = _pair_dofs(lower, upper, nl)
     a_guess = hertz(P)[0]
     act_f = lower.X[cf, 0] <= 0.9 * a_guess * math.sqrt(2.0)
     act_p = upper.X[up, 0] <= 0.9 * a_guess
@@ -656,13 +665,7 @@ def solve_pair_finite(lower: Mesh, upper: Mesh, P: float, law: str, steps: int =
     ndof = nl + mu.ndof
     f = np.concatenate([ml.f, mu.f])
     fnorm = np.linalg.norm(f)
-    fixed_x = np.concatenate([2 * lower.sym, nl + 2 * upper.sym])
-    cf = lower.surf
-    yf = 2 * cf + 1
-    g0f = lower.X[cf, 1]
-    lo, up = lower.top, upper.surf
-    ylo, yup = 2 * lo + 1, nl + 2 * up + 1
-    g0p = upper.X[up, 1] - lower.X[lo, 1]
+    fixed_x, cf, yf, g0f, lo, up, ylo, yup, g0p = _pair_dofs(lower, upper, nl)
     a_guess = hertz(P)[0]
     counts = {"active_set": 0, "newton": 0, "factorisations": 0}
 
