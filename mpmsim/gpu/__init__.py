@@ -1,8 +1,10 @@
 """The explicit MPM step on one NVIDIA GPU (numba-cuda: `pip install mpmsim[cuda]`).
 
 `mpmsim run DECK --device cuda`, `Simulation(..., device="cuda")`. What runs there: single
-material 2D and 3D particle scenes (several materials sharing one velocity field too), shape
-functions linear, gimp (uGIMP) and bspline2; update schemes FLIP, PIC and APIC with either
+material 2D and 3D particle scenes (several materials sharing one velocity field too) and
+multimaterial grid contact (material fields, every normal method and separation, laws stick,
+frictionless and Coulomb, passes 1 to 3: mpmsim/gpu/contact.py), shape functions linear, gimp
+(uGIMP) and bspline2; update schemes FLIP, PIC and APIC with either
 position form; stress updates USF, USL and USAVG (with or without re-extrapolation); linear
 elastic and neo-Hookean materials; rigid materials; fixed and roller grid faces; gravity; grid damping.
 Everything else a deck may ask for is refused by `unsupported` with the key that asks for it
@@ -41,8 +43,7 @@ def unsupported(scene) -> list[tuple[tuple, str]]:
         out.append((("update", "scheme"), f"update.scheme {deck.update.scheme} {later}; on the GPU: "
                     + ", ".join(SCHEMES)))
     if scene.contact.grid is not None:
-        out.append((("contact",), f"multimaterial contact ({len(scene.materials.deformable)} materials with their "
-                    f"own velocity fields) {later}"))
+        out += _contact_unsupported(scene, later)
     if scene.contact.augury is not None:
         out.append((("contact", "augury"), f"augury contact {later}"))
     for name, m in deck.materials.items():
@@ -55,6 +56,30 @@ def unsupported(scene) -> list[tuple[tuple, str]]:
         out.append((("loads",), f"traction loads {later}"))
     if deck.output.energy_ledger:
         out.append((("output", "energy_ledger"), f"the energy ledger {later}"))
+    return out
+
+
+def _contact_unsupported(scene, later: str) -> list[tuple[tuple, str]]:
+    """What of the grid contact (mpmsim/gpu/contact.py) the GPU step does not do yet."""
+    from ..contact.grid.spec import FIRST_PLUGIN_LAW, INTERFACE, LAW_CODES
+
+    deck, spec = scene.deck, scene.contact.grid
+    out: list[tuple[tuple, str]] = []
+    for name in scene.materials.rigid:
+        if getattr(deck.materials[name], "mode", None) == "contact":
+            out.append((("materials", name, "mode"), f"rigid contact materials (mode: contact) {later}"))
+    laws = [(("contact", "default", "law"), deck.contact.default.law)]
+    laws += [(("contact", "pairs", i, "law"), p.law) for i, p in enumerate(deck.contact.pairs)]
+    for key, law in laws:
+        code = LAW_CODES[law]
+        if code == INTERFACE or code >= FIRST_PLUGIN_LAW:
+            kind = "interface" if code == INTERFACE else "plugin"
+            out.append((key, f"contact law {law} ({kind} laws) {later}; on the GPU: stick, frictionless, coulomb, "
+                        "none"))
+    if spec.warm_start:
+        out.append((("contact", "warm_start"), f"contact.warm_start {later}"))
+    if spec.traction:
+        out.append((("output", "contact_traction"), f"output.contact_traction {later}"))
     return out
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from functools import cache
+from typing import NamedTuple
 
 import numpy as np
 from numba import cuda, float64, int64
@@ -40,7 +41,7 @@ from ..materials.dispatch import energy_dispatch
 from ..materials.kernels import EOS_N
 from ..materials.model import model_of
 from ..shapes import tensor
-from ..tasks.boundary import velocity_of as _velocity_of
+from ..tasks.boundary import mirror_field as _mirror_field, velocity_of as _velocity_of
 from ..tasks.extrapolate import RIGID_MIN_WEIGHT, affine_of as _affine_of
 from ..tasks.forces import node_force as _node_force
 from ..tasks.grid_update import held_force as _held_force
@@ -51,20 +52,33 @@ SIMULATOR = bool(cuda_config.ENABLE_CUDASIM)
 
 
 def _add_ufunc_loops() -> None:
-    """numba-cuda 0.30 has no float64 loops for np.floor and np.cbrt, which the shared shape
-    functions and the neo-Hookean stress call: add them (LLVM's floor, libdevice's cbrt) to its
-    ufunc table, so the CPU path's functions compile for the device unchanged."""
+    """numba-cuda 0.30 has no float64 loops for the NumPy functions the shared CPU code calls
+    on scalars (np.floor and np.cbrt in the shape functions and the neo-Hookean stress;
+    np.sqrt, np.exp and np.isfinite in the contact geometry and laws): add them to its ufunc
+    table (LLVM's floor, libdevice's cbrt, sqrt, exp and isfinite), so the CPU path's
+    functions compile for the device unchanged."""
+    import math
+
     from llvmlite import ir
-    from numba.cuda import cgutils, ufuncs
+    from numba.core import types, typing
+    from numba.cuda import cgutils, libdevice, ufuncs
     from numba.cuda.cudaimpl import ptx_cbrt
+    from numba.cuda.mathimpl import get_unary_impl_for_fn_and_ty
 
     def floor(context, builder, sig, args):
         fnty = ir.FunctionType(ir.DoubleType(), [ir.DoubleType()])
         return builder.call(cgutils.get_or_insert_function(builder.module, fnty, "llvm.floor.f64"), args)
 
+    def isfinite(context, builder, sig, args):
+        impl = context.get_function(libdevice.isfinited, typing.signature(types.int32, types.float64))
+        return context.cast(builder, impl(builder, args), types.int32, types.boolean)
+
     db = ufuncs.ufunc_db()
     db.setdefault(np.floor, {}).setdefault("d->d", floor)
     db.setdefault(np.cbrt, {}).setdefault("d->d", ptx_cbrt)
+    db.setdefault(np.sqrt, {}).setdefault("d->d", get_unary_impl_for_fn_and_ty(math.sqrt, types.float64))
+    db.setdefault(np.exp, {}).setdefault("d->d", get_unary_impl_for_fn_and_ty(math.exp, types.float64))
+    db.setdefault(np.isfinite, {}).setdefault("d->?", isfinite)
 
 
 if not SIMULATOR:
@@ -79,9 +93,17 @@ def device_function(f):
         return f
 
     def call(*args):
-        return f(*[getattr(a, "_ary", a) for a in args])
+        return f(*[_host_view(a) for a in args])
 
     return call
+
+
+def _host_view(a):
+    """The numpy array a simulated device array wraps (inside bundles too)."""
+    if isinstance(a, tuple):
+        items = [_host_view(x) for x in a]
+        return type(a)(*items) if hasattr(a, "_fields") else tuple(items)
+    return getattr(a, "_ary", a)
 
 
 ghost_mirror, node_bc, rigid_holds = (device_function(f) for f in (bc.ghost_mirror, bc.node_bc, bc.rigid_holds))
@@ -91,10 +113,12 @@ node_ijk = device_function(gridops.node_ijk)
 axis_weights, fill_entries = device_function(tensor.axis_weights), device_function(tensor.fill_entries)
 affine_of = device_function(_affine_of)
 velocity_of, held_force, held_volume = (device_function(f) for f in (_velocity_of, _held_force, bc.held_volume))
+mirror_field = device_function(_mirror_field)
 node_force, deform_2d = device_function(_node_force), device_function(_deform_2d)
 velocity_gradient_2d = device_function(_velocity_gradient_2d)
 advance = device_function(_advance)
-TPB = 16 if SIMULATOR else 128  # threads per block (the simulator runs each as a Python thread)
+TPB = 1 if SIMULATOR else 128  # threads per block (the simulator runs a block's threads as Python threads, their
+# atomic adds in no fixed order: one thread per block runs the threads one after another)
 SHAPE, RIGID_SHAPE, STRESS, UPDATE = 0, 1, 2, 3
 N_SLOTS = 4
 WAVE, GRID_WORK, GRAVITY_WORK = 0, 1, 2  # entries of the step's scalars
@@ -110,6 +134,14 @@ def zero(a):
     i = cuda.grid(1)
     if i < a.size:
         a[i] = 0.0
+
+
+@cuda.jit
+def zero_int(a):
+    """a[:] = 0 for a flat integer array."""
+    i = cuda.grid(1)
+    if i < a.size:
+        a[i] = 0
 
 
 @cuda.jit
@@ -226,85 +258,104 @@ def rigid_volume(nodes, S, vol, mat, rigid_vol):
             cuda.atomic.add(rigid_vol, (nodes[p, k], r), w * vol[p])
 
 
+class FieldMap(NamedTuple):
+    """The grid fields of this step: the nodes, then the material slots of the contact nodes
+    (slot s is field nn + s at node slot_node[s]; mpmsim/contact/grid/fields.py)."""
+
+    n_fields: int  # nn + this step's slots
+    nn: int
+    slot_node: object  # device array (>= 1 entry)
+
+
+@cuda.jit(device=True)
+def node_of(f, fm):
+    return f if f < fm.nn else fm.slot_node[f - fm.nn]
+
+
 @cache
 def node_kernels(dim: int):
-    """The per-node passes: ghost table, grid velocity, mirrors, the momentum update."""
+    """The per-field passes (a thread per node or material slot): ghost table, grid velocity,
+    mirrors, the momentum update."""
 
     @cuda.jit
-    def ghosts(shape, face_type, wall_index, rigid_vol, constrain, src, face):
-        """boundary.ghost_table for one field per node (no contact slots)."""
-        node = cuda.grid(1)
-        if node >= src.shape[0]:
+    def ghosts(fm, shape, face_type, wall_index, rigid_vol, constrain, slots, src, face):
+        """boundary.ghost_table: a ghost slot mirrors its material's field at the mirror node."""
+        f = cuda.grid(1)
+        if f >= fm.n_fields:
             return
+        node = node_of(f, fm)
         i, j, k = node_ijk(node, shape)
         for d in range(dim):
-            mirror, f = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
-            face[node, d] = f
+            mirror, fc = ghost_mirror(i, j, k, d, dim, face_type, wall_index, shape)
+            face[f, d] = fc
             if mirror == -1 or rigid_holds(node, d, rigid_vol, constrain):
-                src[node, d] = -1
+                src[f, d] = -1
             else:
-                src[node, d] = mirror
+                src[f, d] = mirror_field(f, mirror, fm.nn, slots.node_cn, slots.cn_ptr, slots.slot_group, slots.mask,
+                                         slots.n_def)
 
     @cuda.jit
-    def velocity(shape, face_type, wall_index, rigid_vol, constrain, rig_vel, mass, mom, vel):
+    def velocity(fm, shape, face_type, wall_index, rigid_vol, constrain, rig_vel, mass, mom, vel):
         """boundary.grid_velocity: vel = p/m with velocity conditions imposed."""
-        node = cuda.grid(1)
-        if node >= mass.shape[0]:
+        f = cuda.grid(1)
+        if f >= fm.n_fields:
             return
+        node = node_of(f, fm)
         i, j, k = node_ijk(node, shape)
-        m = mass[node]
+        m = mass[f]
         for d in range(dim):
             owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
-            vel[node, d] = velocity_of(owner != NO_BC, vbc, m, mom[node, d])
+            vel[f, d] = velocity_of(owner != NO_BC, vbc, m, mom[f, d])
 
     @cuda.jit
-    def mirror(src, field):
+    def mirror(fm, src, field):
         """boundary.mirror_ghosts."""
-        node = cuda.grid(1)
-        if node >= src.shape[0]:
+        f = cuda.grid(1)
+        if f >= fm.n_fields:
             return
         for d in range(dim):
-            mf = src[node, d]
+            mf = src[f, d]
             if mf != -1:
-                field[node, d] = -field[mf, d] if mf >= 0 else 0.0
+                field[f, d] = -field[mf, d] if mf >= 0 else 0.0
 
     @cuda.jit
-    def fold(src, face, force):
+    def fold(fm, src, face, force):
         """boundary.fold_ghost_forces (B-splines)."""
-        node = cuda.grid(1)
-        if node >= src.shape[0]:
+        f = cuda.grid(1)
+        if f >= fm.n_fields:
             return
         for d in range(dim):
-            mf = src[node, d]
-            if mf >= 0 and face[node, d] // 2 == d:
-                cuda.atomic.add(force, (mf, d), -force[node, d])
+            mf = src[f, d]
+            if mf >= 0 and face[f, d] // 2 == d:
+                cuda.atomic.add(force, (mf, d), -force[f, d])
 
     @cuda.jit
-    def update(shape, face_type, wall_index, rigid_vol, constrain, v_start, v_end, mass, mom, force, vnew, acc,
+    def update(fm, shape, face_type, wall_index, rigid_vol, constrain, v_start, v_end, mass, mom, force, vnew, acc,
                vstart, dt, reaction, scalars):
         """grid_update.grid_update_kernel, reactions and work added atomically. (The calls to
         node_bc and held_force stay written out here and there: one helper taking the condition
         and field arrays and calling node_bc made the CPU kernel 4.2x slower.)"""
-        node = cuda.grid(1)
-        if node >= mass.shape[0]:
+        f = cuda.grid(1)
+        if f >= fm.n_fields:
             return
+        node = node_of(f, fm)
         i, j, k = node_ijk(node, shape)
-        m = mass[node]
+        m = mass[f]
         if m <= 0.0:
             for d in range(dim):
-                vnew[node, d] = 0.0
-                acc[node, d] = 0.0
-                vstart[node, d] = 0.0
+                vnew[f, d] = 0.0
+                acc[f, d] = 0.0
+                vstart[f, d] = 0.0
             return
         work = 0.0
         for d in range(dim):
             owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_end)
             v0 = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, v_start)[1] \
                 if owner != NO_BC else 0.0
-            pd = mom[node, d]
-            vstart[node, d], fd, dfc = held_force(owner != NO_BC, vbc, v0, m, pd, force[node, d], dt)
-            acc[node, d] = fd / m
-            vnew[node, d] = (pd + fd * dt) / m
+            pd = mom[f, d]
+            vstart[f, d], fd, dfc = held_force(owner != NO_BC, vbc, v0, m, pd, force[f, d], dt)
+            acc[f, d] = fd / m
+            vnew[f, d] = (pd + fd * dt) / m
             if owner != NO_BC:
                 work += dfc * vbc * dt
                 if owner != RIGID_OWNER:
@@ -318,23 +369,23 @@ def node_kernels(dim: int):
             cuda.atomic.add(scalars, GRID_WORK, work)
 
     @cuda.jit
-    def mirror_update(src, face, mass, mom, vnew, acc, vstart, dt, reaction):
+    def mirror_update(fm, src, face, mass, mom, vnew, acc, vstart, dt, reaction):
         """grid_update.mirror_update."""
-        node = cuda.grid(1)
-        if node >= src.shape[0]:
+        f = cuda.grid(1)
+        if f >= fm.n_fields:
             return
-        m = mass[node]
+        m = mass[f]
         if m <= 0.0:
             return
         for d in range(dim):
-            mf = src[node, d]
+            mf = src[f, d]
             if mf == -1:
                 continue
             v = -vnew[mf, d] if mf >= 0 else 0.0
-            cuda.atomic.add(reaction, (face[node, d], d), m * (v - vnew[node, d]) / dt)
-            vnew[node, d] = v
-            acc[node, d] = (v - mom[node, d] / m) / dt
-            vstart[node, d] = -vstart[mf, d] if mf >= 0 else 0.0
+            cuda.atomic.add(reaction, (face[f, d], d), m * (v - vnew[f, d]) / dt)
+            vnew[f, d] = v
+            acc[f, d] = (v - mom[f, d] / m) / dt
+            vstart[f, d] = -vstart[mf, d] if mf >= 0 else 0.0
 
     return ghosts, velocity, mirror, fold, update, mirror_update
 

@@ -26,9 +26,11 @@ import time as wallclock
 
 import numpy as np
 
+from ..contact.grid.workspace import SlotMap
 from ..faults import BAD_NONE
 from ..shapes import BAD_SUPPORT
 from ..tasks.particle_update import POSITIONS, SCHEMES, move_rigid
+from ..views import GridView
 from . import kernels as K
 
 SCATTERS = ("atomic", "sorted")
@@ -63,6 +65,11 @@ class DeviceStep:
         self.models = [int(m) for m in np.unique(np.asarray(scene.materials.type_code))]
         self.state = None
         self.host_stale = False  # the host's particle arrays lag the device's
+        self.contact = None
+        if scene.contact.grid is not None:
+            from .contact import DeviceContact
+
+            self.contact = DeviceContact(self, scene)
 
     # ------------------------------------------------------------------ data movement
     def bind(self, state) -> None:
@@ -85,19 +92,16 @@ class DeviceStep:
         for name in ("x", "v", "vol", "mat"):
             d["r" + name] = to(np.ascontiguousarray(getattr(R, name)))
         nrm = max(len(state.materials.rigid), 1)
-        for name, shape in (("mass", (nn,)), ("mom", (nn, dim)), ("force", (nn, dim)), ("vel", (nn, dim)),
-                            ("vnew", (nn, dim)), ("acc", (nn, dim)), ("vstart", (nn, dim)),
-                            ("rigid_vol", (nn, nrm))):
-            d["g" + name] = cuda.device_array(shape, dtype=np.float64)
-        d["gsrc"] = to(np.full((nn, dim), -1, dtype=np.int64))
-        d["gface"] = to(np.full((nn, dim), -1, dtype=np.int64))
-        for name in ("mass", "mom", "force", "rigid_vol"):
-            d["flat_" + name] = d["g" + name].reshape(d["g" + name].size)
-        for name in ("vel", "vnew", "acc", "vstart"):
-            K.zero[K.blocks(d["g" + name].size)](d["g" + name].reshape(d["g" + name].size))
+        d["grigid_vol"] = cuda.device_array((nn, nrm), dtype=np.float64)
+        d["flat_rigid_vol"] = d["grigid_vol"].reshape(d["grigid_vol"].size)
+        self.nn = nn
+        self.slots_cap = -1
+        self.grow_fields(0)
+        self.set_fields(0, to(np.zeros(1, dtype=np.int64)))
         view = g.view
         d["shape"], d["origin"], d["h"] = to(np.asarray(view.shape)), to(view.origin), to(view.h)
         d["face_type"], d["wall_index"] = to(view.face_type), to(view.wall_index)
+        self.grid_view = GridView(d["shape"], d["origin"], d["h"], d["face_type"], d["wall_index"])
         d["offs"] = to(state.entry_offsets)
         d["gravity"] = to(np.asarray(state.gravity, dtype=np.float64))
         lo, hi = state.particle_bounds
@@ -124,9 +128,41 @@ class DeviceStep:
         if P.n:
             P.device_sums = self.energy_sums
         self.lattices = {}  # device copies of the rigid lattices
+        i1 = to(np.zeros(1, dtype=np.int64))
+        self.no_slots = SlotMap(to(np.full(1, -1, dtype=np.int64)), i1, i1, to(np.zeros(1, dtype=np.uint64)), 0)
+        if self.contact is not None:
+            self.contact.bind(state)
         self.state = state
         self.host_stale = False
         cuda.synchronize()
+
+    def grow_fields(self, slots: int) -> None:
+        """Grid field arrays for the nodes and `slots` material slots (contents not kept)."""
+        if slots <= self.slots_cap:
+            return
+        cuda, d, dim = self.cuda, self.d, self.dim
+        self.slots_cap = slots
+        nf = self.nn + slots
+        for name, shape in (("mass", (nf,)), ("mom", (nf, dim)), ("force", (nf, dim)), ("vel", (nf, dim)),
+                            ("vnew", (nf, dim)), ("acc", (nf, dim)), ("vstart", (nf, dim))):
+            d["g" + name] = cuda.device_array(shape, dtype=np.float64)
+            d["flat_" + name] = d["g" + name].reshape(d["g" + name].size)
+        for name in ("vel", "vnew", "acc", "vstart"):
+            K.zero[K.blocks(d["flat_" + name].size)](d["flat_" + name])
+        d["gsrc"] = cuda.to_device(np.full((nf, dim), -1, dtype=np.int64))
+        d["gface"] = cuda.to_device(np.full((nf, dim), -1, dtype=np.int64))
+
+    def set_fields(self, slots: int, slot_node) -> None:
+        """This step's fields: the nodes and `slots` material slots at slot_node."""
+        self.fm = K.FieldMap(self.nn + slots, self.nn, slot_node)
+
+    def sync(self) -> None:
+        self.cuda.synchronize()
+
+    @property
+    def fields(self):
+        """Each particle entry's field (its node, or its material's slot where materials meet)."""
+        return self.d["nodes"] if self.contact is None else self.contact.d["fidx"]
 
     def to_host(self, state) -> None:
         """Bring the host state's particle arrays up to date (history, output, checks)."""
@@ -154,10 +190,20 @@ class DeviceStep:
             "re-extrapolate": self.reextrapolate_task,
             "update stress last": self.stress_last,
         }
+        if self.contact is not None:
+            c = self.contact
+            runs.update({"material fields": self._synced(c.material_fields), "contact geometry": self._synced(c.geometry),
+                         "contact pass 1": c.pass_1, "contact pass 2": c.pass_2, "contact pass 3": c.pass_3})
         return {t.name: runs[t.name] for t in cpu_tasks}
 
     def _sync(self) -> None:
         self.cuda.synchronize()
+
+    def _synced(self, run):
+        def task(state) -> None:
+            run(state)
+            self.cuda.synchronize()
+        return task
 
     def _time_step(self, host_run):
         def run(state) -> None:
@@ -195,7 +241,7 @@ class DeviceStep:
     def _sort_by_cell(self) -> None:
         """order: the particles grouped by cell (their lowest node), a counting sort."""
         cuda, d = self.cuda, self.d
-        nn = d["gmass"].size
+        nn = self.nn
         count = cuda.to_device(np.zeros(nn, dtype=np.int64))
         K.count_cells[K.blocks(self.n)](d["nodes"], count)
         start = np.zeros(nn, dtype=np.int64)
@@ -216,20 +262,23 @@ class DeviceStep:
             K.affine_kernel(dim)[K.blocks(self.n)](d["S"], d["lowest"], d["offs"], d["origin"], d["h"], d["xref"],
                                                    d["B"], d["C"])
         K.p2g_kernel(dim, affine, self.scatter == "sorted")[K.blocks(self.n)](
-            d["mass"], d["v"], d["nodes"], d["S"], with_mass, d["gmass"], d["gmom"], d["C"], d["lowest"], d["offs"],
+            d["mass"], d["v"], self.fields, d["S"], with_mass, d["gmass"], d["gmom"], d["C"], d["lowest"], d["offs"],
             d["origin"], d["h"], d["xref"], d["order"])
 
     def extrapolate(self, state) -> None:
         d = self.d
         self._zero("mass", "mom")
         self._scatter_momentum(True)
+        if self.contact is not None:
+            self.contact.extrapolate_extras(state)
         if self.nr:
             self._zero("rigid_vol")
             K.rigid_volume[K.blocks(self.nr)](d["rnodes"], d["rS"], d["rvol"], d["rmat"], d["grigid_vol"])
-        if self.walls:
+        if self.walls:  # which field each ghost mirrors (a material's slot mirrors its slot or node)
+            slots = self.no_slots if self.contact is None else self.contact.slot_map()
             ghosts = K.node_kernels(self.dim)[0]
-            ghosts[K.blocks(d["gmass"].size)](d["shape"], d["face_type"], d["wall_index"], d["grigid_vol"],
-                                              d["constrain"], d["gsrc"], d["gface"])
+            ghosts[K.blocks(self.fm.n_fields)](self.fm, d["shape"], d["face_type"], d["wall_index"], d["grigid_vol"],
+                                               d["constrain"], slots, d["gsrc"], d["gface"])
         self._sync()
 
     def reextrapolate_task(self, state) -> None:
@@ -240,11 +289,11 @@ class DeviceStep:
     def _grid_velocity(self, rig_vel) -> None:
         d = self.d
         _, velocity, mirror, _, _, _ = K.node_kernels(self.dim)
-        nb = K.blocks(d["gmass"].size)
-        velocity[nb](d["shape"], d["face_type"], d["wall_index"], d["grigid_vol"], d["constrain"], rig_vel,
+        nb = K.blocks(self.fm.n_fields)
+        velocity[nb](self.fm, d["shape"], d["face_type"], d["wall_index"], d["grigid_vol"], d["constrain"], rig_vel,
                      d["gmass"], d["gmom"], d["gvel"])
         if self.walls:
-            mirror[nb](d["gsrc"], d["gvel"])
+            mirror[nb](self.fm, d["gsrc"], d["gvel"])
 
     def _stress(self, state, dt, gvel, slot) -> None:
         d = self.d
@@ -252,7 +301,7 @@ class DeviceStep:
         faults = d["faults"]
         for model in self.models:
             K.stress_kernel(model, self.dim)[K.blocks(self.n)](
-                d["nodes"], d["G"], gvel, dt, d["v"], d["F"], d["stress"], d["vol"], d["vol0"], d["mat"], d["code"],
+                self.fields, d["G"], gvel, dt, d["v"], d["F"], d["stress"], d["vol"], d["vol0"], d["mat"], d["code"],
                 d["props"], d["density"], d["scalars"], faults, slot, d["fcode"], d["fvalue"])
 
     def stress_first(self, state) -> None:
@@ -276,10 +325,10 @@ class DeviceStep:
         self._zero("force")
         if self.n:
             K.forces_kernel(self.dim, self.has_gravity, self.scatter == "sorted")[K.blocks(self.n)](
-                d["nodes"], d["S"], d["G"], d["vol"], d["stress"], d["mass"], d["gravity"], d["gforce"], d["order"])
+                self.fields, d["S"], d["G"], d["vol"], d["stress"], d["mass"], d["gravity"], d["gforce"], d["order"])
         if self.reaches_ghosts and self.walls:
             fold = K.node_kernels(self.dim)[3]
-            fold[K.blocks(d["gmass"].size)](d["gsrc"], d["gface"], d["gforce"])
+            fold[K.blocks(self.fm.n_fields)](self.fm, d["gsrc"], d["gface"], d["gforce"])
         if self.damping > 0.0:
             K.damp[K.blocks(d["gmass"].size)](d["gmom"], self.damping, d["gforce"])
         self._sync()
@@ -287,20 +336,23 @@ class DeviceStep:
     def grid_update(self, state) -> None:
         d = self.d
         _, _, _, _, update, mirror_update = K.node_kernels(self.dim)
-        nb = K.blocks(d["gmass"].size)
-        update[nb](d["shape"], d["face_type"], d["wall_index"], d["grigid_vol"], d["constrain"], d["rv_start"],
+        nb = K.blocks(self.fm.n_fields)
+        update[nb](self.fm, d["shape"], d["face_type"], d["wall_index"], d["grigid_vol"], d["constrain"], d["rv_start"],
                    d["rv_end"], d["gmass"], d["gmom"], d["gforce"], d["gvnew"], d["gacc"], d["gvstart"], state.dt,
                    d["reaction"], d["scalars"])
         if self.walls:
-            mirror_update[nb](d["gsrc"], d["gface"], d["gmass"], d["gmom"], d["gvnew"], d["gacc"], d["gvstart"],
+            mirror_update[nb](self.fm, d["gsrc"], d["gface"], d["gmass"], d["gmom"], d["gvnew"], d["gacc"], d["gvstart"],
                               state.dt, d["reaction"])
         self._sync()
 
     def particle_update(self, state) -> None:
         d = self.d
+        if self.position == K.UPDATED and self.contact is not None and self.walls:
+            # contact pass 2 changed v+ after the grid update mirrored it: the ghosts follow again
+            K.node_kernels(self.dim)[2][K.blocks(self.fm.n_fields)](self.fm, d["gsrc"], d["gvnew"])
         if self.n:
             K.particle_kernel(self.scheme, self.position, self.dim)[K.blocks(self.n)](
-                d["nodes"], d["S"], d["lowest"], d["offs"], d["origin"], d["h"], d["gvnew"], d["gacc"],
+                self.fields, d["S"], d["lowest"], d["offs"], d["origin"], d["h"], d["gvnew"], d["gacc"],
                 d["gvstart"], state.dt, d["x"], d["v"], d["B"], d["mass"], d["gravity"], d["lo"], d["hi"],
                 d["scalars"], d["faults"], K.UPDATE, d["fcode"])
         self._sync()
@@ -333,6 +385,8 @@ class DeviceStep:
                 state.flags.set(p, code if code != BAD_NONE else BAD_SUPPORT, value)
         if int(faults[K.RIGID_SHAPE]) < self.nr:
             state.flags.set_rigid(int(faults[K.RIGID_SHAPE]), BAD_SUPPORT)
+        if self.contact is not None:
+            self.contact.finish(state)
 
     def energy_sums(self, state):
         """The particles' kinetic and strain energy (bodies.Sums; the other entries zero) from

@@ -72,7 +72,52 @@ CASES = {
 }
 
 
-SORTED = {"gimp-flip-usavg-neohookean-rigid-sorted-scatter": "gimp-flip-usavg-neohookean-rigid"}
+def two_blocks(contact: dict, dim: int = 2, split: str = "y", walls: bool = False, **kw) -> dict:
+    """deck(**kw) with the block cut in two materials on a grid line (y = 4 mm, 3D: z = 2 mm;
+    split "x": x = 2 mm, beside the xmin face), the second block sliding over the first at
+    0.5 mm/ms (and 0.3 mm/ms into it), in contact by `contact`. walls: the domain starts at
+    the block (x, y >= 0), so material slots sit on wall nodes and ghost slots mirror them."""
+    d = deck(dim=dim, **kw)
+    d["materials"]["upper"] = dict(d["materials"]["block"])
+    body = d["bodies"][0]
+    axis = {"x": 0, "y": 1}[split] if dim == 2 else 2
+    cut = 2.0 if split == "x" else (4.0 if dim == 2 else 2.0)
+    lower, upper = dict(body, max=list(body["max"]), velocity=[0.0] * dim), dict(body, min=list(body["min"]))
+    lower["max"][axis] = cut
+    upper["min"][axis] = cut
+    upper["material"] = "upper"
+    v = [0.0] * dim
+    v[0 if axis != 0 else 1] = 0.5  # sliding along the interface ...
+    v[axis] = -0.3  # ... and pressed onto it
+    upper["velocity"] = v
+    d["bodies"] = [lower, upper] + d["bodies"][1:]
+    d["contact"] = contact
+    if walls:
+        d["grid"]["domain"]["min"] = [0.0] * dim
+    return d
+
+
+CONTACT = {
+    "contact-lr-coulomb-gimp-flip-usavg": two_blocks({"normal": "logistic_regression",
+                                                      "default": {"law": "coulomb", "friction": 0.2}}),
+    "contact-specified-frictionless-displacement-linear-pic-usl": two_blocks(
+        {"normal": "specified", "normal_vector": [0.0, 1.0], "separation": "displacement",
+         "default": {"law": "frictionless"}}, shape="linear", scheme="pic", stress="usl", material="linear_elastic"),
+    "contact-gradient-stick-recheck-bspline2-apic-updated-walls": two_blocks(
+        {"normal": "average_gradient", "separation": "cutoff", "pass_3": "recheck",
+         "default": {"law": "coulomb", "friction": 0.4}, "pairs": [{"between": ["block", "upper"], "law": "stick"}]},
+        split="x", walls=True, shape="bspline2", scheme="apic", stress="usl", position="updated",
+        boundaries={"xmin": "fixed", "ymin": "roller"}),
+    "contact-lr-fit-coulomb-static-gimp-flip-usavg-one-pass": two_blocks(
+        {"normal": "logistic_regression", "separation": "fit", "passes": 1,
+         "default": {"law": "coulomb", "friction": 0.3, "static_friction": 0.5}}),
+    "3d-contact-lr-coulomb-gimp-flip-usavg": two_blocks({"normal": "logistic_regression",
+                                                         "default": {"law": "coulomb", "friction": 0.2}}, dim=3),
+}
+CASES.update(CONTACT)
+
+SORTED = {"gimp-flip-usavg-neohookean-rigid-sorted-scatter": "gimp-flip-usavg-neohookean-rigid",
+          "contact-lr-coulomb-gimp-flip-usavg-sorted-scatter": "contact-lr-coulomb-gimp-flip-usavg"}
 CASES.update({name: CASES[base] for name, base in SORTED.items()})  # the same scenes, scatter="sorted"
 
 
@@ -118,6 +163,10 @@ def compare(d: dict, steps: int = STEPS, scatter: str = "atomic") -> dict:
     sc, sg = cpu.state.particles.sums(cpu.state, False), gpu.state.particles.device_sums(gpu.state)
     out["energy"] = max(abs(sc.total[i] - sg.total[i]) / abs(sc.total[i]) for i in (KINETIC, STRAIN))
     out["moved"] = relative(a["x"], np.asarray(cpu.state.particles.x0)) if hasattr(cpu.state.particles, "x0") else 0
+    if cpu.state.contact is not None:  # contact acted: contact nodes and a force between the materials
+        cs = cpu.state.contact
+        out["contact_nodes"] = int(cs.n_cn)
+        out["contact_force"] = float(np.abs(cs.pair_force).max())
     return out
 
 

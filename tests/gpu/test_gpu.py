@@ -90,6 +90,48 @@ def test_check_refuses_what_the_gpu_lacks_naming_the_key(tmp_path):
         assert not (tmp_path / "o").exists()
 
 
+CONTACT_BAD = """title: t
+units: mm-g-ms
+analysis: plane_strain
+grid: {cell_size: 5.0, boundaries: {ymin: fixed}}
+shape_function: gimp
+materials:
+  lower: {type: neo_hookean, K: 2450.0, G: 940.0, density: 0.001}
+  upper: {type: neo_hookean, K: 2450.0, G: 940.0, density: 0.001}
+  platen: {type: rigid, velocity: [0.0, -1.0], mode: contact}
+bodies:
+  - {shape: rectangle, min: [0.0, 0.0], max: [20.0, 20.0], material: lower}
+  - {shape: rectangle, min: [0.0, 20.0], max: [20.0, 40.0], material: upper}
+  - {shape: rectangle, min: [0.0, 40.0], max: [20.0, 45.0], material: platen}
+contact:
+  normal: logistic_regression
+  warm_start: true
+  default: {law: coulomb, friction: 0.2}
+  pairs:
+    - {between: [lower, upper], law: interface, Dn: 1.0e3, Dt: 1.0e3}
+time: {end: 1.0}
+"""
+
+
+def test_check_refuses_the_contact_options_the_gpu_lacks(tmp_path):
+    """Grid contact runs on the GPU (mpmsim/gpu/contact.py) except rigid contact materials,
+    interface and plugin laws, warm-started regressions and the traction output: each is
+    refused with one line naming its key; the rest of the contact deck passes."""
+    deck = tmp_path / "bad.yaml"
+    deck.write_text(CONTACT_BAD)
+    p = simulate("-m", "mpmsim", "check", str(deck), "--device", "cuda", sim=False)
+    assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
+    lines = [ln for ln in p.stderr.splitlines() if "not on the GPU yet" in ln]
+    assert [ln.split(": ")[1] for ln in lines] == ["materials.platen.mode", "contact.pairs.0.law",
+                                                   "contact.warm_start"]
+    ok = CONTACT_BAD.replace(", mode: contact", "").replace("  warm_start: true\n", "").replace(
+        "law: interface, Dn: 1.0e3, Dt: 1.0e3", "law: frictionless")
+    deck.write_text(ok)
+    p = simulate("-m", "mpmsim", "check", str(deck), "--device", "cuda", "--no-probe", sim=False)
+    assert p.returncode == 0, p.stderr
+    assert "device cuda: everything this deck asks for runs on the GPU step" in p.stdout
+
+
 def test_check_of_a_supported_deck_needs_no_gpu():
     """`check --device cuda` answers where no GPU is (deck preparation): the column runs there."""
     p = simulate("-m", "mpmsim", "check", "inputs/column.yaml", "--device", "cuda", "--no-probe", sim=False)

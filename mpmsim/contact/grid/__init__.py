@@ -42,7 +42,7 @@ def material_fields(state) -> None:
     n_cn, n_slots = count_slots(box_nodes, cs.mask)
     cs.ensure(n_cn, n_slots, state.dim)
     state.fields.ensure(nn + cs.cap)
-    build_slots(box_nodes, cs.mask, cs.node_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, cs.slot_node)
+    build_slots(box_nodes, cs.mask, 0, 0, cs.node_cn, cs.cn_nodes, cs.cn_ptr, cs.slot_group, cs.slot_node)
     cs.n_cn, cs.n_slots = n_cn, n_slots
     assign_fields(sd.nodes, sd.S, cs.group, cs.node_cn, cs.cn_ptr, cs.slot_group, nn, True, cs.fidx)
     if state.rigid.n:

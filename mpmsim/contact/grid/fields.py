@@ -74,11 +74,11 @@ def count_slots(box_nodes, mask):
 
 
 @njit(cache=True)
-def build_slots(box_nodes, mask, node_cn, cn_nodes, cn_ptr, slot_group, slot_node):
-    """Number contact nodes and their slots (groups in increasing order)."""
-    c = 0
-    s = 0
-    cn_ptr[0] = 0
+def build_slots(box_nodes, mask, c, s, node_cn, cn_nodes, cn_ptr, slot_group, slot_node):
+    """Number contact nodes and their slots (groups in increasing order), the first of these
+    nodes as contact node c with slot s (0, 0 for the whole box; the GPU step numbers chunks
+    of nodes from their offsets)."""
+    cn_ptr[c] = s
     for q in range(box_nodes.size):
         node = box_nodes[q]
         m = mask[node]
@@ -104,19 +104,24 @@ def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_no
     """fidx = n_nodes + the slot of the particle's group at contact nodes; elsewhere the node
     itself (keep_nodes, deformable particles) or -1 (rigid contact particles live only in
     slots; rigid velocity-condition particles have group -1 and no fields)."""
-    n, K = S.shape
-    for p in prange(n):
-        g = group[p]
-        for k in range(K):
-            node = nodes[p, k]
-            f = node if keep_nodes else -1
-            c = node_cn[node]
-            if c >= 0 and g >= 0:
-                for s in range(cn_ptr[c], cn_ptr[c + 1]):
-                    if slot_group[s] == g:
-                        f = n_nodes + s
-                        break
-            fidx[p, k] = f
+    for p in prange(S.shape[0]):
+        assign_particle(p, nodes, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx)
+
+
+@njit(cache=True, inline="always")
+def assign_particle(p, nodes, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx):
+    """assign_fields for particle p (also the GPU step's, a thread per particle)."""
+    g = group[p]
+    for k in range(fidx.shape[1]):
+        node = nodes[p, k]
+        f = node if keep_nodes else -1
+        c = node_cn[node]
+        if c >= 0 and g >= 0:
+            for s in range(cn_ptr[c], cn_ptr[c + 1]):
+                if slot_group[s] == g:
+                    f = n_nodes + s
+                    break
+        fidx[p, k] = f
 
 
 @chunk_kernel

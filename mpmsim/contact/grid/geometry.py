@@ -87,6 +87,8 @@ class Regression(NamedTuple):
     phi0: np.ndarray  # (4,) warm start
     cov: np.ndarray  # (3, 3)
     pen: np.ndarray  # (3, 3)
+    evals: np.ndarray  # (3,) eigenvalues of cov (unresolved directions)
+    evecs: np.ndarray  # (3, 3) its eigenvectors (columns)
 
 
 @njit(cache=True)
@@ -94,7 +96,7 @@ def regression_scratch(max_cloud):
     m = max(max_cloud, 1)
     return Regression(np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros(m, dtype=np.int64), np.zeros((4, 4)),
                       np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4), np.zeros((3, 3)),
-                      np.zeros((3, 3)))
+                      np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)))
 
 
 @njit(cache=True, inline="always")
@@ -126,29 +128,86 @@ def gather_cloud(clouds, start, stop, dim, R):
         w[m] = weight[q]
         for d in range(dim):
             pts[m, d] = particle_position(cloud[q], clouds, d)
+        if dim == 2:
+            pts[m, 2] = 0.0  # (logistic_system reads it; the GPU's scratch is not zeroed)
         m += 1
     if not (wa > 0.0 and wb > 0.0):
         return 0, 0.0
     scale_a = 0.5 * m / wa if balance else 1.0
     scale_b = 0.5 * m / wb if balance else 1.0
-    centre = np.zeros(3)
+    cx = cy = cz = 0.0  # the weighted centroid (scalars: the GPU step calls this too)
     wsum = 0.0
     for q in range(m):
         w[q] *= scale_a if lab[q] < 0 else scale_b
         wsum += w[q]
-        for d in range(dim):
-            centre[d] += w[q] * pts[q, d]
+        cx += w[q] * pts[q, 0]
+        cy += w[q] * pts[q, 1]
+        if dim == 3:
+            cz += w[q] * pts[q, 2]
     for q in range(m):
-        for d in range(dim):
-            pts[q, d] -= centre[d] / wsum
+        pts[q, 0] -= cx / wsum
+        pts[q, 1] -= cy / wsum
+        if dim == 3:
+            pts[q, 2] -= cz / wsum
     return m, wsum
 
 
 @njit(cache=True, inline="always")
-def add_unresolved_penalty(cov, dim, thresh, big, pen):
+def symmetric_eigen(a, dim, work, evals, evecs):
+    """Eigenvalues and eigenvectors (columns of evecs) of the symmetric dim x dim matrix a by
+    cyclic Jacobi rotations (work: a dim x dim scratch). Written out, not LAPACK, so the GPU
+    step runs the same arithmetic; to round-off of LAPACK's for these 2 x 2 and 3 x 3 matrices."""
+    norm = 0.0
+    for r in range(dim):
+        for c in range(dim):
+            work[r, c] = a[r, c]
+            evecs[r, c] = 1.0 if r == c else 0.0
+            norm += a[r, c] * a[r, c]
+    for sweep in range(32):
+        off = 0.0
+        for r in range(dim - 1):
+            for c in range(r + 1, dim):
+                off += work[r, c] * work[r, c]
+        if not (off > 1e-36 * norm):
+            break
+        for p in range(dim - 1):
+            for q in range(p + 1, dim):
+                apq = work[p, q]
+                if apq == 0.0:
+                    continue
+                theta = (work[q, q] - work[p, p]) / (2.0 * apq)
+                t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                rotate(work, p, q, c, s, dim, False)  # work <- J^T work J
+                rotate(work, p, q, c, s, dim, True)
+                rotate(evecs, p, q, c, s, dim, False)  # evecs <- evecs J
+    for e in range(dim):
+        evals[e] = work[e, e]
+
+
+@njit(cache=True, inline="always")
+def rotate(a, p, q, c, s, dim, rows):
+    """Columns p, q of a (rows: rows p, q) turned by the Jacobi rotation (c, s)."""
+    for k in range(dim):
+        x = a[p, k] if rows else a[k, p]
+        y = a[q, k] if rows else a[k, q]
+        if rows:
+            a[p, k] = c * x - s * y
+            a[q, k] = s * x + c * y
+        else:
+            a[k, p] = c * x - s * y
+            a[k, q] = s * x + c * y
+
+
+@njit(cache=True, inline="always")
+def add_unresolved_penalty(cov, dim, thresh, big, pen, work, evals, evecs):
     """pen += big e e^T for every eigenvector e of cov whose eigenvalue is below thresh.
     Most clouds are spread in every direction; a bound on the smallest eigenvalue (det over
-    the largest possible product of the others) skips the eigen-solve for them."""
+    the largest possible product of the others) skips the eigen-solve for them. work, evals,
+    evecs: scratch (3 x 3, 3, 3 x 3)."""
     if dim == 2:
         tr = cov[0, 0] + cov[1, 1]
         det = cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0]
@@ -161,7 +220,7 @@ def add_unresolved_penalty(cov, dim, thresh, big, pen):
                + cov[0, 2] * (cov[1, 0] * cov[2, 1] - cov[1, 1] * cov[2, 0]))
         if tr > 0.0 and det >= thresh * 0.25 * tr * tr:
             return
-    evals, evecs = np.linalg.eigh(cov[:dim, :dim])
+    symmetric_eigen(cov, dim, work, evals, evecs)
     for e in range(dim):
         if evals[e] < thresh:
             for r in range(dim):
@@ -235,7 +294,7 @@ def regression_normal(R, m, wsum, dim, h_min, logistic, out_n):
             for c in range(dim):
                 cov[r, c] += w[q] * pts[q, r] * pts[q, c] / wsum
     add_unresolved_penalty(cov, dim, (UNRESOLVED_SPREAD * h_min) ** 2, UNRESOLVED_PENALTY * wsum * h_min * h_min,
-                           pen)
+                           pen, A, R.evals, R.evecs)  # (A: scratch until the linear regression below)
     # linear regression
     for r in range(nu):
         b[r] = 0.0
@@ -316,28 +375,27 @@ def cloud_direction(clouds, labels, start, stop, dim, out_n):
     """Fallback normal when the regression fails: from material a's centroid to the other
     side's. False if either side is empty or they coincide."""
     cloud = clouds.idx
-    ca = np.zeros(3)
-    cb = np.zeros(3)
     na = 0
     nb = 0
     for q in range(start, stop):
-        lab = labels[q - start]
-        if lab == 0:
-            continue
-        for d in range(dim):
-            if lab < 0:
-                ca[d] += particle_position(cloud[q], clouds, d)
-            else:
-                cb[d] += particle_position(cloud[q], clouds, d)
-        if lab < 0:
+        if labels[q - start] < 0:
             na += 1
-        else:
+        elif labels[q - start] > 0:
             nb += 1
     if na == 0 or nb == 0:
         return False
+    for d in range(dim):  # (a sum per component: no scratch arrays, as on the GPU)
+        sa = 0.0
+        sb = 0.0
+        for q in range(start, stop):
+            lab = labels[q - start]
+            if lab < 0:
+                sa += particle_position(cloud[q], clouds, d)
+            elif lab > 0:
+                sb += particle_position(cloud[q], clouds, d)
+        out_n[d] = sb / nb - sa / na
     nrm = 0.0
     for d in range(dim):
-        out_n[d] = cb[d] / nb - ca[d] / na
         nrm += out_n[d] * out_n[d]
     if not (nrm > 0.0):
         return False

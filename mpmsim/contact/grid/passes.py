@@ -155,6 +155,24 @@ def exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, ge
                 share_change(a, b, rigid_b, out[d], d, dpb, s0)
 
 
+class NodeScratch(NamedTuple):
+    """Per-node scratch of the passes (a CPU chunk's, or a GPU thread's local arrays)."""
+
+    pbuf: np.ndarray  # (MAX_SLOTS, 3) the slots' momenta
+    dpb: np.ndarray  # (MAX_SLOTS, 3) their changes
+    touching: np.ndarray  # (MAX_SLOTS,) bool
+    imp: np.ndarray  # (3,) stick impulse
+    out: np.ndarray  # (3,) applied impulse
+    n: np.ndarray  # (3,) normal
+    df: np.ndarray  # (3,) relative force
+
+
+@njit(cache=True)
+def node_scratch():
+    return NodeScratch(np.zeros((MAX_SLOTS, 3)), np.zeros((MAX_SLOTS, 3)), np.zeros(MAX_SLOTS, dtype=np.bool_),
+                       np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+
+
 @chunk_kernel
 def exchange_pass(mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, nchunk, dp1):
     """Pass 1 (mode PASS_1): the laws on the extrapolated momenta where the surfaces touch
@@ -163,35 +181,38 @@ def exchange_pass(mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, nc
     whatever the normal velocity. Pass 3 rechecked (PASS_3_RECHECK, after the geometry was
     recomputed from the moved particles): where the surfaces touch and approach, as pass 1.
     Only deformable slots change."""
-    dim = mom.shape[1]
-    n_cn, cn_ptr, slot_group, n_def, nn = nodes.n_cn, nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
-    role, partner, geo_n, geo_delta, bonded = geo.role, geo.partner, geo.normal, geo.delta, geo.bonded
-    slot_law, slot_mu, slot_mus = geo.law, geo.mu, geo.mus
+    n_cn = nodes.n_cn
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
-        pbuf = np.zeros((MAX_SLOTS, 3))
-        dpb = np.zeros((MAX_SLOTS, 3))
-        touching = np.zeros(MAX_SLOTS, dtype=np.bool_)
-        imp = np.zeros(3)
-        out = np.zeros(3)
-        n = np.zeros(3)
+        w = node_scratch()
         for c in range(start, stop):
-            s0 = cn_ptr[c]
-            s1 = cn_ptr[c + 1]
-            for a in range(s0, s1):
-                if mode == PASS_3:
-                    touching[a - s0] = contact2[a] != 0
-                else:
-                    touching[a - s0] = sep_velocity or geo_delta[a] < touch
-            exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu,
-                             slot_mus, bonded, touching, mode != PASS_3, dim, pbuf, dpb, imp, out, n)
-            for s in range(s0, s1):
-                if slot_group[s] >= n_def:
-                    continue
-                for d in range(dim):
-                    mom[nn + s, d] += dpb[s - s0, d]
-                    if mode == PASS_1:
-                        dp1[s, d] = dpb[s - s0, d]
+            exchange_node(c, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, w, dp1)
+
+
+@njit(cache=True, error_model="numpy")
+def exchange_node(c, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, w, dp1):
+    """exchange_pass at contact node c (w: NodeScratch). Also the GPU step's, a thread per
+    contact node. (A function call, not inlined, as pass_2_node: inlined into a parallel loop,
+    writes into arrays of a bundle passed into the loop can be lost.)"""
+    dim = mom.shape[1]
+    cn_ptr, slot_group, n_def, nn = nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
+    touching, dpb = w.touching, w.dpb
+    s0 = cn_ptr[c]
+    s1 = cn_ptr[c + 1]
+    for a in range(s0, s1):
+        if mode == PASS_3:
+            touching[a - s0] = contact2[a] != 0
+        else:
+            touching[a - s0] = sep_velocity or geo.delta[a] < touch
+    exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, geo.role, geo.partner, geo.normal, geo.law, geo.mu,
+                     geo.mus, geo.bonded, touching, mode != PASS_3, dim, w.pbuf, dpb, w.imp, w.out, w.n)
+    for s in range(s0, s1):
+        if slot_group[s] >= n_def:
+            continue
+        for d in range(dim):
+            mom[nn + s, d] += dpb[s - s0, d]
+            if mode == PASS_1:
+                dp1[s, d] = dpb[s - s0, d]
 
 
 class Pass2Sums(NamedTuple):
@@ -211,110 +232,132 @@ class Pass2Settings(NamedTuple):
     dt: float
 
 
+HAS_INTERFACE = True  # a constant of pass_2_node, bound by pass_2_node_of (never compiled with this value)
+PASS_2_NODE = None  # pass_2_kernel's per-node function, bound by contact_pass_2
+
+
+def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, w, reaction, row):
+    """Contact on the updated momenta p+ = m v+ at contact node c; the change goes into v+
+    and a = f/m. Each target's stick impulse, applied impulse and end-of-step separation are
+    kept for XPIC. Interfaces add their force here (and only here, notes §4.2). held: the
+    velocity conditions at the step's end (rigid contact slots move at that velocity). The
+    force on rigid contact materials is added to reaction[row]; returns (their work on the
+    material, interfacial energy at the end of the step). w: NodeScratch. Also the GPU
+    step's, a thread per contact node."""
+    dim = vnew.shape[1]
+    cn_nodes, cn_ptr, slot_group, n_def, nn = nodes.cn_nodes, nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
+    shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
+    rigid_vol, constrain, rig_vel = held
+    sep_velocity, advance, integration, touch, dt = settings
+    pbuf, dpb, imp, out, n, df = w.pbuf, w.dpb, w.imp, w.out, w.n, w.df
+    work = 0.0
+    energy = 0.0
+    s0 = cn_ptr[c]
+    s1 = cn_ptr[c + 1]
+    node = cn_nodes[c]
+    i, j, k = node_ijk(node, shape)
+    for s in range(s0, s1):
+        g = slot_group[s]
+        for d in range(dim):
+            # a rigid slot has no grid update: it moves at its end-of-step velocity
+            v = rig_vel[rigid_of_group[g], d] if g >= n_def else vnew[nn + s, d]
+            pbuf[s - s0, d] = mass[nn + s] * v
+            dpb[s - s0, d] = 0.0
+    for a in range(s0, s1):
+        if geo.role[a] == 0:
+            continue
+        b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, geo.partner, geo.normal, pbuf, dim, n,
+                                        imp)
+        dotn = 0.0
+        for d in range(dim):
+            dotn += imp[d] * n[d]
+        delta = geo.delta[a]
+        interface = HAS_INTERFACE and geo.law[a] == INTERFACE
+        if not sep_velocity or interface:
+            # the relative force of the update: df = (m_a/M) F - f_a, or -f_a against a rigid
+            # material. It advances the separation to the end of the step (the reference code
+            # does this for grid separations only, and so does `pass_3: recheck`; with pass 3
+            # keeping pass 2's decision d_LR needs it too: a 5 um gap closing by 70 um within
+            # the step must count as contact, or the free update drives the surfaces through
+            # each other, docs/contact.md), and it drives the interface force.
+            relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim, df)
+            if advance:
+                dfn = 0.0
+                for d in range(dim):
+                    dfn += df[d] * n[d]
+                delta += dt * (dotn - 0.5 * dfn * dt) / mred
+        dec.delta2[a] = delta
+        if HAS_INTERFACE and interface:
+            energy += interface_impulse(geo.stiff[a], geo.bonded[a], imp, df, n, geo.delta[a], geo.open[a],
+                                        geo.area[a], mred, dt, integration, dim, out)
+            applied = True
+        else:
+            touching = sep_velocity or delta < touch
+            applied = apply_law(geo.law[a], geo.mu[a], geo.mus[a], geo.bonded[a], imp, n, dotn, touching and dotn < 0.0,
+                                dim, out)
+        for d in range(dim):
+            dec.stick2[a, d] = imp[d]
+            dec.applied2[a, d] = out[d] if applied else 0.0
+        if HAS_INTERFACE and interface:  # XPIC increments re-impose only the bonded directions
+            apply_law(INTERFACE, 0.0, 0.0, geo.bonded[a], imp, n, dotn, True, dim, df)
+            for d in range(dim):
+                dec.applied2[a, d] = df[d]
+        dec.contact2[a] = 1 if applied else 0
+        if applied:
+            for d in range(dim):
+                owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
+                if owner != NO_BC:
+                    continue  # a velocity condition holds this component
+                share_change(a, b, rigid_b, out[d], d, dpb, s0)
+                if rigid_b:
+                    r = rigid_of_group[slot_group[b]]
+                    reaction[row, r, d] += out[d] / dt
+                    work += out[d] * rig_vel[r, d]  # the rigid body's work on the material
+    add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
+                     rig_vel, mass, dpb, vnew, acc, dt, dim)
+    return work, energy
+
+
+@cache
+def pass_2_node_of(has_interface: bool, plugin_laws: tuple = ()):
+    """pass_2_node with or without the interface law (a constant: scenes without interfaces do
+    not compile their force integrators), and with the scene's plugin laws (`law_kernels`)."""
+    tag = f"i{int(has_interface)}"
+    bind = {"HAS_INTERFACE": has_interface}
+    if plugin_laws:
+        law_tag, bind["apply_law"] = plugin_dispatch(plugin_laws)
+        tag += "_" + law_tag
+    # (not inlined: inlined into pass_2_kernel's parallel loop, its writes into the arrays of
+    # the `dec` bundle were lost on more than one thread; numpy's error model, as the kernels')
+    return njit(cache=True, error_model="numpy")(specialize(pass_2_node, tag, **bind))
+
+
+def pass_2_kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, nchunk, sums):
+    """Pass 2 over the contact nodes (pass_2_node), in chunks; per-chunk sums in sums (Pass2Sums)."""
+    n_cn = nodes.n_cn
+    dim = vnew.shape[1]
+    chunk_reaction, chunk_work, chunk_energy = sums
+    for ch in prange(nchunk):
+        start, stop = chunk_range(ch, nchunk, n_cn)
+        w = node_scratch()
+        chunk_work[ch] = 0.0
+        chunk_energy[ch] = 0.0
+        for r in range(chunk_reaction.shape[1]):
+            for d in range(dim):
+                chunk_reaction[ch, r, d] = 0.0
+        for c in range(start, stop):
+            work, energy = PASS_2_NODE(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, w,
+                                       chunk_reaction, ch)
+            chunk_work[ch] += work
+            chunk_energy[ch] += energy
+
+
 @cache
 def contact_pass_2(has_interface: bool, plugin_laws: tuple = ()):
-    """Pass 2's kernel, with or without the interface law (a constant of the kernel: scenes
-    without interfaces do not compile their force integrators), and with the scene's plugin
-    laws (`law_kernels`)."""
-
-    @chunk_kernel
-    def kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, nchunk, sums):
-        """Contact on the updated momenta p+ = m v+; the change goes into v+ and a = f/m. Each
-        target's stick impulse, applied impulse and end-of-step separation are kept for XPIC.
-        Interfaces add their force here (and only here, notes §4.2) and their energy. held: the
-        velocity conditions at the step's end (rigid contact slots move at that velocity)."""
-        dim = vnew.shape[1]
-        n_cn, cn_nodes, cn_ptr, slot_group, n_def, nn = nodes
-        shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
-        rigid_vol, constrain, rig_vel = held
-        role, partner, geo_n, geo_delta, geo_area, geo_open, bonded, slot_law, slot_mu, slot_mus, slot_stiff, _ = geo
-        stick2, applied2, delta2, contact2 = dec.stick2, dec.applied2, dec.delta2, dec.contact2
-        sep_velocity, advance, integration, touch, dt = settings
-        chunk_reaction, chunk_work, chunk_energy = sums
-        for ch in prange(nchunk):
-            start, stop = chunk_range(ch, nchunk, n_cn)
-            pbuf = np.zeros((MAX_SLOTS, 3))
-            dpb = np.zeros((MAX_SLOTS, 3))
-            imp = np.zeros(3)
-            out = np.zeros(3)
-            n = np.zeros(3)
-            df = np.zeros(3)
-            chunk_work[ch] = 0.0
-            chunk_energy[ch] = 0.0
-            for r in range(chunk_reaction.shape[1]):
-                for d in range(dim):
-                    chunk_reaction[ch, r, d] = 0.0
-            for c in range(start, stop):
-                s0 = cn_ptr[c]
-                s1 = cn_ptr[c + 1]
-                node = cn_nodes[c]
-                i, j, k = node_ijk(node, shape)
-                for s in range(s0, s1):
-                    g = slot_group[s]
-                    for d in range(dim):
-                        # a rigid slot has no grid update: it moves at its end-of-step velocity
-                        v = rig_vel[rigid_of_group[g], d] if g >= n_def else vnew[nn + s, d]
-                        pbuf[s - s0, d] = mass[nn + s] * v
-                        dpb[s - s0, d] = 0.0
-                for a in range(s0, s1):
-                    if role[a] == 0:
-                        continue
-                    b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n,
-                                                    imp)
-                    dotn = 0.0
-                    for d in range(dim):
-                        dotn += imp[d] * n[d]
-                    delta = geo_delta[a]
-                    interface = has_interface and slot_law[a] == INTERFACE
-                    if not sep_velocity or interface:
-                        # the relative force of the update: df = (m_a/M) F - f_a, or -f_a against a
-                        # rigid material. It advances the separation to the end of the step (the
-                        # reference code does this for grid separations only, and so does
-                        # `pass_3: recheck`; with pass 3 keeping pass 2's decision d_LR needs it
-                        # too: a 5 um gap closing by 70 um within the step must count as contact,
-                        # or the free update drives the surfaces through each other,
-                        # docs/contact.md), and it drives the interface force.
-                        relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim, df)
-                        if advance:
-                            dfn = 0.0
-                            for d in range(dim):
-                                dfn += df[d] * n[d]
-                            delta += dt * (dotn - 0.5 * dfn * dt) / mred
-                    delta2[a] = delta
-                    if has_interface and interface:
-                        chunk_energy[ch] += interface_impulse(slot_stiff[a], bonded[a], imp, df, n, geo_delta[a],
-                                                              geo_open[a], geo_area[a], mred, dt, integration, dim, out)
-                        applied = True
-                    else:
-                        touching = sep_velocity or delta < touch
-                        applied = apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn,
-                                            touching and dotn < 0.0, dim, out)
-                    for d in range(dim):
-                        stick2[a, d] = imp[d]
-                        applied2[a, d] = out[d] if applied else 0.0
-                    if has_interface and interface:  # XPIC increments re-impose only the bonded directions
-                        apply_law(INTERFACE, 0.0, 0.0, bonded[a], imp, n, dotn, True, dim, df)
-                        for d in range(dim):
-                            applied2[a, d] = df[d]
-                    contact2[a] = 1 if applied else 0
-                    if applied:
-                        for d in range(dim):
-                            owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain,
-                                                 rig_vel)
-                            if owner != NO_BC:
-                                continue  # a velocity condition holds this component
-                            share_change(a, b, rigid_b, out[d], d, dpb, s0)
-                            if rigid_b:
-                                r = rigid_of_group[slot_group[b]]
-                                chunk_reaction[ch, r, d] += out[d] / dt
-                                chunk_work[ch] += out[d] * rig_vel[r, d]  # the rigid body's work on the material
-                add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol,
-                                 constrain, rig_vel, mass, dpb, vnew, acc, dt, dim)
-
-    if plugin_laws:
-        tag, law = plugin_dispatch(plugin_laws)
-        return chunk_kernel(specialize(kernel.py_func, tag, apply_law=law))
-    return kernel
+    """Pass 2's kernel (a ChunkKernel) of pass_2_node_of(has_interface, plugin_laws)."""
+    node = pass_2_node_of(has_interface, plugin_laws)
+    tag = node.py_func.__qualname__.split("pass_2_node_", 1)[1]
+    return chunk_kernel(specialize(pass_2_kernel, tag, PASS_2_NODE=node))
 
 
 @njit(cache=True, inline="always")
@@ -448,5 +491,6 @@ def law_kernels(plugin_laws: tuple) -> LawKernels:
         return LawKernels(exchange_pass, increment_contact, ())
     tag, law = plugin_dispatch(plugin_laws)
     momenta = njit(cache=True, inline="always")(specialize(exchange_momenta.py_func, tag, apply_law=law))
-    return LawKernels(chunk_kernel(specialize(exchange_pass.py_func, tag, exchange_momenta=momenta)),
+    node = njit(cache=True, error_model="numpy")(specialize(exchange_node.py_func, tag, exchange_momenta=momenta))
+    return LawKernels(chunk_kernel(specialize(exchange_pass.py_func, tag, exchange_node=node)),
                       njit(cache=True)(specialize(increment_contact.py_func, tag, apply_law=law)), plugin_laws)

@@ -416,10 +416,29 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
     geo.delta[a] = delta
 
 
-def plan_nodes(start, stop, inp, geo):
-    """Plan contact nodes start:stop."""
+def plan_contact_node(c, inp, geo, R, v, xnode):
+    """Plan contact node c: roles and partners, then each target's geometry (R: regression
+    scratch for the node's cloud, v: four scratch vectors, xnode: 3). Also the GPU step's, a
+    thread per contact node. Compiled per method (node_planner)."""
     nodes, grid, clouds = inp.nodes, inp.grid, inp.clouds
     dim = geo.normal.shape[1]
+    s0 = nodes.cn_ptr[c]
+    s1 = nodes.cn_ptr[c + 1]
+    node = nodes.cn_nodes[c]
+    i, j, k = node_ijk(node, grid.shape)
+    xnode[0] = grid.origin[0] + i * grid.h[0]
+    xnode[1] = grid.origin[1] + j * grid.h[1]
+    if dim == 3:
+        xnode[2] = grid.origin[2] + k * grid.h[2]
+    plan_node(s0, s1, nodes, inp.sums.vol, geo.role, geo.partner)
+    for a in range(s0, s1):
+        if geo.role[a] != 0:
+            target_geometry(a, node, s0, s1, clouds.ptr[c], clouds.ptr[c + 1], xnode, inp, geo, R, v)
+
+
+def plan_nodes(start, stop, inp, geo):
+    """Plan contact nodes start:stop."""
+    clouds = inp.clouds
     max_cloud = 0
     for c in range(start, stop):
         max_cloud = max(max_cloud, clouds.ptr[c + 1] - clouds.ptr[c])
@@ -427,18 +446,7 @@ def plan_nodes(start, stop, inp, geo):
     v = np.zeros((4, 3))
     xnode = np.zeros(3)
     for c in range(start, stop):
-        s0 = nodes.cn_ptr[c]
-        s1 = nodes.cn_ptr[c + 1]
-        node = nodes.cn_nodes[c]
-        i, j, k = node_ijk(node, grid.shape)
-        xnode[0] = grid.origin[0] + i * grid.h[0]
-        xnode[1] = grid.origin[1] + j * grid.h[1]
-        if dim == 3:
-            xnode[2] = grid.origin[2] + k * grid.h[2]
-        plan_node(s0, s1, nodes, inp.sums.vol, geo.role, geo.partner)
-        for a in range(s0, s1):
-            if geo.role[a] != 0:
-                target_geometry(a, node, s0, s1, clouds.ptr[c], clouds.ptr[c + 1], xnode, inp, geo, R, v)
+        plan_contact_node(c, inp, geo, R, v, xnode)
 
 
 def geometry_kernel(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt, nchunk, geo):
@@ -450,12 +458,20 @@ def geometry_kernel(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt,
 
 
 @cache
-def contact_geometry(normal: int, separation: int, interfaces: bool):
-    """The geometry kernel (a ChunkKernel) of one normal method and separation (codes), with
-    or without interface laws: these are constants of target_geometry, so a scene compiles
-    the code of its own methods only."""
+def node_planner(normal: int, separation: int, interfaces: bool):
+    """plan_contact_node compiled for one normal method and separation (codes), with or
+    without interface laws: these are constants of target_geometry, so a scene compiles the
+    code of its own methods only."""
     tag = f"{normal}_{separation}_{int(interfaces)}"
     target = njit(cache=True, inline="always")(specialize(target_geometry, tag, NORMAL=normal, SEPARATION=separation,
                                          INTERFACES=interfaces))
-    plan = njit(cache=True)(specialize(plan_nodes, tag, target_geometry=target))
+    return njit(cache=True, inline="always")(specialize(plan_contact_node, tag, target_geometry=target))
+
+
+@cache
+def contact_geometry(normal: int, separation: int, interfaces: bool):
+    """The geometry kernel (a ChunkKernel) of one normal method and separation (codes), with
+    or without interface laws (node_planner)."""
+    tag = f"{normal}_{separation}_{int(interfaces)}"
+    plan = njit(cache=True)(specialize(plan_nodes, tag, plan_contact_node=node_planner(normal, separation, interfaces)))
     return chunk_kernel(specialize(geometry_kernel, tag, plan_nodes=plan))
