@@ -68,8 +68,9 @@ def _contact_unsupported(scene, later: str) -> list[tuple[tuple, str]]:
     for name in scene.materials.rigid:
         if getattr(deck.materials[name], "mode", None) == "contact":
             out.append((("materials", name, "mode"), f"rigid contact materials (mode: contact) {later}"))
-    laws = [(("contact", "default", "law"), deck.contact.default.law)]
-    laws += [(("contact", "pairs", i, "law"), p.law) for i, p in enumerate(deck.contact.pairs)]
+    model = scene.contact  # (the resolved contact block: its pairs in deck order)
+    laws = [(("contact", "default", "law"), model.default.law)]
+    laws += [(("contact", "pairs", i, "law"), law.law) for i, (_, _, law) in enumerate(model.pairs)]
     for key, law in laws:
         code = LAW_CODES[law]
         if code == INTERFACE or code >= FIRST_PLUGIN_LAW:
