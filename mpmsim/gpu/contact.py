@@ -407,6 +407,7 @@ class DeviceContact:
             self._clouds(n)
         else:  # (no point clouds: every contact node's is empty)
             K.zero_int[K.blocks(n_cn + 1)](d["cloud_ptr"][:n_cn + 1])
+        step.sync()
 
     def _clouds(self, n: int) -> None:
         step, d, sd = self.step, self.d, self.step.d
@@ -445,12 +446,14 @@ class DeviceContact:
     def geometry(self, state) -> None:
         step, d, sd = self.step, self.d, self.step.d
         if not self.n_cn:
+            step.sync()
             return
         clouds = Clouds(d["cloud_ptr"], d["cloud_idx"], d["cloud_w"], d["group"], d["group"], step.n, sd["x"],
                         sd["x"], sd["F"], sd["semi"], self.spec.shape_weights)
         inp = GeometryInputs(self.nodes(), step.grid_view, sd["gmass"], self.sums(), clouds, d["laws"], d["method"],
                              d["warm_phi"], float(state.dt_rule))
         self.plan_kernel[blocks(self.n_cn)](inp, self.targets(), d["pts"], d["cw"], d["clab"], d["clabels"])
+        step.sync()
 
     def _exchange(self, mode: int) -> None:
         d, sd = self.d, self.step.d

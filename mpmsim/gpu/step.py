@@ -10,7 +10,9 @@ at the end of each step. Grid passes run on every node of the grid (the CPU path
 active box); nodes outside the particles' reach have zero mass and stay zero.
 
 Each task ends with a device synchronisation so the run's timers hold the GPU time of each
-task, as the CPU timers hold CPU time.
+task, as the CPU timers hold CPU time. With multimaterial contact the grid fields are the
+nodes and this step's material slots, and the contact tasks run on the device too
+(mpmsim/gpu/contact.py).
 
 Scatter (particle to grid: mass, momentum, forces), float64 atomic adds in one of two orders:
 `scatter="atomic"`, thread t takes particle t (storage order); `scatter="sorted"`, thread t
@@ -156,9 +158,6 @@ class DeviceStep:
         """This step's fields: the nodes and `slots` material slots at slot_node."""
         self.fm = K.FieldMap(self.nn + slots, self.nn, slot_node)
 
-    def sync(self) -> None:
-        self.cuda.synchronize()
-
     @property
     def fields(self):
         """Each particle entry's field (its node, or its material's slot where materials meet)."""
@@ -192,18 +191,12 @@ class DeviceStep:
         }
         if self.contact is not None:
             c = self.contact
-            runs.update({"material fields": self._synced(c.material_fields), "contact geometry": self._synced(c.geometry),
-                         "contact pass 1": c.pass_1, "contact pass 2": c.pass_2, "contact pass 3": c.pass_3})
+            runs.update({"material fields": c.material_fields, "contact geometry": c.geometry, "contact pass 1": c.pass_1,
+                         "contact pass 2": c.pass_2, "contact pass 3": c.pass_3})
         return {t.name: runs[t.name] for t in cpu_tasks}
 
-    def _sync(self) -> None:
+    def sync(self) -> None:
         self.cuda.synchronize()
-
-    def _synced(self, run):
-        def task(state) -> None:
-            run(state)
-            self.cuda.synchronize()
-        return task
 
     def _time_step(self, host_run):
         def run(state) -> None:
@@ -236,7 +229,7 @@ class DeviceStep:
             if self.since_sort >= self.sort_every:
                 self._sort_by_cell()
                 self.since_sort = 0
-        self._sync()
+        self.sync()
 
     def _sort_by_cell(self) -> None:
         """order: the particles grouped by cell (their lowest node), a counting sort."""
@@ -279,12 +272,12 @@ class DeviceStep:
             ghosts = K.node_kernels(self.dim)[0]
             ghosts[K.blocks(self.fm.n_fields)](self.fm, d["shape"], d["face_type"], d["wall_index"], d["grigid_vol"],
                                                d["constrain"], slots, d["gsrc"], d["gface"])
-        self._sync()
+        self.sync()
 
     def reextrapolate_task(self, state) -> None:
         self._zero("mom")
         self._scatter_momentum(False)
-        self._sync()
+        self.sync()
 
     def _grid_velocity(self, rig_vel) -> None:
         d = self.d
@@ -308,7 +301,7 @@ class DeviceStep:
         if self.n:
             self._grid_velocity(self.d["rv_start"])
             self._stress(state, self.fraction * state.dt, self.d["gvel"], STRESS_FIRST)
-        self._sync()
+        self.sync()
 
     def stress_last(self, state) -> None:
         if self.n:
@@ -318,7 +311,7 @@ class DeviceStep:
             else:
                 gvel = self.d["gvnew"]
             self._stress(state, self.fraction * state.dt, gvel, STRESS_LAST)
-        self._sync()
+        self.sync()
 
     def forces(self, state) -> None:
         d = self.d
@@ -331,7 +324,7 @@ class DeviceStep:
             fold[K.blocks(self.fm.n_fields)](self.fm, d["gsrc"], d["gface"], d["gforce"])
         if self.damping > 0.0:
             K.damp[K.blocks(d["gmass"].size)](d["gmom"], self.damping, d["gforce"])
-        self._sync()
+        self.sync()
 
     def grid_update(self, state) -> None:
         d = self.d
@@ -343,7 +336,7 @@ class DeviceStep:
         if self.walls:
             mirror_update[nb](self.fm, d["gsrc"], d["gface"], d["gmass"], d["gmom"], d["gvnew"], d["gacc"], d["gvstart"],
                               state.dt, d["reaction"])
-        self._sync()
+        self.sync()
 
     def particle_update(self, state) -> None:
         d = self.d
@@ -355,14 +348,14 @@ class DeviceStep:
                 self.fields, d["S"], d["lowest"], d["offs"], d["origin"], d["h"], d["gvnew"], d["gacc"],
                 d["gvstart"], state.dt, d["x"], d["v"], d["B"], d["mass"], d["gravity"], d["lo"], d["hi"],
                 d["scalars"], d["faults"], K.UPDATE, d["fcode"])
-        self._sync()
+        self.sync()
 
     def move_rigid(self, state) -> None:
         """On the device and, with the same arithmetic, on the host (the rigid checks read it)."""
         d = self.d
         K.move_rigid[K.blocks(self.nr)](d["rx"], d["rv"], d["rmat"], d["rv_start"], d["rv_end"], state.dt)
         move_rigid(state)
-        self._sync()
+        self.sync()
 
     # ------------------------------------------------------------------ the step's report
     def finish(self, state) -> None:
