@@ -35,7 +35,7 @@ else:
     sys.path.insert(0, str(ROOT))
 
 from mpmsim.deck import load_deck_text  # noqa: E402
-from mpmsim.contact.barrier.energy import particles_inside  # noqa: E402
+from mpmsim.contact.barrier.start import particles_inside  # noqa: E402
 from mpmsim.scene import build_scene  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
 

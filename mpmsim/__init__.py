@@ -1,7 +1,6 @@
 """mpmsim: material point method simulator for multimaterial contact mechanics."""
 
 import os
-from importlib.metadata import PackageNotFoundError, version
 
 # mpmsim's threads are numba's: BLAS threads on top of them (numpy's eigh/solve in the implicit
 # step's small dense problems) oversubscribe the cores and slowed a 3D contact test 20x. A
@@ -45,10 +44,7 @@ def _load_tbb() -> bool:
 TBB = _load_tbb()
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-try:
-    __version__ = version("mpmsim")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
+from ._version import __version__  # noqa: E402
 
 from . import kernel_cache as _kernel_cache  # noqa: E402  (before any kernel is defined)
 

@@ -26,7 +26,8 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from . import __version__, kernel_cache
+from . import kernel_cache
+from ._version import __version__
 from .errors import DeckError, InstabilityError
 
 EXIT_BAD_DECK = 2

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from . import __version__
+from ._version import __version__
 import numpy as np
 
 from .deck import LoadedDeck, as_loaded_deck

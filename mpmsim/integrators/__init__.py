@@ -20,26 +20,9 @@ is a new class here and an entry in `make_integrator`.
 from __future__ import annotations
 
 
-class Integrator:
-    name = "integrator"
+from .base import Integrator
 
-    def __init__(self):
-        self.timers: dict[str, float] = {}
-        self.plan: list[tuple[str, str]] = []
-        self.skipped: list[tuple[str, str]] = []
-
-    def stable_dt(self, state) -> float:  # pragma: no cover - every integrator defines it
-        raise NotImplementedError
-
-    def advance(self, state, dt: float) -> float:  # pragma: no cover
-        raise NotImplementedError
-
-    def to_host(self, state) -> None:
-        """Bring the host state up to date before it is read (an integrator that keeps the
-        state on a device copies it back here; the CPU integrators have nothing to do)."""
-
-    def host_changed(self, state) -> None:
-        """The host state was replaced from outside (a restart): a device copy is stale."""
+__all__ = ["Integrator", "make_integrator"]
 
 
 def make_integrator(scene, device: str = "cpu") -> Integrator:

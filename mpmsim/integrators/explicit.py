@@ -15,7 +15,7 @@ import numpy as np
 
 from ..tasks import plan_tasks
 from ..tasks.setup import cfl_rule
-from . import Integrator
+from .base import Integrator
 
 
 class ExplicitMPM(Integrator):

@@ -46,12 +46,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..contact.barrier.energy import BarrierContact, LaggedFriction, check_initial_gaps, interpolate
+from ..contact.barrier.energy import BarrierContact, LaggedFriction, interpolate
+from ..contact.barrier.start import check_initial_gaps
 from ..contact.barrier.stiffness import STALL, initial_stiffness, raised_stiffness, stiffness_bounds
 from ..contact.barrier.surface import SurfaceBarrier, SurfaceFriction
 from ..energy import StepStart
 from ..errors import InstabilityError
-from . import Integrator
+from .base import Integrator
 from .assembly import Assembler
 from .implicit_mpm import GridUnknowns
 from .solvers import CHOLMOD_AVAILABLE, NewtonSolver

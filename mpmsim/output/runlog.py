@@ -23,7 +23,7 @@ def versions() -> dict[str, str]:
     import numba
     import numpy
 
-    from .. import __version__
+    from .._version import __version__
 
     return {"mpmsim": __version__, "numba": numba.__version__, "numpy": numpy.__version__,
             "python": platform.python_version()}

@@ -12,7 +12,7 @@ from pathlib import Path
 from ..output.atomic import write_text
 from .matrix import Run
 from .metrics import evaluate
-from .runner import history_arrays, load_record
+from .records import history_arrays, load_record
 
 COST_COLUMNS = ["steps", "particles", "particle_steps", "cpu_s", "run_s", "wall_s", "particle_steps_per_s",
                 "peak_mem_mb", "start_mem_mb"]

@@ -25,7 +25,6 @@ interpreter, numpy, numba, the Dask worker and the kernels earlier runs loaded.
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
 import threading
 import time
@@ -34,12 +33,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
 import yaml
 
 from ..errors import DeckError
-from ..output.atomic import write_text
 from .matrix import Run, expand
+from .records import save_record
 from .spec import LoadedSweep
 
 STOP_CHECK_S = 1.0  # how often (wall seconds) a run on a Dask worker asks whether the sweep was stopped
@@ -177,8 +175,6 @@ def run_one(run: Run, deck_text: str | None = None, stop_event: str | None = Non
             return error_record(run, f"{type(exc).__name__}: {exc}")
 
 
-def save_record(runs_dir: Path, record: dict) -> None:
-    write_text(Path(runs_dir) / f"{record['id']}.json", json.dumps(record, default=float))
 
 
 @dataclass
@@ -324,9 +320,3 @@ def dask_setup(worker) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def load_record(runs_dir: Path, run_id: str) -> dict:
-    return json.loads((runs_dir / f"{run_id}.json").read_text())
-
-
-def history_arrays(record: dict) -> dict:
-    return {k: np.asarray(v, dtype=float) for k, v in record.get("history", {}).items()}

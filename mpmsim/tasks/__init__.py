@@ -10,9 +10,6 @@ The explicit integrator (mpmsim/integrators/explicit.py) runs the list each step
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
-
 from ..contact.grid import ContactTasks, material_fields
 from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
@@ -24,14 +21,8 @@ from .stress import stress_kernels, update_stress_first, update_stress_last
 from .xpic import xpic
 from ..contact.augury import AuguryContact
 from .fem import fem_tasks
+from .task import Task
 from ..shapes import shape_function
-
-
-@dataclass(frozen=True)
-class Task:
-    name: str
-    run: Callable
-    why: str
 
 
 def build_task_list(scene) -> list[Task]:

@@ -19,6 +19,7 @@ from numba import njit
 
 from ..fem import elements
 from ..fem.explicit import accelerations
+from .task import Task
 
 
 @njit(cache=True)
@@ -82,8 +83,6 @@ def first_accelerations(state, fem, gravity) -> None:
 def fem_tasks(scene, augury=None):
     """[(name, function, why)] of the FEM part of the explicit step; `augury`: the scene's
     AuguryContact task (None: no augury contact)."""
-    from . import Task
-
     def kick_drift(state) -> None:
         fem = state.fem
         if not fem.started:

@@ -1,0 +1,112 @@
+"""mpmsim's modules import one another without a circle.
+
+The graph has an edge a -> b for every import of b in a's source, at module level or inside a
+function (a lazy import hides a circle from Python's import machinery, not from a reader), and
+for `from package import name` an edge to the submodule when `name` is one, else to the
+package's __init__. A circle (a strongly connected component of more than one module) means
+two modules that cannot be read, tested or moved apart.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[2] / "mpmsim"
+
+
+def modules(package: Path = PACKAGE) -> dict[str, tuple[Path, bool]]:
+    """{dotted name: (file, is a package's __init__)}."""
+    out = {}
+    for path in sorted(package.rglob("*.py")):
+        parts = list(path.relative_to(package.parent).with_suffix("").parts)
+        is_package = parts[-1] == "__init__"
+        out[".".join(parts[:-1] if is_package else parts)] = (path, is_package)
+    return out
+
+
+def import_graph(package: Path = PACKAGE) -> dict[str, set[str]]:
+    mods = modules(package)
+    root = package.name
+    graph: dict[str, set[str]] = {m: set() for m in mods}
+    for name, (path, is_package) in mods.items():
+        here = name.split(".") if is_package else name.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                base = here[:len(here) - node.level + 1] if node.level else []
+                target = ".".join(base + ([node.module] if node.module else []))
+                if target.split(".")[0] != root:
+                    continue
+                for alias in node.names:
+                    sub = f"{target}.{alias.name}"
+                    graph[name].add(sub if sub in mods else target)
+            elif isinstance(node, ast.Import):
+                graph[name] |= {a.name for a in node.names if a.name in mods}
+    for targets in graph.values():
+        targets.intersection_update(mods)
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan's algorithm, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found = []
+    for start in sorted(graph):
+        if start in index:
+            continue
+        work = [(start, iter(sorted(graph[start])))]
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            v, edges = work[-1]
+            w = next(edges, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on_stack.add(w)
+                    work.append((w, iter(sorted(graph[w]))))
+                elif w in on_stack:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                component = []
+                while True:
+                    w = stack.pop()
+                    on_stack.discard(w)
+                    component.append(w)
+                    if w == v:
+                        break
+                if len(component) > 1:
+                    found.append(sorted(component))
+    return found
+
+
+@pytest.mark.architecture
+def test_no_module_imports_itself_through_others():
+    graph = import_graph()
+    assert len(graph) > 120 and sum(map(len, graph.values())) > 350  # the whole package was read
+    assert circles(graph) == []
+
+
+@pytest.mark.architecture
+def test_the_circle_finder_finds_a_circle_through_a_lazy_import(tmp_path):
+    pkg = tmp_path / "mpmsim"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("from .a import f\n")
+    (pkg / "sub" / "a.py").write_text("def f():\n    from .b import g\n    return g\n")
+    (pkg / "sub" / "b.py").write_text("from . import a\n")
+    (pkg / "c.py").write_text("from .sub import f\n")
+    graph = import_graph(pkg)
+    assert graph["mpmsim.sub.b"] == {"mpmsim.sub.a"} and graph["mpmsim.c"] == {"mpmsim.sub"}
+    assert circles(graph) == [["mpmsim.sub.a", "mpmsim.sub.b"]]
