@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from . import linalg
+
 
 FACE_AXIS = {"xmin": (0, -1), "xmax": (0, 1), "ymin": (1, -1), "ymax": (1, 1), "zmin": (2, -1), "zmax": (2, 1)}
 
@@ -54,10 +56,10 @@ def build_loads(scene, x: np.ndarray, vol: np.ndarray) -> Loads | None:
             n[axis] = sign
             cut = 0.5 * size[axis]  # exactly the outermost layer
         else:
-            n = np.asarray(load.normal, float) / np.linalg.norm(load.normal)
+            n = np.asarray(load.normal, float) / linalg.norm(load.normal)
             # a band about one particle deep: on a tilted edge the centres' depths spread evenly
-            cut = load.depth if load.depth is not None else float(np.abs(n) @ size)
-        along = x[inside] @ n
+            cut = load.depth if load.depth is not None else float(linalg.dot(np.abs(n), np.asarray(size, float)))
+        along = linalg.matvec(x[inside], n)
         edge = inside[along >= along.max() - cut]
         if load.traction is not None:  # axis-aligned layer: each particle's face area
             area = float(np.prod(np.delete(size, axis))) * (scene.thickness if dim == 2 else 1.0)

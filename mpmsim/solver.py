@@ -23,6 +23,7 @@ from typing import Callable
 from ._version import __version__
 import numpy as np
 
+from . import linalg
 from .deck import LoadedDeck, as_loaded_deck
 from .deck.schema import wall_clock_seconds
 from .errors import InstabilityError
@@ -207,7 +208,7 @@ class Simulation:
         P = self.state.particles
         names = np.array(self.state.materials.deformable, dtype=object)
         return {"x": P.x.copy(), "v": P.v.copy(), "stress": P.stress.copy(), "F": P.F.copy(),
-                "J": np.linalg.det(P.F), "mass": P.mass.copy(), "volume": P.vol.copy(),
+                "J": linalg.det(P.F), "mass": P.mass.copy(), "volume": P.vol.copy(),
                 "material": names[P.mat] if P.n else np.array([], dtype=object), "body": P.body.copy()}
 
     @property

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import linalg
 from .bodies.fem import FemBodies
 from .bodies.particles import Particles
 from .bodies.rigid import RigidParticles
@@ -147,7 +148,7 @@ class State:
             if scene.contact.augury is not None:
                 state.fem.crossing_depth = scene.contact.augury.overlap_tolerance
             state.bodies.append(state.fem)
-            state.energy0 += 0.5 * float(state.fem.mass @ np.sum(state.fem.v**2, axis=1))
+            state.energy0 += 0.5 * float(linalg.dot(state.fem.mass, np.sum(state.fem.v**2, axis=1)))
             c0 = np.sqrt(scene.materials.wave_moduli() / scene.materials.density)
             state.energy_floor += 1e-12 * float(np.sum(state.fem.mass * c0[state.fem.node_mat] ** 2))
         return state

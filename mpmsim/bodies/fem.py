@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .. import linalg
 from ..fem import elements
 from ..fem.mesh import node_normal_kernel
 from . import (ANGULAR, FIRST_MOMENT, INTERNAL, KINETIC, MASS, MOMENTUM, NSUMS, STRAIN, STRESS, VOLUME, BodySet,
@@ -107,7 +108,7 @@ class FemBodies(BodySet):
         elements.cauchy_stresses(self.x, self.cells, self.Dm_inv, self.cell_mat, m.type_code, m.props, stress)
         F = np.zeros((len(self.cells), dim, dim))
         elements.deformation_gradients(self.x, self.cells, self.Dm_inv, F)
-        return stress, np.linalg.det(F)
+        return stress, linalg.det(F)
 
     def energy_densities(self, state) -> np.ndarray:
         """(m,) strain energy of each element (vol0 psi)."""
@@ -133,18 +134,18 @@ class FemBodies(BodySet):
         total = np.zeros(NSUMS)
         total[KINETIC] = ke_nodes.sum() + ke_aff.sum()
         total[STRAIN] = energy.sum()
-        total[MOMENTUM.start:MOMENTUM.start + dim] = self.mass @ self.v
+        total[MOMENTUM.start:MOMENTUM.start + dim] = linalg.weighted_rows(self.mass, self.v)
         if detail:
             stress, J = self.element_stresses(state)
             vol = J * self.vol0
-            total[STRESS] = vol @ stress
+            total[STRESS] = linalg.weighted_rows(vol, stress)
             total[VOLUME] = vol.sum()
             B = np.zeros((self.n, dim, dim))
             B[self.boundary] = self.B
             L = self.mass[:, None] * angular_density(self.x, self.v, B)
             total[ANGULAR] = L.sum(axis=0)
             total[MASS] = self.mass.sum()
-            total[FIRST_MOMENT.start:FIRST_MOMENT.start + dim] = self.mass @ self.x
+            total[FIRST_MOMENT.start:FIRST_MOMENT.start + dim] = linalg.weighted_rows(self.mass, self.x)
         total[INTERNAL] = 0.0
         nb = len(self.infos)
         rows = np.zeros((nb if detail else 0, NSUMS))

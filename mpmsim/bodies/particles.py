@@ -14,6 +14,7 @@ from functools import cache
 import numpy as np
 from numba import prange
 
+from .. import linalg
 from ..faults import MESSAGES
 from ..gridops import chunk_range
 from ..materials.dispatch import energy_dispatch
@@ -107,7 +108,7 @@ class Particles(BodySet):
         L = self.mass[:, None] * angular_density(self.x, self.v, self.B if self.affine else None)
         total[ANGULAR] = L.sum(axis=0)
         total[MASS] = self.mass.sum()
-        total[FIRST_MOMENT.start:FIRST_MOMENT.start + dim] = self.mass @ self.x
+        total[FIRST_MOMENT.start:FIRST_MOMENT.start + dim] = linalg.weighted_rows(self.mass, self.x)
         rows = np.zeros((nb, NSUMS))
         if nb == 1:
             rows[0] = total
@@ -137,7 +138,7 @@ class Particles(BodySet):
             "displacement": pad3(self.x - self.x0),
             "stress": self.stress,
             "deformation_gradient": F9.reshape(-1, 9),
-            "J": np.linalg.det(F9),
+            "J": linalg.det(F9),
             "material": gid[self.mat],
             "body": self.body.astype(np.int32),
             "mass": self.mass,

@@ -580,10 +580,13 @@ class Implicit(Strict):
         "converges, the friction's normal forces and sliding frames are taken again at the new positions and "
         "Newton reruns, until it converges at once or this many lags were taken. 1: lagged once, at the step's "
         "start.")
-    linear_solver: Literal["auto", "cholmod", "lu"] = Field(
+    linear_solver: Literal["auto", "cholmod", "ldl", "lu"] = Field(
         default="auto", description="The Newton step's sparse solve. cholmod: CHOLMOD's Cholesky factorisation "
-        "(scikit-sparse, the extra `cholmod`), its analysis reused while the matrix pattern holds; lu: scipy's "
-        "SuperLU; auto: cholmod when installed, else lu. The run log names the one used.")
+        "(scikit-sparse, the extra `cholmod`), its analysis reused while the matrix pattern holds; ldl: mpmsim's "
+        "own simplicial LDL^T with a reverse Cuthill-McKee ordering, no BLAS: the same bits on every CPU, its "
+        "analysis reused likewise; slower than CHOLMOD on large problems; lu: scipy's SuperLU (its BLAS kernels, "
+        "and so its last bits, depend on the CPU). auto: cholmod when installed, else ldl. A matrix that is not "
+        "positive definite under cholmod or ldl is solved by SuperLU. The run log names the one used.")
     particle_quadrature: Literal["auto", "domain", "points"] = Field(
         default="auto", description="How the particles integrate the grid's quadratic B-splines (bspline2). "
         "points: their values at the particle centres (the paper's; first order with an odd particle count "

@@ -40,6 +40,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..linalg import svd3, symmetric_eigen
 from ..materials import compressible_neo_hookean as cnh, linear_elastic as linear
 from ..materials.kernels import det_minus_one, det_small, inv_small  # noqa: F401  (det_small: part of this API)
 from ..materials.model import COMPRESSIBLE_NH, LINEAR_ELASTIC
@@ -270,12 +271,14 @@ def project_psd(H):
     (H <- V diag(max(w, 0)) V^T, the nearest PSD matrix in the Frobenius norm). A matrix with
     all eigenvalues >= -PSD_TOL max|w| is left bit-for-bit unchanged. Returns the smallest
     eigenvalue before projection."""
-    w, V = np.linalg.eigh(H)
-    wmin = w[0]
-    scale = max(abs(w[0]), abs(w[-1]))
+    n = H.shape[0]
+    w = np.empty(n)
+    V = np.empty((n, n))
+    symmetric_eigen(H, n, np.empty((n, n)), w, V)  # Jacobi, not LAPACK: the same bits on every CPU
+    wmin = w.min()
+    scale = max(abs(wmin), abs(w.max()))
     if wmin >= -PSD_TOL * scale:
         return wmin
-    n = H.shape[0]
     for i in range(n):
         for j in range(i, n):
             s = 0.0
@@ -336,13 +339,15 @@ def twist_modes(F, W):
         c, s = c / r * r2, s / r * r2
         W[0, 0], W[0, 1], W[0, 2], W[0, 3] = -s, -c, c, -s
         return 1
-    U, _, Vt = np.linalg.svd(F)
+    U = np.empty((3, 3))
+    V = np.empty((3, 3))
+    svd3(F, U, np.empty(3), V)  # one-sided Jacobi, not LAPACK: the same bits on every CPU
     m = 0
     for i in range(d):
         for j in range(i + 1, d):
             for a in range(d):
                 for b in range(d):
-                    W[m, a * d + b] = r2 * (U[a, i] * Vt[j, b] - U[a, j] * Vt[i, b])
+                    W[m, a * d + b] = r2 * (U[a, i] * V[b, j] - U[a, j] * V[b, i])
             m += 1
     return m
 

@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..linalg import dot, weighted_rows
+
 __all__ = ["accelerations", "angular_momentum", "drift", "half_kick", "kinetic_energy", "linear_momentum"]
 
 
@@ -68,12 +70,12 @@ def kinetic_energy(mass: np.ndarray, v: np.ndarray) -> float:
 
 def linear_momentum(mass: np.ndarray, v: np.ndarray) -> np.ndarray:
     """sum m v, shape (d,)."""
-    return mass @ v
+    return weighted_rows(mass, v)
 
 
 def angular_momentum(mass: np.ndarray, x: np.ndarray, v: np.ndarray, about=None) -> np.ndarray:
     """sum m (x - about) x v: shape (1,) in 2D (the z component), (3,) in 3D."""
     r = x if about is None else x - np.asarray(about, float)
     if x.shape[1] == 2:
-        return np.array([float(mass @ (r[:, 0] * v[:, 1] - r[:, 1] * v[:, 0]))])
-    return mass @ np.cross(r, v)
+        return np.array([float(dot(mass, r[:, 0] * v[:, 1] - r[:, 1] * v[:, 0]))])
+    return weighted_rows(mass, np.cross(r, v))

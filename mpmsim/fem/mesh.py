@@ -30,6 +30,8 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from .. import linalg
+
 
 class MeshError(ValueError):
     """A mesh that cannot be used: unreadable file, no triangles/tetrahedra, degenerate or
@@ -363,7 +365,7 @@ def transformed(mesh: FemMesh, rotation_deg: float = 0.0, axis="z", about=None, 
     x = mesh.points * float(scale)
     if rotation_deg:
         c = np.zeros(dim) if about is None else np.asarray(about, float)
-        x = c + (x - c) @ rotation_matrix(rotation_deg, axis, dim).T
+        x = c + linalg.matmul(np.ascontiguousarray(x - c), np.ascontiguousarray(rotation_matrix(rotation_deg, axis, dim).T))
     if translation is not None:
         x = x + np.asarray(translation, float)
     return replace(mesh, points=np.ascontiguousarray(x), node_sets=dict(mesh.node_sets))

@@ -13,18 +13,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import linalg
+
 
 def rotation(w: np.ndarray, tau: float) -> np.ndarray:
     """Q(w tau): the rotation by the angle |w| tau about w (3,) or, 2D, by w[0] tau about z."""
     if len(w) == 1:
         a = w[0] * tau
         return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
-    a = float(np.linalg.norm(w)) * tau
+    a = linalg.norm(w) * tau
     if a == 0.0:
         return np.eye(3)
-    k = w / np.linalg.norm(w)
+    k = w / linalg.norm(w)
     K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(a) * K + (1.0 - np.cos(a)) * (K @ K)
+    return np.eye(3) + np.sin(a) * K + (1.0 - np.cos(a)) * linalg.matmul(K, K)
 
 
 def cross(w: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -53,9 +55,9 @@ class RigidMotion:
             if t <= end:
                 return k, R, b, t - start
             tau = end - start
-            c0 = R @ self.c[k] + b
+            c0 = linalg.matvec(R, self.c[k]) + b
             Q = rotation(self.w[k], tau)
-            R, b = Q @ R, Q @ (b - c0) + c0 + self.v[k] * tau
+            R, b = linalg.matmul(Q, R), linalg.matvec(Q, b - c0) + c0 + self.v[k] * tau
             start = end
         return -1, R, b, 0.0
 
@@ -64,20 +66,20 @@ class RigidMotion:
         k, R, b, tau = self._phase(t)
         if k < 0:
             return R, b
-        c0 = R @ self.c[k] + b
+        c0 = linalg.matvec(R, self.c[k]) + b
         Q = rotation(self.w[k], tau)
-        return Q @ R, Q @ (b - c0) + c0 + self.v[k] * tau
+        return linalg.matmul(Q, R), linalg.matvec(Q, b - c0) + c0 + self.v[k] * tau
 
     def positions(self, X: np.ndarray, t: float) -> np.ndarray:
         """x(t) of the initial positions X (n, dim)."""
         R, b = self.pose(t)
-        return X @ R.T + b
+        return linalg.matmul(np.ascontiguousarray(X, dtype=np.float64), np.ascontiguousarray(R.T)) + b
 
     def velocities(self, X: np.ndarray, t: float) -> np.ndarray:
         """dx/dt at t (the phase ending at t counts: its rate), zero after the last phase."""
         k, R, b, tau = self._phase(t)
         if k < 0:
             return np.zeros_like(X)
-        c0 = R @ self.c[k] + b
+        c0 = linalg.matvec(R, self.c[k]) + b
         x = self.positions(X, t)
         return cross(self.w[k], x - c0 - self.v[k] * tau) + self.v[k]

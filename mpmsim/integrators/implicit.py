@@ -24,8 +24,9 @@ Projected Newton: the terms' Hessians (PSD) and M make H = M + c sum_terms H_ter
 degrees of freedom (held components move to their target and are eliminated; the local
 Hessians are scattered by compiled kernels straight into the CSC values over the free unknowns,
 on a pattern kept while the bundles' node lists stay the same: assembly.py), solved by CHOLMOD's
-Cholesky factorisation with the analysis reused while the pattern holds, or by SuperLU
-(solvers.py; implicit.linear_solver). Line search: alpha = the smallest of the terms' step bounds (additive CCD
+Cholesky factorisation or mpmsim's LDL^T (no BLAS: the same bits on every CPU), the analysis
+reused while the pattern holds, or by SuperLU (solvers.py; implicit.linear_solver). Line search:
+alpha = the smallest of the terms' step bounds (additive CCD
 keeps every contact point at least 10% of its distance from every edge; the inversion bounds
 keep det F > 0 for triangles and particles), then halved until E decreases. Stop when the
 largest move of an FEM node or a particle, max |p| / dt, is below newton_tolerance; that last
@@ -46,6 +47,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from .. import linalg
 from ..contact.barrier.energy import BarrierContact, LaggedFriction, interpolate
 from ..contact.barrier.start import check_initial_gaps
 from ..contact.barrier.stiffness import STALL, initial_stiffness, raised_stiffness, stiffness_bounds
@@ -109,9 +111,9 @@ class ImplicitStep(Integrator):
             from ..deck.loader import raise_at
 
             raise_at([(("implicit", "linear_solver"), "cholmod needs scikit-sparse on SuiteSparse's CHOLMOD "
-                       "(apt install libsuitesparse-dev, then pip install -e '.[cholmod]'); or use lu or auto")],
+                       "(apt install libsuitesparse-dev, then pip install -e '.[cholmod]'); or use ldl, lu or auto")],
                      scene.loaded)
-        self.solver = NewtonSolver(cholesky=choice != "lu")
+        self.solver = NewtonSolver(choice)  # auto: cholmod when installed, else ldl
         self.plan = [("newton", f"{imp.scheme} incremental potential of the {what}, projected Newton, "
                                 f"{self.solver.name}"),
                      ("barrier contact", f"log barrier on FEM boundary {'edges' if scene.dim == 2 else 'triangles'}, "
@@ -199,12 +201,12 @@ class ImplicitStep(Integrator):
         total = 0.0
         for term in self.terms:
             total += term.value(y)
-        E = 0.5 * float(dx @ (self.M * dx)) + c * total
+        E = 0.5 * float(linalg.dot(dx, self.M * dx)) + c * total
         spring = self.spring
         if spring is not None:
             moving, target, ks = spring
             off = np.where(moving, y - target, 0.0).ravel()
-            E += 0.5 * ks * float(off @ (self.M * off))
+            E += 0.5 * ks * float(linalg.dot(off, self.M * off))
         if not want_derivatives or not np.isfinite(E):
             return E, None, None
         force = np.zeros_like(y)
@@ -295,7 +297,7 @@ class ImplicitStep(Integrator):
         gradient balance at the first step that starts with pairs within dhat."""
         barrier = self.barrier_term
         if self.kappa_bounds is None:
-            diagonal = float(np.linalg.norm(y.max(axis=0) - y.min(axis=0)))
+            diagonal = linalg.norm(y.max(axis=0) - y.min(axis=0))
             kmin, kmax = stiffness_bounds(float(mass[mass > 0].mean()), diagonal, self.c,
                                           float(barrier.points.weight.mean()), barrier.dhat)
             self.kappa_bounds = (kmin, kmax, diagonal)

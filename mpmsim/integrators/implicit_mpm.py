@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .. import linalg
 from ..contact.augury.transfers import inertia_inverse, to_grid
 from ..errors import InstabilityError
 from ..fem import elements
@@ -402,4 +403,4 @@ class GridUnknowns:
                         P.x, P.v, B, self.a)
         m = state.materials
         elements.point_states(u, self.nodes, self.G, self.F0, P.mat, m.type_code, m.props, P.F, P.stress)
-        P.vol[:] = P.vol0 * np.linalg.det(P.F)
+        P.vol[:] = P.vol0 * linalg.det(P.F)

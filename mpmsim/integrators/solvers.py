@@ -18,8 +18,15 @@ that is not positive definite (it cannot be for an exact PSD sum, but round-off 
 so: a D entry <= 0 of the simplicial LDL^T, an error of the supernodal LL^T) is solved by
 SuperLU instead.
 
-SuperLU (scipy's splu, COLAMD ordering; Li 2005, doi:10.1145/1089014.1089017) otherwise: it
-needs the full matrix and analyses every time.
+mpmsim's own simplicial LDL^T (ldl.py; Davis 2005, doi:10.1145/1114268.1114277) with a
+reverse Cuthill-McKee ordering: no BLAS, every sum in an order fixed by the pattern, so the same
+bits on every x86-64 CPU; the analysis is reused like CHOLMOD's, a matrix that is not positive
+definite (a D entry <= 0) is solved by SuperLU. RCM leaves more fill than CHOLMOD's AMD, so on
+large problems it is slower. `auto` takes CHOLMOD when installed, else this.
+
+SuperLU (scipy's splu, COLAMD ordering; Li 2005, doi:10.1145/1089014.1089017) for `lu`: it
+needs the full matrix and analyses every time; it calls OpenBLAS, whose kernels are chosen per
+CPU, so its last bits differ between machines.
 """
 
 from __future__ import annotations
@@ -27,6 +34,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
+
+from .ldl import LDL
 
 try:  # the extra `cholmod`: scikit-sparse on SuiteSparse's CHOLMOD
     from sksparse.cholmod import CholmodError, analyze
@@ -42,31 +51,67 @@ def full_from_lower(L: sp.csc_matrix) -> sp.csc_matrix:
     return (L + sp.tril(L, -1).T).tocsc()
 
 
-class NewtonSolver:
-    """Solves with CHOLMOD (the lower triangle) when `cholesky`, else SuperLU (the full matrix).
-    Counts the solves of each, the analyses and the fallbacks."""
+METHODS = ("cholmod", "ldl", "lu")  # implicit.linear_solver, auto resolved by NewtonSolver
 
-    def __init__(self, cholesky: bool):
-        self.cholesky = cholesky and CHOLMOD_AVAILABLE
+
+class NewtonSolver:
+    """Solves with CHOLMOD (`cholmod`, the lower triangle), mpmsim's LDL^T (`ldl`, the lower
+    triangle) or SuperLU (`lu`, the full matrix); `auto`: CHOLMOD when installed, else ldl.
+    Counts the solves of each, the analyses and the fallbacks to SuperLU. `cholesky` is the
+    former flag: True for CHOLMOD where installed, else SuperLU; False for SuperLU."""
+
+    def __init__(self, method: str = "auto", *, cholesky: bool | None = None):
+        if cholesky is not None:
+            method = "cholmod" if cholesky and CHOLMOD_AVAILABLE else "lu"
+        self.auto = method == "auto"
+        if self.auto:
+            method = "cholmod" if CHOLMOD_AVAILABLE else "ldl"
+        if method not in METHODS:
+            raise ValueError(f"linear solver {method!r}: one of auto, {', '.join(METHODS)}")
+        if method == "cholmod" and not CHOLMOD_AVAILABLE:
+            raise ValueError("linear solver cholmod: scikit-sparse (CHOLMOD) is not installed")
+        self.method = method
         self.factor = None
         self.version = None
-        self.counts = {"cholmod": 0, "supernodal": 0, "splu": 0, "analyses": 0, "fallbacks": 0}
+        if method == "ldl":
+            self.counts = {"ldl": 0, "splu": 0, "analyses": 0, "fallbacks": 0}
+        else:
+            self.counts = {"cholmod": 0, "supernodal": 0, "splu": 0, "analyses": 0, "fallbacks": 0}
+
+    @property
+    def cholesky(self) -> bool:
+        """Whether CHOLMOD solves."""
+        return self.method == "cholmod"
 
     @property
     def lower(self) -> bool:
         """Whether the solver reads only the lower triangle."""
-        return self.cholesky
+        return self.method != "lu"
 
     @property
     def name(self) -> str:
-        return ("CHOLMOD (scikit-sparse): simplicial LDL^T, supernodal from "
-                f"{SUPERNODAL_MIN} unknowns" if self.cholesky else "SuperLU (scipy splu)")
+        if self.method == "cholmod":
+            return f"CHOLMOD (scikit-sparse): simplicial LDL^T, supernodal from {SUPERNODAL_MIN} unknowns"
+        if self.method == "ldl":
+            return "mpmsim LDL^T (simplicial, RCM ordering, no BLAS: the same bits on every CPU)"
+        return "SuperLU (scipy splu)"
 
     def solve(self, A: sp.csc_matrix, b: np.ndarray, version: int) -> np.ndarray:
         """x with A x = b; A's pattern is the same while `version` is."""
         if not len(b):  # every unknown held
             return np.zeros(0)
-        if self.cholesky:
+        if self.method == "ldl":
+            if self.factor is None or version != self.version:
+                self.factor = LDL()
+                self.factor.analyse(A)
+                self.version = version
+                self.counts["analyses"] += 1
+            if self.factor.factor(A):
+                self.counts["ldl"] += 1
+                return self.factor.solve(b)
+            self.counts["fallbacks"] += 1
+            A = full_from_lower(A)
+        elif self.method == "cholmod":
             supernodal = len(b) >= SUPERNODAL_MIN
             try:
                 if self.factor is None or version != self.version:
@@ -92,11 +137,13 @@ class NewtonSolver:
 
     def report(self) -> str:
         c = self.counts
-        if self.cholesky:
-            line = (f"linear solver: CHOLMOD (scikit-sparse), {c['cholmod']} factorisations "
-                    f"({c['supernodal']} supernodal, the rest simplicial LDL^T) on {c['analyses']} analyses")
-            if c["fallbacks"]:
-                line += f"; {c['fallbacks']} not positive definite, solved by SuperLU"
-            return line
-        why = "" if CHOLMOD_AVAILABLE else " (CHOLMOD not installed: pip install -e '.[cholmod]')"
-        return f"linear solver: {self.name}, {c['splu']} factorisations{why}"
+        fallbacks = f"; {c['fallbacks']} not positive definite, solved by SuperLU" if c["fallbacks"] else ""
+        if self.method == "cholmod":
+            return (f"linear solver: CHOLMOD (scikit-sparse), {c['cholmod']} factorisations "
+                    f"({c['supernodal']} supernodal, the rest simplicial LDL^T) on {c['analyses']} analyses"
+                    + fallbacks)
+        if self.method == "ldl":
+            why = " (auto: CHOLMOD not installed, pip install -e '.[cholmod]')" if self.auto else ""
+            return (f"linear solver: mpmsim LDL^T (simplicial, RCM ordering, no BLAS), {c['ldl']} factorisations "
+                    f"on {c['analyses']} analyses{fallbacks}{why}")
+        return f"linear solver: {self.name}, {c['splu']} factorisations"

@@ -8,6 +8,7 @@ from numba import njit
 from pydantic import Field
 from typing import Literal
 
+from .. import linalg
 from ..schema_base import Strict, Vector
 from .kernels import rotate_stress
 from .model import ANISOTROPIC, NPROP, MaterialModel, register
@@ -35,7 +36,7 @@ def transversely_isotropic_compliance(EA, ET, GA, nuA, nuT, axis) -> np.ndarray:
     properties along `axis` and isotropy normal to it."""
     a = np.zeros(3)
     a[: len(axis)] = axis
-    a /= np.linalg.norm(a)
+    a /= linalg.norm(a)
     # material frame: 1 = axis; compliance as a 4th-order tensor there
     GT = ET / (2.0 * (1.0 + nuT))
     Sm = np.zeros((3, 3, 3, 3))
@@ -50,7 +51,7 @@ def transversely_isotropic_compliance(EA, ET, GA, nuA, nuT, axis) -> np.ndarray:
     # rotation R: rows are the material axes in global coordinates
     helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
     t1 = np.cross(helper, a)
-    t1 /= np.linalg.norm(t1)
+    t1 /= linalg.norm(t1)
     R = np.array([a, t1, np.cross(a, t1)])
     Sg = np.einsum("ai,bj,ck,dl,abcd->ijkl", R, R, R, R, Sm)
     S = np.zeros((6, 6))
@@ -64,7 +65,7 @@ def row(m) -> np.ndarray:
     """[C (6x6, row major), S = C^-1 (6x6)], Voigt xx yy zz xy yz xz, engineering shear."""
     out = np.zeros(NPROP)
     S = transversely_isotropic_compliance(m.EA, m.ET, m.GA, m.nuA, m.nuT, m.axis)
-    out[:36] = np.linalg.inv(S).ravel()
+    out[:36] = linalg.inverse(S).ravel()
     out[36:] = S.ravel()
     return out
 
@@ -73,7 +74,7 @@ def check(m, dim: int) -> list[tuple[tuple, str]]:
     if len(m.axis) != dim or not any(m.axis):
         return []  # (the axis's length and the zero vector: mpmsim/deck/semantics.py)
     S = transversely_isotropic_compliance(m.EA, m.ET, m.GA, m.nuA, m.nuT, m.axis)
-    if np.linalg.eigvalsh(0.5 * (S + S.T)).min() <= 0.0:
+    if linalg.eigvalsh(0.5 * (S + S.T)).min() <= 0.0:
         return [(("nuA",), "these constants give no positive strain energy (need nuA^2 < EA/ET (1 - nuT)/2 and "
                            "|nuT| < 1)")]
     return []

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import linalg
 from ..contact.augury.transfers import FRICTION, KERNELS, STICK_SEPARATE, AuguryGrid
 from ..contact.grid.spec import (FIRST_PLUGIN_LAW, INTEGRATION_CODES, LAW_CODES, NORMAL_CODES, PERFECT,
                                  SEPARATION_CODES, ContactSpec)
@@ -201,7 +202,7 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
     if c.normal_vector is not None and any(c.normal_vector):
         nv[: len(c.normal_vector)] = c.normal_vector
         nv /= np.abs(nv).max()  # first to order one: the norm of (1e-300, 0) would underflow
-        nv /= np.linalg.norm(nv)
+        nv /= linalg.norm(nv)
     centre = np.zeros(3)
     if c.normal_center is not None:
         centre[: len(c.normal_center)] = c.normal_center

@@ -1,7 +1,8 @@
 """Bit-level fingerprints of short runs: every deck in inputs/ and method variants of a few.
 
 Each case runs a fixed number of steps on one thread (fixed chunking, so reductions add in a
-fixed order; implicit decks solve with SuperLU, which every installation has), recording the history after every step. The fingerprint is a SHA-256 of the
+fixed order; implicit decks solve with mpmsim's own LDL^T, which calls no BLAS), recording the
+history after every step. The fingerprint is a SHA-256 of the
 history rows and of every final particle array, plus the last history row in full (hex
 floats) so a mismatch shows its size. `python -m tests.architecture.fingerprint` rewrites
 the stored reference; do that only for a change meant to alter results, and say so.
@@ -119,8 +120,8 @@ def run_case(deck: str, overrides: dict, steps: int = STEPS, columns: list[str] 
 
     data = yaml.safe_load((ROOT / "inputs" / f"{deck}.yaml").read_text())
     data = with_overrides(data, overrides)
-    if data.get("integrator") == "implicit":  # SuperLU, installed everywhere (CHOLMOD is an extra):
-        data = with_overrides(data, {"implicit.linear_solver": "lu"})  # tests/implicit/test_solvers.py
+    if data.get("integrator") == "implicit":  # mpmsim's own LDL^T: no BLAS, the same bits on every CPU
+        data = with_overrides(data, {"implicit.linear_solver": "ldl"})  # (CHOLMOD is an extra; SuperLU calls BLAS)
     sim = Simulation(build_scene(deck_from(data, ROOT / "inputs", deck)), out_dir=None, threads=1)
     for _ in range(steps):
         sim.step()

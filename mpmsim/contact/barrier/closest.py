@@ -32,6 +32,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ...linalg import dot
+
 PT_P_T0, PT_P_T1, PT_P_T2, PT_P_E0, PT_P_E1, PT_P_E2, PT_P_T = 0, 1, 2, 3, 4, 5, 6
 EE_EA0_EB0, EE_EA0_EB1, EE_EA1_EB0, EE_EA1_EB1, EE_EA_EB0, EE_EA_EB1, EE_EA0_EB, EE_EA1_EB, EE_EA_EB = range(9)
 # the edges (local vertex pairs of the triangle) of P_E0..P_E2
@@ -68,9 +70,9 @@ def _closest(y, c0, dc, ns, g, H, want):
         # S00 S11 - S01^2 for nearly parallel w): -r0 = s0 w0 + s1 w1 + c n, so
         # s0 = -(w1 x n).r0 / |n|^2, s1 = -(n x w0).r0 / |n|^2
         n = np.cross(w[0], w[1])
-        det = n @ n
-        s[0] = -(np.cross(w[1], n) @ r0) / det
-        s[1] = -(np.cross(n, w[0]) @ r0) / det
+        det = dot(n, n)
+        s[0] = -dot(np.cross(w[1], n), r0) / det
+        s[1] = -dot(np.cross(n, w[0]), r0) / det
     c = c0.copy()
     for m in range(ns):
         for j in range(k):
@@ -145,14 +147,14 @@ def _nearer(q, x0, x1, edge, best, kind, code):
     (edge: only where its closest point is inside the edge) or against the vertex x0."""
     if edge:
         d = x1 - x0
-        L = d @ d
-        t = (q - x0) @ d / L if L > 0.0 else -1.0
+        L = dot(d, d)
+        t = dot(q - x0, d) / L if L > 0.0 else -1.0
         if not 0.0 < t < 1.0:
             return best, kind
         r = q - x0 - t * d
     else:
         r = q - x0
-    dist = r @ r
+    dist = dot(r, r)
     return (dist, code) if dist < best else (best, kind)
 
 
@@ -164,8 +166,8 @@ def point_triangle_distance_type(y):
     u = t1 - t0
     v = t2 - t0
     q = p - t0
-    uu, uv, vv = u @ u, u @ v, v @ v
-    qu, qv = q @ u, q @ v
+    uu, uv, vv = dot(u, u), dot(u, v), dot(v, v)
+    qu, qv = dot(q, u), dot(q, v)
     det = uu * vv - uv * uv
     if det > 0.0:
         a = (vv * qu - uv * qv) / det
@@ -276,7 +278,7 @@ def edge_edge_distance_type(y):
     u = a1 - a0
     v = b1 - b0
     w = a0 - b0
-    uu, uv, vv, uw, vw = u @ u, u @ v, v @ v, u @ w, v @ w
+    uu, uv, vv, uw, vw = dot(u, u), dot(u, v), dot(v, v), dot(u, w), dot(v, w)
     det = uu * vv - uv * uv
     if det > 1e-14 * uu * vv:
         s = (uv * vw - vv * uw) / det

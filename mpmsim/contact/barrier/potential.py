@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ...linalg import dot
 from .closest import edge_edge_distance_hessian, point_triangle_distance_hessian
 from .distance import _pe_dispatch, _pp_blocks
 from ...fem.elements import project_psd
@@ -148,7 +149,7 @@ def edge_edge_cross2_hessian(y, g, H):
     c = np.cross(u, v)
     gu = 2.0 * np.cross(v, c)
     gv = 2.0 * np.cross(c, u)
-    uu, vv, uv = u @ u, v @ v, u @ v
+    uu, vv, uv = dot(u, u), dot(v, v), dot(u, v)
     sign = (-1.0, 1.0)
     for i in range(2):
         for a in range(3):
@@ -167,7 +168,7 @@ def edge_edge_cross2_hessian(y, g, H):
                     H[6 + 3 * i + a, 6 + 3 * j + e] = s * hvv
                     H[3 * i + a, 6 + 3 * j + e] = s * huv
                     H[6 + 3 * j + e, 3 * i + a] = s * huv
-    return c @ c
+    return dot(c, c)
 
 
 @njit(cache=True)

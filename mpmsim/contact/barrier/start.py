@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...linalg import solve_batch
 from ...shapes.cpdi import corner_signs
 from .broadphase import box_pairs, point_boxes, point_edge_candidates, simplex_boxes
 from .closest import point_triangle_distance
@@ -25,7 +26,7 @@ def particles_inside(x: np.ndarray, verts: np.ndarray, cells: np.ndarray) -> np.
         return pairs
     v0 = verts[cells[pairs[:, 1], 0]]
     T = np.stack([verts[cells[pairs[:, 1], k]] - v0 for k in range(1, cells.shape[1])], axis=2)  # (k, d, d)
-    lam = np.linalg.solve(T, (x[pairs[:, 0]] - v0)[:, :, None])[:, :, 0]
+    lam = solve_batch(np.ascontiguousarray(T), np.ascontiguousarray(x[pairs[:, 0]] - v0))
     return pairs[(lam > 0.0).all(axis=1) & (lam.sum(axis=1) < 1.0)]
 
 

@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...linalg import dot
+
 MASS_SCALE = 1e11  # IPC's min_barrier_stiffness_scale
 TINY = 1e-8  # d_eps / L for the bounds
 CLOSE = 1e-9  # distance / L under which a shrinking distance raises kappa
@@ -41,8 +43,9 @@ def stiffness_bounds(mean_mass: float, diagonal: float, c: float, mean_weight: f
 
 def initial_stiffness(g_barrier: np.ndarray, g_rest: np.ndarray, kmin: float, kmax: float) -> float:
     """The least-squares balance -g_B . g_E / |g_B|^2 clamped to [kmin, kmax] (kmin without pairs)."""
-    gg = float(g_barrier @ g_barrier)
-    kappa = -float(g_barrier @ g_rest) / gg if gg > 0.0 else kmin
+    gb, gr = np.ascontiguousarray(g_barrier, dtype=np.float64), np.ascontiguousarray(g_rest, dtype=np.float64)
+    gg = float(dot(gb, gb))
+    kappa = -float(dot(gb, gr)) / gg if gg > 0.0 else kmin
     return float(np.clip(kappa, kmin, kmax))
 
 

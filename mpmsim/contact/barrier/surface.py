@@ -57,6 +57,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ...linalg import dot
 from ...energy import Blocks, Derivatives, Scatter
 from ...fem.elements import project_psd
 from .broadphase import box_pairs, point_edge_candidates, simplex_boxes
@@ -681,15 +682,15 @@ def lag_surface_friction(points, verts, triangles, point, start, simplex, grads,
         e1 = y[6:9] - y[3:6]
         e2 = y[9:12] - y[3:6]
         r = cp - y[3:6]
-        a11, a12, a22 = e1 @ e1, e1 @ e2, e2 @ e2
-        b1, b2 = r @ e1, r @ e2
+        a11, a12, a22 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
+        b1, b2 = dot(r, e1), dot(r, e2)
         det = a11 * a22 - a12 * a12
         s1 = (a22 * b1 - a12 * b2) / det
         s2 = (a11 * b2 - a12 * b1) / det
         beta = np.array([1.0 - s1 - s2, s1, s2])
         # tangent basis of the plane normal to n
         t1 = np.cross(n, np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
-        t1 /= np.sqrt(t1 @ t1)
+        t1 /= np.sqrt(dot(t1, t1))
         t2 = np.cross(n, t1)
         for a in range(3):
             G[grp, a, 0] = t1[a]

@@ -30,6 +30,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ...linalg import symmetric_eigen
+
 LR_TOL = 1e-5
 LR_MAX_ITER = 15
 LR_PENALTY = 1e-7  # times h_min^2
@@ -150,56 +152,6 @@ def gather_cloud(clouds, start, stop, dim, R):
         if dim == 3:
             pts[q, 2] -= cz / wsum
     return m, wsum
-
-
-@njit(cache=True, inline="always")
-def symmetric_eigen(a, dim, work, evals, evecs):
-    """Eigenvalues and eigenvectors (columns of evecs) of the symmetric dim x dim matrix a by
-    cyclic Jacobi rotations (work: a dim x dim scratch). Written out, not LAPACK, so the GPU
-    step runs the same arithmetic; to round-off of LAPACK's for these 2 x 2 and 3 x 3 matrices."""
-    norm = 0.0
-    for r in range(dim):
-        for c in range(dim):
-            work[r, c] = a[r, c]
-            evecs[r, c] = 1.0 if r == c else 0.0
-            norm += a[r, c] * a[r, c]
-    for sweep in range(32):
-        off = 0.0
-        for r in range(dim - 1):
-            for c in range(r + 1, dim):
-                off += work[r, c] * work[r, c]
-        if not (off > 1e-36 * norm):
-            break
-        for p in range(dim - 1):
-            for q in range(p + 1, dim):
-                apq = work[p, q]
-                if apq == 0.0:
-                    continue
-                theta = (work[q, q] - work[p, p]) / (2.0 * apq)
-                t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
-                if theta < 0.0:
-                    t = -t
-                c = 1.0 / np.sqrt(t * t + 1.0)
-                s = t * c
-                rotate(work, p, q, c, s, dim, False)  # work <- J^T work J
-                rotate(work, p, q, c, s, dim, True)
-                rotate(evecs, p, q, c, s, dim, False)  # evecs <- evecs J
-    for e in range(dim):
-        evals[e] = work[e, e]
-
-
-@njit(cache=True, inline="always")
-def rotate(a, p, q, c, s, dim, rows):
-    """Columns p, q of a (rows: rows p, q) turned by the Jacobi rotation (c, s)."""
-    for k in range(dim):
-        x = a[p, k] if rows else a[k, p]
-        y = a[q, k] if rows else a[k, q]
-        if rows:
-            a[p, k] = c * x - s * y
-            a[q, k] = s * x + c * y
-        else:
-            a[k, p] = c * x - s * y
-            a[k, q] = s * x + c * y
 
 
 @njit(cache=True, inline="always")
