@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test,cholmod]' 2>/dev/null || \
-		{ echo "scikit-sparse (CHOLMOD) did not install: the implicit step will use SuperLU (apt install libsuitesparse-dev for CHOLMOD)"; \
+		{ echo "scikit-sparse (CHOLMOD) did not install: the implicit step will use its own LDL^T (apt install libsuitesparse-dev for CHOLMOD)"; \
 		  $(BIN)/python -m pip install --quiet -e '.[test]'; }
 	@touch $(STAMP)
 
@@ -23,8 +23,13 @@ run: $(STAMP)
 	$(BIN)/mpmsim compile $(DECK)
 	$(BIN)/mpmsim run $(DECK)
 
+# the suite on every core (pytest-xdist; TEST_WORKERS=0 for one process), each test module whole on
+# one worker (its shared runs made once), the costliest modules first; the kernel cache filled
+# first by two processes compiling disjoint halves (tests/warm.py); closes with the 20 slowest
+TEST_WORKERS ?= auto
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m tests.warm
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadscope --durations=20
 
 bench: $(STAMP)
 	$(BIN)/python bench/coldstart.py

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import time
 from pathlib import Path
 
 import pytest
@@ -32,3 +34,43 @@ def simulate(data: dict, directory: Path | None = None, out_dir=None, threads: i
 @pytest.fixture
 def root() -> Path:
     return ROOT
+
+
+# The suite's budget on CI (2 cores): past SUITE_LIMIT_S the run fails even when every test
+# passed, so that a slow test is dealt with when it arrives (`make test` prints the 20 slowest).
+SUITE_LIMIT_S = float(os.environ.get("MPMSIM_SUITE_LIMIT_S", 900))
+_STARTED = time.monotonic()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if hasattr(session.config, "workerinput") or not os.environ.get("CI"):
+        return  # an xdist worker, or not on CI
+    elapsed = time.monotonic() - _STARTED
+    if elapsed > SUITE_LIMIT_S and exitstatus == 0:
+        writer = session.config.get_terminal_writer()
+        writer.line()
+        writer.line(
+            f"suite took {elapsed:.0f} s, over the {SUITE_LIMIT_S:.0f} s limit on CI (MPMSIM_SUITE_LIMIT_S): "
+            "make the slowest tests cheaper (docs/architecture.md, 'The test suite')", red=True)
+        session.exitstatus = 1
+
+
+# Modules by their cost on two workers (measured, docs/architecture.md "The test suite"), the
+# costliest first: with `--dist loadscope` (make test) each module runs whole on one worker, so
+# its shared runs (module fixtures, cached runs) are made once, and the long ones start first
+# instead of leaving one worker busy at the end while the other idles.
+SLOW_FIRST = [
+    "tests/stability/test_suite.py", "tests/validation/test_compaction.py", "tests/gpu/test_gpu.py",
+    "tests/implicit/test_twist.py", "tests/validation/test_contact_oblique.py", "tests/validation/test_hertz.py",
+    "tests/validation/test_shock.py", "tests/validation/test_interfaces.py", "tests/reliability/test_fuzz.py",
+    "tests/fem/test_augury_contact.py", "tests/implicit/test_implicit_3d.py", "tests/implicit/test_implicit_mpm.py",
+    "tests/fem/test_fem_sliding.py", "tests/reliability/test_restart.py", "tests/validation/test_contact.py",
+    "tests/architecture/test_bit_identical.py", "tests/speed/test_estimate_fem_implicit.py",
+    "tests/sweep/test_sweep_dask.py", "tests/ecosystem/test_paraview.py", "tests/sweep/test_sweep_engine.py",
+    "tests/validation/test_compression.py", "tests/speed/test_kernel_forms.py",
+]
+
+
+def pytest_collection_modifyitems(session, config, items):
+    rank = {path: i for i, path in enumerate(SLOW_FIRST)}
+    items.sort(key=lambda item: rank.get(item.nodeid.split("::")[0], len(rank)))  # stable: file order kept

@@ -5,6 +5,7 @@ missing ParaView a failure)."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shutil
@@ -62,10 +63,20 @@ def test_paraview_command_errors(tmp_path):
 
 
 def pvbatch() -> list[str] | None:
+    """pvbatch, under a virtual screen of its own when there is no display. `xvfb-run -a` alone
+    starts every search for a free screen at :99: two runs at once (test workers, another job)
+    can both take :99, and the first to finish shuts the screen under the other, whose pvbatch
+    then aborts (exit 134). Each run here starts its search at a screen number of its own."""
     exe, xvfb = shutil.which("pvbatch"), shutil.which("xvfb-run")
     if exe is None:
         return None
-    return ([xvfb, "-a"] if xvfb and not os.environ.get("DISPLAY") else []) + [exe]
+    if not xvfb or os.environ.get("DISPLAY"):
+        return [exe]
+    screen = 1000 + 20 * (os.getpid() % 3000) + next(_SCREENS) % 20
+    return [xvfb, "-a", "-n", str(screen), exe]
+
+
+_SCREENS = itertools.count()
 
 
 def test_paraview_script(results, tmp_path):

@@ -1,16 +1,15 @@
-"""Kernels compiled per scene: the cold-start budgets, the cache across processes, and the
+"""Kernels compiled per scene: only the scene's kernels, the cache across processes, and the
 serial and parallel forms of the chunk kernels (mpmsim/parallel.py) agreeing bit for bit.
 
-The compile times are the benchmark's (bench/coldstart.py); here they are asserted with a
-margin of 1.5x the budgets (a shared CI machine is slower and noisier than the benchmark's),
-which still fails for the one-kernel-for-everything build this replaced (42 s and 112 s)."""
+The compile times are a timing, measured against their budgets by bench/coldstart.py; here the
+machine-independent part: the kernels a scene uses and that a second process loads them all."""
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -24,28 +23,53 @@ from ..conftest import ROOT
 
 pytestmark = pytest.mark.speed
 
-BUDGET = {"disks": 20.0, "two_blocks": 40.0}
-MARGIN = 1.5
+KERNELS = """
+import gc, json, sys
+from numba.core import event
+from numba.core.registry import CPUDispatcher
+from mpmsim.deck import load_deck
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+with event.install_recorder("numba:compile") as rec:
+    sim = Simulation(build_scene(load_deck(sys.argv[1])), out_dir=None, threads=1)
+    sim.step()
+used = sorted({f"{d.py_func.__module__}.{d.py_func.__qualname__}" for d in gc.get_objects()
+               if isinstance(d, CPUDispatcher) and d.signatures and d.py_func.__module__.startswith("mpmsim")})
+compiled = sorted({str(getattr(e.data.get("dispatcher"), "py_func", "?")) for _, e in rec.buffer
+                   if isinstance(e.data, dict)})
+print(json.dumps({"used": used, "compiled": compiled, "events": len(rec.buffer)}))
+"""
 
 
-def compile_seconds(deck: str, cache) -> float:
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "NUMBA_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
-    t0 = time.perf_counter()
-    run = subprocess.run([sys.executable, "-m", "mpmsim", "compile", str(ROOT / "inputs" / f"{deck}.yaml")],
+def kernels(deck: str) -> dict:
+    """The kernels of mpmsim a fresh process builds the deck's scene and takes a step with, and
+    what it compiled (numba's compile events: a kernel loaded from the cache raises none)."""
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
+    run = subprocess.run([sys.executable, "-c", KERNELS, str(ROOT / "inputs" / f"{deck}.yaml")],
                          capture_output=True, text=True, timeout=900, env=env)
     assert run.returncode == 0, run.stderr[-2000:]
-    return time.perf_counter() - t0
+    return json.loads(run.stdout.splitlines()[-1])
 
 
-@pytest.mark.parametrize("deck", sorted(BUDGET))
-def test_cold_compile_within_budget_and_cached_for_the_next_process(deck, tmp_path):
-    cold = compile_seconds(deck, tmp_path)
-    warm = compile_seconds(deck, tmp_path)
-    print(f"{deck}: cold {cold:.1f} s, warm {warm:.1f} s (budget {BUDGET[deck]:.0f} s)")
-    assert cold < MARGIN * BUDGET[deck]
-    # every kernel, the per-model and per-method ones included, loads from the cache: a kernel
-    # whose cache key changed between processes would compile again (seconds, not 1-3 s)
-    assert warm < 0.25 * cold and warm < 6.0
+@pytest.mark.parametrize("deck", ["disks", "two_blocks"])
+def test_a_scene_compiles_only_its_kernels_and_the_next_process_loads_them_all(deck):
+    """Machine-independent: which kernels a scene uses, and that a second process compiles
+    none of them (a kernel whose cache key changed between processes would compile again).
+    How long the first compile takes is a timing: bench/coldstart.py measures it against the
+    budgets (20 s for disks, 40 s for two_blocks, docs/performance.md)."""
+    first = kernels(deck)  # compiles what the suite's cache still lacks
+    second = kernels(deck)
+    assert second["events"] == 0, f"{deck}: the second process compiled {second['compiled']}"
+    assert second["used"] == first["used"]
+    used = second["used"]
+    families = {f: [k for k in used if k.startswith(f"mpmsim.{f}")] for f in
+                ("contact.grid", "contact.barrier", "contact.augury", "fem", "integrators.implicit", "gpu")}
+    assert not any(families[f] for f in ("contact.barrier", "contact.augury", "fem", "integrators.implicit", "gpu")), \
+        {f: k for f, k in families.items() if k}
+    if deck == "disks":  # one material: no contact kernel at all
+        assert not families["contact.grid"] and 5 <= len(used) <= 15, used
+    else:  # LR contact: the material fields, geometry and passes, and the particle kernels
+        assert len(families["contact.grid"]) >= 8 and len(used) <= 40, used
 
 
 def test_small_scenes_take_one_thread_unless_asked():
