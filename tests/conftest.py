@@ -38,7 +38,10 @@ def root() -> Path:
 
 # The suite's budget on CI (2 cores): past SUITE_LIMIT_S the run fails even when every test
 # passed, so that a slow test is dealt with when it arrives (`make test` prints the 20 slowest).
-SUITE_LIMIT_S = float(os.environ.get("MPMSIM_SUITE_LIMIT_S", 900))
+# The aim is 900 s (15 minutes); the suite is not there yet (docs/architecture.md, "The test
+# suite": about 35 minutes on 2 workers from an empty cache), so the guard stands at 2700 s
+# and comes down as the suite does.
+SUITE_LIMIT_S = float(os.environ.get("MPMSIM_SUITE_LIMIT_S", 2700))
 _STARTED = time.monotonic()
 
 
