@@ -60,7 +60,9 @@ def build_loads(scene, x: np.ndarray, vol: np.ndarray) -> Loads | None:
             # a band about one particle deep: on a tilted edge the centres' depths spread evenly
             cut = load.depth if load.depth is not None else float(linalg.dot(np.abs(n), np.asarray(size, float)))
         along = linalg.matvec(x[inside], n)
-        edge = inside[along >= along.max() - cut]
+        # a centre at the band's inner edge within round-off is in it: on a lattice the depths
+        # tie there exactly, and the last bit of their sums must not decide the band
+        edge = inside[along >= along.max() - cut * (1.0 + 1e-9)]
         if load.traction is not None:  # axis-aligned layer: each particle's face area
             area = float(np.prod(np.delete(size, axis))) * (scene.thickness if dim == 2 else 1.0)
             f = np.tile(np.asarray(load.traction, float) * area, (edge.size, 1))
