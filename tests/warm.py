@@ -5,8 +5,9 @@ transfers, the stress update, ...) at the same moment, each for itself. Here two
 compile disjoint halves first, one step of every case of the architecture fingerprints (every
 deck in inputs/ and the method variants: tests/architecture/fingerprint.py): the FEM and
 implicit decks with half of the variants, the particle decks with the other half. The workers
-then load those kernels and compile only what their tests add. A warm cache makes this a few
-seconds; a case that fails here fails again, with its message, in its test.
+then load those kernels and compile only what their tests add. With a warm cache it only builds
+the scenes and loads the kernels; a case that fails here fails again, with its message, in its
+test.
 """
 
 from __future__ import annotations
