@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .materials.kernels import det_small
+
 
 @njit(cache=True, inline="always")
 def dot(a, b):
@@ -52,18 +54,11 @@ def rows_dot(A, b):
 @njit(cache=True)
 def det_batch(F):
     """det F[p] of a stack of 1x1, 2x2 or 3x3 matrices (n, d, d) -> (n,), by cofactors (the
-    3x3 along the first row)."""
+    materials' det_small)."""
     n, d = F.shape[0], F.shape[1]
     out = np.empty(n)
     for p in range(n):
-        if d == 1:
-            out[p] = F[p, 0, 0]
-        elif d == 2:
-            out[p] = F[p, 0, 0] * F[p, 1, 1] - F[p, 0, 1] * F[p, 1, 0]
-        else:
-            out[p] = (F[p, 0, 0] * (F[p, 1, 1] * F[p, 2, 2] - F[p, 1, 2] * F[p, 2, 1])
-                      - F[p, 0, 1] * (F[p, 1, 0] * F[p, 2, 2] - F[p, 1, 2] * F[p, 2, 0])
-                      + F[p, 0, 2] * (F[p, 1, 0] * F[p, 2, 1] - F[p, 1, 1] * F[p, 2, 0]))
+        out[p] = F[p, 0, 0] if d == 1 else det_small(F[p])
     return out
 
 
