@@ -16,6 +16,16 @@ from mpmsim.solver import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    # One thread per test worker: `make test` runs a worker per core, so a scene large enough
+    # for threads by default (State: PARALLEL_MIN_PARTICLES) would put two threads on one core
+    # and compile the parallel forms of its kernels besides the serial ones the others use.
+    # Both forms give the same numbers (tests/speed/test_kernel_forms.py runs them side by
+    # side); a test that asks for threads gets the parallel form, run by this one thread.
+    import numba
+
+    numba.set_num_threads(1)
+
 
 def deck_from(data: dict, directory: Path | None = None, name: str = "deck"):
     """Validate a deck given as a dict, as if read from `directory/name.yaml`."""

@@ -9,6 +9,7 @@ imported into the test process.
 from __future__ import annotations
 
 import json
+import os
 import sys
 
 import numpy as np
@@ -267,6 +268,10 @@ def files(folder: str) -> dict:
 
 
 if __name__ == "__main__":
+    if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1":
+        from tests.gpu.simulator import run_single_thread_blocks
+
+        run_single_thread_blocks()
     if sys.argv[1:2] == ["--files"]:
         print(json.dumps(files(sys.argv[2])))
     elif sys.argv[1:2] == ["--penetration"]:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpmsim.overlap import overlap_fraction
 from mpmsim.sweep.metrics import relative_error_curve
 from mpmsim.tasks import Task
 
@@ -199,30 +198,7 @@ def test_lr_3d_matches_single_material():
     assert err.max() < 0.01
 
 
-# --------------------------------------------------------------- Fig. 6: ellipses in a box
-def ellipse_run(h, **over):
-    over.update({"grid.cell_size": h, "bodies.1.max": [1.0, 2.0 + 2 * h]})
-    sim, _ = run_example("ellipse_box", **over)
-    P = sim.state.particles
-    return sim, overlap_fraction(P.x, P.F, P.mat, sim.scene.semi_size, h / 8)
-
-
-def test_lr_keeps_ellipses_apart_and_cp_does_not():
-    """Twenty ellipses compressed 75% at 1/20 mm cells (3.5x coarser than the paper): the
-    area claimed by two materials is 2.0% with LR and 35% with CP = 0.8, whose ellipses pass
-    into each other, so that their particle volumes add up to more than the box (1.34x;
-    LR 0.998x). The final stresses (137 and 85 GPa here) are compared at full size in
-    docs/contact.md."""
-    h = 0.05
-    lr, lr_overlap = ellipse_run(h)
-    cp, cp_overlap = ellipse_run(h, **CP08)
-    for sim in (lr, cp):
-        assert sim.recorder.column("u_piston_y")[-1] == pytest.approx(-1.5, rel=1e-6)  # 75% of 2 mm
-    assert lr_overlap < 0.06
-    assert cp_overlap > 4 * lr_overlap
-    assert lr.state.contact.n_cn > 0
-    box = 1.0 * 0.5
-    assert lr.state.particles.vol.sum() / box < 1.005
-    assert cp.state.particles.vol.sum() / box > 1.1
+# Fig. 6, ellipses in a box, LR against CP: tests/validation/test_compaction.py (one LR run
+# serves it and the ellipse box's energy ledger)
 
 
