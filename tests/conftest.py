@@ -73,14 +73,16 @@ def pytest_sessionfinish(session, exitstatus):
 # its shared runs (module fixtures, cached runs) are made once, and the long ones start first
 # instead of leaving one worker busy at the end while the other idles.
 SLOW_FIRST = [
-    "tests/stability/test_suite.py", "tests/validation/test_compaction.py", "tests/gpu/test_gpu.py",
-    "tests/implicit/test_twist.py", "tests/validation/test_contact_oblique.py", "tests/validation/test_hertz.py",
-    "tests/validation/test_shock.py", "tests/validation/test_interfaces.py", "tests/reliability/test_fuzz.py",
-    "tests/fem/test_augury_contact.py", "tests/implicit/test_implicit_3d.py", "tests/implicit/test_implicit_mpm.py",
-    "tests/fem/test_fem_sliding.py", "tests/reliability/test_restart.py", "tests/validation/test_contact.py",
-    "tests/architecture/test_bit_identical.py", "tests/speed/test_estimate_fem_implicit.py",
-    "tests/sweep/test_sweep_dask.py", "tests/ecosystem/test_paraview.py", "tests/sweep/test_sweep_engine.py",
-    "tests/validation/test_compression.py", "tests/speed/test_kernel_forms.py",
+    "tests/validation/test_interfaces.py", "tests/validation/test_contact_oblique.py",
+    "tests/validation/test_contact.py", "tests/validation/test_compaction.py", "tests/stability/test_suite.py",
+    "tests/fem/test_augury_contact.py", "tests/implicit/test_twist.py", "tests/implicit/test_implicit_3d.py",
+    "tests/reliability/test_restart.py", "tests/architecture/test_bit_identical.py",
+    "tests/architecture/test_plugins.py", "tests/validation/test_updates_and_shapes.py",
+    "tests/reliability/test_fuzz.py", "tests/fem/test_fem_sliding.py", "tests/implicit/test_implicit_mpm.py",
+    "tests/barrier/test_closest.py", "tests/gpu/test_gpu.py", "tests/speed/test_threads.py",
+    "tests/speed/test_kernel_forms.py", "tests/implicit/test_fem_fem_3d.py", "tests/sweep/test_sweep_dask.py",
+    "tests/architecture/test_seams.py", "tests/validation/test_hertz.py", "tests/ecosystem/test_paraview.py",
+    "tests/sweep/test_sweep_engine.py",
 ]
 
 
