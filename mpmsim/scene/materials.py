@@ -46,4 +46,9 @@ def build_material_table(deck: Deck) -> MaterialTable:
     own_eos = np.array([MODELS[deck.materials[n].type].internal_energy for n in deformable], dtype=bool)
     energy = own_eos | (av.sum(axis=1) > 0.0)
     rigid_bc = [deck.materials[n].mode == "bc" for n in rigid]
-    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain, av, energy, rigid_bc)
+    rows = [MODELS[deck.materials[n].type].state for n in deformable]
+    state0 = np.zeros((len(deformable), max((len(r) for r in rows), default=0)))
+    for k, r in enumerate(rows):
+        state0[k, :len(r)] = r
+    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain, av, energy, rigid_bc,
+                         state0)
