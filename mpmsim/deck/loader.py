@@ -220,6 +220,9 @@ def _clean_loc(loc, data) -> tuple:
             continue
         if isinstance(key, str) and not is_last and key in known and not (isinstance(node, dict) and key in node):
             continue
+        if (isinstance(key, str) and not is_last and isinstance(node, dict) and key not in node
+                and key in [v for v in node.values() if isinstance(v, str)]):
+            continue  # the tag of a nested discriminated union (a hardening law's `law`)
         out.append(key)
         if isinstance(node, dict):
             node = node.get(key)

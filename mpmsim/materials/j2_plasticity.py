@@ -3,8 +3,8 @@ F = Fe Fp, Hencky (logarithmic) elasticity and the exponential return map (Simo 
 doi:10.1016/0045-7825(92)90123-2; de Souza Neto, Peric, Owen 2008, ch. 14,
 doi:10.1002/9780470694626).
 
-Each particle keeps the elastic left Cauchy-Green tensor be = Fe Fe^T (identity at the start),
-the equivalent plastic strain eps_p and the plastic work. A stress update with the increment
+Each particle keeps the elastic left Cauchy-Green tensor be = Fe Fe^T (as be - I: zero at the
+start; see j2_stress), the equivalent plastic strain eps_p and the plastic work per unit mass. A stress update with the increment
 f = F_{n+1} F_n^-1 (= I + dt L, the stress kernel's own increment):
 
 1. be_tr = f be_n f^T; its spectral decomposition be_tr = sum_i lam_i^2 n_i (x) n_i (Jacobi,
@@ -42,9 +42,9 @@ from .model import J2_PLASTICITY, NPROP, MaterialModel, register
 LINEAR, POWER, VOCE = 0, 1, 2
 # property row: bulk and shear moduli, initial yield stress, law, its two constants, density
 P_K, P_G, P_YIELD, P_LAW, P_H1, P_H2, P_RHO = range(7)
-# material state row: be (Voigt xx yy zz xy yz xz), equivalent plastic strain, plastic work per unit mass
+# material state row: be - I (Voigt xx yy zz xy yz xz), equivalent plastic strain, plastic work per unit mass
 S_BE, S_EPS, S_WORK = 0, 6, 7
-STATE0 = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+STATE0 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 NEWTON_TOL = 1e-14
 
 
@@ -152,32 +152,40 @@ def plastic_multiplier(pr, G, q, eps):
 
 
 @njit(cache=True, inline="always")
-def j2_stress(pr, L, dt, J, s, f, be, work, vecs, hs):
+def j2_stress(pr, L, dt, J, s, h, B, work, vecs, hs):
     """The update of the module's text for one particle: hs its state row (in place), s its
-    Cauchy stress (Voigt, written), f, be, work, vecs 3x3 scratch. Returns the wave modulus."""
+    Cauchy stress (Voigt, written), h, B, work, vecs 3x3 scratch. Returns the wave modulus.
+
+    The state holds be - I, not be: with f = I + h (h = dt L),
+        be_tr - I = (h + h^T + h h^T) + f (be_n - I) f^T,
+    and its eigenvalues mu_i give e_i = 1/2 log1p(mu_i); be_{n+1} - I = sum expm1(2 e_i) n_i (x) n_i.
+    Elastic strains of metals are ~1e-3: be itself would hold them to 1e-16 of 1, i.e. three
+    digits fewer than be - I does, and a long rigid spin would show it."""
     K, G = pr[P_K], pr[P_G]
     for a in range(3):
         for b in range(3):
-            f[a, b] = (1.0 if a == b else 0.0) + dt * L[a, b]
+            h[a, b] = dt * L[a, b]
             vecs[a, b] = hs[S_BE + VOIGT[a, b]]
-    for a in range(3):  # work = f be_n
+    for a in range(3):  # work = f (be_n - I) = (be_n - I) + h (be_n - I)
         for b in range(3):
-            r = 0.0
+            r = vecs[a, b]
             for c in range(3):
-                r += f[a, c] * vecs[c, b]
+                r += h[a, c] * vecs[c, b]
             work[a, b] = r
-    for a in range(3):  # be = work f^T, symmetric by construction
+    for a in range(3):  # B = be_tr - I = work f^T + h + h^T + h h^T, symmetric by construction
         for b in range(a, 3):
-            r = 0.0
+            r = work[a, b]
+            hh = h[a, b] + h[b, a]
             for c in range(3):
-                r += work[a, c] * f[b, c]
-            be[a, b] = r
-            be[b, a] = r
-    lam2 = s[0:3]  # (the stress row is the scratch of the eigenvalues: it is written last)
-    symmetric_eigen(be, 3, work, lam2, vecs)
-    e0 = 0.5 * np.log(lam2[0])
-    e1 = 0.5 * np.log(lam2[1])
-    e2 = 0.5 * np.log(lam2[2])
+                r += work[a, c] * h[b, c]
+                hh += h[a, c] * h[b, c]
+            B[a, b] = r + hh
+            B[b, a] = B[a, b]
+    mu = s[0:3]  # (the stress row is the scratch of the eigenvalues: it is written last)
+    symmetric_eigen(B, 3, work, mu, vecs)
+    e0 = 0.5 * np.log1p(mu[0])
+    e1 = 0.5 * np.log1p(mu[1])
+    e2 = 0.5 * np.log1p(mu[2])
     tr = e0 + e1 + e2
     m = tr / 3.0
     d0, d1, d2 = e0 - m, e1 - m, e2 - m
@@ -194,15 +202,14 @@ def j2_stress(pr, L, dt, J, s, f, be, work, vecs, hs):
         sy, _ = flow_stress(pr, eps)
         hs[S_EPS] = eps
         hs[S_WORK] += dg * sy / pr[P_RHO]
-    # be from the returned strains, tau_i = K tr + 2 G d_i, sigma = tau / J (principal axes vecs)
-    b0, b1, b2 = np.exp(2.0 * (m + d0)), np.exp(2.0 * (m + d1)), np.exp(2.0 * (m + d2))
+    # be - I from the returned strains, tau_i = K tr + 2 G d_i, sigma = tau / J (axes: vecs)
+    b0, b1, b2 = np.expm1(2.0 * (m + d0)), np.expm1(2.0 * (m + d1)), np.expm1(2.0 * (m + d2))
     p = K * tr
     t0, t1, t2 = (p + 2.0 * G * d0) / J, (p + 2.0 * G * d1) / J, (p + 2.0 * G * d2) / J
     for a in range(3):
         for b in range(a, 3):
             va0, va1, va2 = vecs[a, 0] * vecs[b, 0], vecs[a, 1] * vecs[b, 1], vecs[a, 2] * vecs[b, 2]
-            k = VOIGT[a, b]
-            hs[S_BE + k] = b0 * va0 + b1 * va1 + b2 * va2
+            hs[S_BE + VOIGT[a, b]] = b0 * va0 + b1 * va1 + b2 * va2
             work[a, b] = t0 * va0 + t1 * va1 + t2 * va2
     s[0] = work[0, 0]
     s[1] = work[1, 1]
