@@ -35,7 +35,7 @@ from pydantic import Field
 
 from ..linalg import symmetric_eigen
 from ..schema_base import Strict
-from .kernels import VOIGT
+from .kernels import VOIGT, voigt_from_upper
 from .model import J2_PLASTICITY, NPROP, MaterialModel, register
 
 # hardening laws (property row slot LAW)
@@ -211,12 +211,7 @@ def j2_stress(pr, L, dt, J, s, h, B, work, vecs, hs):
             va0, va1, va2 = vecs[a, 0] * vecs[b, 0], vecs[a, 1] * vecs[b, 1], vecs[a, 2] * vecs[b, 2]
             hs[S_BE + VOIGT[a, b]] = b0 * va0 + b1 * va1 + b2 * va2
             work[a, b] = t0 * va0 + t1 * va1 + t2 * va2
-    s[0] = work[0, 0]
-    s[1] = work[1, 1]
-    s[2] = work[2, 2]
-    s[3] = work[0, 1]
-    s[4] = work[1, 2]
-    s[5] = work[0, 2]
+    voigt_from_upper(work, s)
     # rho c^2 of the Hencky solid: the bulk part K (1 - ln J) / J (d p / d rho of p = -K ln J / J)
     return (K * (1.0 - np.log(J)) + 4.0 / 3.0 * G) / J
 

@@ -19,6 +19,7 @@ from mpmsim.materials.j2_plasticity import S_BE, S_EPS, S_WORK, STATE0
 from mpmsim.materials.kernels import VOIGT
 
 from ..conftest import deck_from
+from .test_bad_decks import BASE as ELASTIC_BASE
 
 pytestmark = pytest.mark.plasticity
 
@@ -415,18 +416,9 @@ def test_a_block_under_a_platen_yields_and_the_ledger_closes(tmp_path):
 
 # --- deck checks --------------------------------------------------------------------------------
 
-BASE = """\
-title: base
-units: mm-g-ms
-grid:
-  cell_size: 1.0
-  boundaries: {ymin: fixed}
-materials:
-  block: {type: j2_plasticity, E: 200000.0, nu: 0.3, density: 0.0078, yield: 300.0, hardening: {law: linear, modulus: 2000.0}}
-bodies:
-  - {shape: rectangle, min: [0, 0], max: [4, 4], material: block}
-time: {end: 0.1}
-"""
+BASE = ELASTIC_BASE.replace("block: {type: neo_hookean, K: 100.0, G: 50.0, density: 0.001}",
+                            "block: {type: j2_plasticity, E: 200000.0, nu: 0.3, density: 0.0078, yield: 300.0, "
+                            "hardening: {law: linear, modulus: 2000.0}}")
 
 BAD = [
     ("yield zero", ("yield: 300.0", "yield: 0.0"), "materials.block.yield", "greater than 0"),
