@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit
 from pydantic import Field
 
-from ..linalg import symmetric_eigen
+from .. import linalg
 from ..schema_base import Strict
 from .kernels import VOIGT, voigt_from_upper
 from .model import J2_PLASTICITY, NPROP, MaterialModel, register
@@ -182,7 +182,7 @@ def j2_stress(pr, L, dt, J, s, h, B, work, vecs, hs):
             B[a, b] = r + hh
             B[b, a] = B[a, b]
     mu = s[0:3]  # (the stress row is the scratch of the eigenvalues: it is written last)
-    symmetric_eigen(B, 3, work, mu, vecs)
+    linalg.symmetric_eigen(B, 3, work, mu, vecs)
     e0 = 0.5 * np.log1p(mu[0])
     e1 = 0.5 * np.log1p(mu[1])
     e2 = 0.5 * np.log1p(mu[2])
