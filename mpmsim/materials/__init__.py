@@ -56,15 +56,14 @@ class MaterialTable:
     energy: np.ndarray = None  # (n_deformable,) bool: particles carry internal energy U and pressure
     rigid_bc: list = field(default_factory=list)  # (n_rigid,) bool: the rigid material sets velocity conditions
     state0: np.ndarray = None  # (n_deformable, k) initial material state of each (k: the widest model's row)
+    # {name: (n_deformable,) slot of the material state, -1 where the material has none}: VTU
+    # fields (MaterialModel.state_output) and dissipated energies (MaterialModel.dissipation)
+    state_fields: dict = field(default_factory=dict)
+    dissipations: dict = field(default_factory=dict)
 
     def state_slots(self, kind: str) -> dict[str, np.ndarray]:
-        """{name: (n_deformable,) slot of the material state, -1 where the material has none} of
-        the models' `state_output` (kind "output") or `dissipation` (kind "dissipation")."""
-        out: dict[str, np.ndarray] = {}
-        for k, c in enumerate(self.type_code):
-            for name, slot in getattr(model_of(c), "state_output" if kind == "output" else kind).items():
-                out.setdefault(name, np.full(len(self.type_code), -1, dtype=np.int64))[k] = slot
-        return out
+        """state_fields (kind "output") or dissipations (kind "dissipation")."""
+        return self.state_fields if kind == "output" else self.dissipations
 
     def wave_moduli(self) -> np.ndarray:
         """(n_deformable,) rho c^2 of each deformable material at rest (its model's)."""

@@ -24,11 +24,12 @@ everything about it and registers a `MaterialModel`:
   and implicit particles use (mpmsim/fem/elements.py dispatches on the built-in codes);
 - `check`: deck checks of an entry, (entry, dim) -> [(key, message)];
 - per-particle material state (history variables): `state`, the initial row of the floats
-  each particle of the model carries (its length is the width the model asks for; a scene's
-  particles carry the widest row its models ask for, none when no model asks); the stress
-  update reads and updates it (`hs`); `state_output`: VTU point fields the output takes from
-  it, {name: slot}; `dissipation`: history totals of energy dissipated, {name: slot of the
-  energy per unit mass}, summed as sum m_p hs[slot] and booked by the energy ledger.
+  each particle of the model carries, or a function of the deck entry that gives it (its
+  length is the width the model asks for; a scene's particles carry the widest row its
+  models ask for, none when no model asks); the stress update reads and updates it (`hs`);
+  `state_output`: VTU point fields the output takes from it, {name: slot} (or a function of
+  the deck entry giving that); `dissipation`: history totals of energy dissipated, {name: slot
+  of the energy per unit mass}, summed as sum m_p hs[slot] and booked by the energy ledger.
 
 `register(model)` gives a model its type code and adds its schema to the deck's; the built-in
 models keep the codes the kernels and tests name. An unknown code is an error
@@ -64,8 +65,8 @@ class MaterialModel:
     code: int = -1
     tag: str = ""  # names the model's compiled kernels (its module's source digest for plugins)
     extra: dict = field(default_factory=dict)
-    state: tuple = ()
-    state_output: dict = field(default_factory=dict)
+    state: tuple | Callable = ()
+    state_output: dict | Callable = field(default_factory=dict)
     dissipation: dict = field(default_factory=dict)
 
     def stress(self, dim: int) -> Callable | None:

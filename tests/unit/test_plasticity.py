@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from mpmsim.cli import app
 from mpmsim.materials import MODELS
-from mpmsim.materials.j2_plasticity import S_BE, S_EPS, S_WORK, STATE0
+from mpmsim.materials.j2_plasticity import S_BE, S_EPS, S_TEMP, S_WORK, STATE0
 from mpmsim.materials.kernels import VOIGT
 
 from ..conftest import deck_from
@@ -40,23 +40,23 @@ H = LINEAR["modulus"]
 class Point:
     """One material point: its state row, Cauchy stress and deformation gradient."""
 
-    def __init__(self, pr: np.ndarray, dim: int = 3):
+    def __init__(self, pr: np.ndarray, dim: int = 3, hs0: tuple = STATE0):
         self.pr, self.dim = pr, dim
         self.fn = MODEL.stress(dim)
-        self.hs = np.array(STATE0)
+        self.hs = np.array(hs0)
         self.s = np.zeros(6)
         self.F = np.eye(3)
         self.scratch = [np.zeros((3, 3)) for _ in range(4)]
         self.eos = np.zeros(6)
 
-    def go(self, F_new: np.ndarray, commit: bool = True, h: np.ndarray | None = None) -> np.ndarray:
-        """Step to F_new; the new Cauchy stress (the state keeps it only when commit). h: the
-        increment f - I (f = F_new F^-1) when the caller knows it without cancellation."""
-        L = F_new @ np.linalg.inv(self.F) - np.eye(3) if h is None else h
+    def go(self, F_new: np.ndarray, commit: bool = True, h: np.ndarray | None = None, dt: float = 1.0) -> np.ndarray:
+        """Step to F_new in time dt; the new Cauchy stress (the state keeps it only when commit).
+        h: the increment f - I (f = F_new F^-1) when the caller knows it without cancellation."""
+        L = (F_new @ np.linalg.inv(self.F) - np.eye(3) if h is None else h) / dt
         J = float(np.linalg.det(F_new))
         hs, s = (self.hs, self.s) if commit else (self.hs.copy(), self.s.copy())
         f = F_new[:2, :2] if self.dim == 2 else F_new
-        self.fn(self.pr, L, 1.0, F_new, J, f[0, 0], f[0, 1], f[1, 0], f[1, 1], s, *self.scratch, self.eos, hs)
+        self.fn(self.pr, L, dt, F_new, J, f[0, 0], f[0, 1], f[1, 0], f[1, 1], s, *self.scratch, self.eos, hs)
         if commit:
             self.F = F_new.copy()
         return s
@@ -359,10 +359,82 @@ def test_a_yielded_point_spun_ten_turns_keeps_its_invariants(dim, axis):
     assert np.abs(pt.s - s0).max() < 1e-12 * np.abs(s0).max()
 
 
+# --- Johnson-Cook ----------------------------------------------------------------------------
+
+JC = {"law": "johnson_cook", "A": 300.0, "B": 500.0, "n": 0.4, "C": 0.02, "reference_rate": 1.0, "m": 1.1,
+      "melt_temperature": 1800.0, "room_temperature": 293.0, "heat_capacity": 460.0, "taylor_quinney": 0.9}
+
+
+def jc_point(**change) -> Point:
+    h = dict(JC, **change)
+    entry = MODEL.schema.model_validate({"type": "j2_plasticity", "E": E, "nu": NU, "density": RHO, "hardening": h})
+    return Point(MODEL.row(entry), 3, MODEL.state(entry))
+
+
+def test_johnson_cook_slow_at_room_temperature_is_A_plus_B_eps_to_the_n():
+    """No heating (taylor_quinney 0) and steps of 1e9 time units (plastic strain rates far below
+    the reference: the rate factor is 1): monotone uniaxial strain to lam = 1.5 in 200 steps
+    gives the eps_p of the consistency condition 2G (eps - 3p/2) = A + B p^n (brentq) to 1e-10,
+    and the temperature stays room temperature exactly."""
+    pt = jc_point(taylor_quinney=0.0)
+    for lam in np.linspace(1, 1.5, 201)[1:]:
+        pt.go(np.diag([lam, 1.0, 1.0]), dt=1e9)
+        e = np.log(lam)
+        if 2 * G * e <= JC["A"]:
+            continue
+        p = brentq(lambda p: 2 * G * (e - 1.5 * p) - JC["A"] - JC["B"] * p ** JC["n"], 0.0, e / 1.5, xtol=1e-16,
+                   rtol=1e-15)
+        assert pt.hs[S_EPS] == pytest.approx(p, rel=1e-10)
+    assert pt.hs[S_TEMP] == JC["room_temperature"]
+
+
+def test_johnson_cook_rate_and_adiabatic_heating_meet_the_flow_stress_every_step():
+    """Uniaxial strain to lam = 2 in 400 steps of 1e-4 time units (plastic strain rates 2.6 to 16
+    times the reference rate): on every plastic step von Mises(tau) = (A + B eps^n)(1 + C ln(d eps_p /
+    (dt rate0)))(1 - T*^m) with the temperature at the step's start (1e-12); the temperature
+    rises by beta d w_p / c_p each step and ends at T_r + beta w_p / c_p (1e-12); the hot, fast
+    flow stress differs from the quasi-static, cold one by its two factors."""
+    pt, dt = jc_point(), 1e-4
+    heated = 0
+    for lam in np.linspace(1, 2, 401)[1:]:
+        eps0, T0, w0 = pt.hs[S_EPS], pt.hs[S_TEMP], pt.hs[S_WORK]
+        pt.go(np.diag([lam, 1.0, 1.0]), dt=dt)
+        dg = pt.hs[S_EPS] - eps0
+        if dg == 0.0:
+            continue
+        ts = (T0 - JC["room_temperature"]) / (JC["melt_temperature"] - JC["room_temperature"])
+        sy = ((JC["A"] + JC["B"] * pt.hs[S_EPS] ** JC["n"]) * (1 + JC["C"] * np.log(max(dg / (dt * JC["reference_rate"]), 1.0)))
+              * (1 - max(ts, 0.0) ** JC["m"]))
+        assert mises(pt.tau()) == pytest.approx(sy, rel=1e-12)
+        assert pt.hs[S_TEMP] - T0 == pytest.approx(JC["taylor_quinney"] * (pt.hs[S_WORK] - w0) / JC["heat_capacity"],
+                                                   rel=1e-12)
+        heated += 1
+    assert heated > 300
+    rise = pt.hs[S_TEMP] - JC["room_temperature"]
+    assert rise == pytest.approx(JC["taylor_quinney"] * pt.hs[S_WORK] / JC["heat_capacity"], rel=1e-12)
+    assert rise > 50.0  # (hundreds of MPa over ~0.5 plastic strain, rho c_p ~ 3.6 MPa/K)
+
+
+def test_a_melted_johnson_cook_point_loses_its_deviatoric_stress_in_one_step():
+    """A heat capacity so small that the first plastic steps heat the point past T_m: from the
+    step after, each step returns the whole deviator (|dev tau| <= 1e-12 A) and the pressure is
+    Hencky's."""
+    pt, melted = jc_point(heat_capacity=0.01), 0
+    for lam in np.linspace(1, 1.2, 101)[1:]:
+        hot = pt.hs[S_TEMP] >= JC["melt_temperature"]
+        pt.go(np.diag([lam, 1.0, 1.0]), dt=1e-4)
+        if hot:
+            tau = pt.tau()
+            assert np.abs(tau - np.trace(tau) / 3 * np.eye(3)).max() <= 1e-12 * JC["A"]
+            assert np.trace(tau) / 3 == pytest.approx(K * np.log(lam), rel=1e-12)
+            melted += 1
+    assert melted > 50
+
+
 # --- MPM run ----------------------------------------------------------------------------------
 
 
-def platen_deck(ledger: bool = True) -> dict:
+def platen_deck(ledger: bool = True, hardening: dict | None = None) -> dict:
     """A plane-strain 8 x 10 mm block (320 particles) on a rigid base, compressed 1.5 mm (15%) by a
     rigid platen (ramped to 10 mm/ms, 1% of the wave speed, held, ramped back to rest), roller
     wall at x = 0: yield strain 1%, so the strain is mostly plastic."""
@@ -372,7 +444,8 @@ def platen_deck(ledger: bool = True) -> dict:
         "shape_function": "gimp", "particles_per_direction": 2,
         "materials": {
             "block": {"type": "j2_plasticity", "E": 1000.0, "nu": 0.3, "density": 0.001, "yield": 10.0,
-                      "hardening": {"law": "linear", "modulus": 100.0}},
+                      "hardening": {"law": "linear", "modulus": 100.0}} if hardening is None else
+                     {"type": "j2_plasticity", "E": 1000.0, "nu": 0.3, "density": 0.001, "hardening": hardening},
             "bottom": {"type": "rigid", "velocity": [0.0, 0.0], "constrain": ["y"]},
             "top": {"type": "rigid", "velocity": {"times": [0.0, 0.05, 0.15, 0.2],
                                                  "values": [[0, 0], [0, -10.0], [0, -10.0], [0, 0]]},
@@ -384,18 +457,24 @@ def platen_deck(ledger: bool = True) -> dict:
         "output": {"energy_ledger": ledger, "history_interval": 0.01, "vtu_interval": 0.25}}
 
 
-def test_a_block_under_a_platen_yields_and_the_ledger_closes(tmp_path):
-    """platen_deck through Simulation: the block yields (eps_p > 0.05 at the platen, and more
-    plastic strain near the platen than the yield strain everywhere), the history's
-    plastic_work is sum m w_p and most of the work put in, the energy ledger closes to 1% of
-    the work, and the VTU frames carry plastic_strain and plastic_work."""
+PLATEN_JC = {"law": "johnson_cook", "A": 10.0, "B": 20.0, "n": 0.5, "C": 0.05, "reference_rate": 0.01, "m": 1.0,
+             "melt_temperature": 400.0, "room_temperature": 293.0, "heat_capacity": 20.0}
+
+
+@pytest.mark.parametrize("hardening", [None, PLATEN_JC], ids=["linear", "johnson_cook"])
+def test_a_block_under_a_platen_yields_and_the_ledger_closes(tmp_path, hardening):
+    """platen_deck through Simulation (linear hardening, and Johnson-Cook whose heating softens
+    the band where the strain localises up to the melting temperature): the block yields (eps_p > 0.05 at the platen,
+    median above the 1% yield strain), the history's plastic_work is sum m w_p and most of the
+    work put in, the energy ledger closes to 1% of the work, and the VTU frames carry
+    plastic_strain and plastic_work (Johnson-Cook: temperature too, T_r + beta w_p / c_p)."""
     import meshio
 
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
     from mpmsim.tasks.ledger import energy_residual
 
-    sim = Simulation(build_scene(deck_from(platen_deck())), out_dir=tmp_path, threads=1)
+    sim = Simulation(build_scene(deck_from(platen_deck(hardening=hardening))), out_dir=tmp_path, threads=1)
     sim.run()
     st, P = sim.state, sim.state.particles
     eps = P.mstate[:, S_EPS]
@@ -412,6 +491,11 @@ def test_a_block_under_a_platen_yields_and_the_ledger_closes(tmp_path):
         assert name in mesh.point_data
     pieces = dict(P.vtu_pieces(st))
     assert np.array_equal(pieces["particles"]["point_data"]["plastic_strain"], eps)
+    assert ("temperature" in mesh.point_data) == (hardening is not None)
+    if hardening is not None:
+        T = mesh.point_data["temperature"]
+        assert T == pytest.approx(293.0 + 0.9 * P.mstate[:, S_WORK] / 20.0, rel=1e-12)
+        assert T.max() > 300.0
 
 
 # --- deck checks --------------------------------------------------------------------------------
@@ -433,6 +517,17 @@ BAD = [
      "materials.block.hardening.saturation", "below the yield stress"),
     ("unknown law", ("law: linear", "law: parabolic"), "materials.block.hardening", "'linear'"),
     ("key of another law", ("modulus: 2000.0", "rate: 2000.0"), "materials.block.hardening.rate", "unknown key"),
+    ("Johnson-Cook melting below room", ("yield: 300.0, hardening: {law: linear, modulus: 2000.0}",
+     "hardening: {law: johnson_cook, A: 300, B: 500, n: 0.4, C: 0.02, reference_rate: 1, m: 1, "
+     "melt_temperature: 200, heat_capacity: 460}"), "materials.block.hardening.melt_temperature", "above room_temperature"),
+    ("Johnson-Cook with yield", ("hardening: {law: linear, modulus: 2000.0}",
+     "hardening: {law: johnson_cook, A: 300, B: 500, n: 0.4, C: 0.02, reference_rate: 1, m: 1, "
+     "melt_temperature: 1800, heat_capacity: 460}"), "materials.block.yield", "hardening.A"),
+    ("yield missing", ("yield: 300.0, ", ""), "materials.block.yield", "required key is missing"),
+    ("Taylor-Quinney above 1", ("yield: 300.0, hardening: {law: linear, modulus: 2000.0}",
+     "hardening: {law: johnson_cook, A: 300, B: 500, n: 0.4, C: 0.02, reference_rate: 1, m: 1, "
+     "melt_temperature: 1800, heat_capacity: 460, taylor_quinney: 1.5}"), "materials.block.hardening.taylor_quinney",
+     "less than or equal to 1"),
     ("FEM body", ("material: block}", "material: block, discretization: fem, element_size: 1.0}"),
      "bodies.0.material", "not j2_plasticity"),
 ]
@@ -460,3 +555,37 @@ def test_the_base_deck_is_valid_and_the_gpu_refuses_it(tmp_path):
     result = CliRunner().invoke(app, ["check", str(deck), "--device", "cuda"])
     assert result.exit_code == 2, result.output
     assert ": materials.block.type: material model j2_plasticity is not on the GPU yet" in result.output
+
+
+def test_a_j2_run_restarted_from_its_checkpoint_ends_as_the_uninterrupted_run(tmp_path):
+    """platen_deck to t = 0.1 ms, stopped at step 150 (yielded by then) and restarted from its
+    checkpoint: the material state (be - I, eps_p, plastic work) and the history, plastic_work
+    column included, end bit for bit as the uninterrupted run's."""
+    from mpmsim.output.checkpoint import checkpoint_path
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation, StopRequested
+
+    data = dict(platen_deck(), time={"end": 0.1, "cfl": 0.4},
+                output={"energy_ledger": True, "history_interval": 0.01, "checkpoint_interval": "off"})
+    sim = lambda out, resume=False: Simulation(build_scene(deck_from(data)), out_dir=out, threads=1,  # noqa: E731
+                                               resume=resume)
+    whole = sim(tmp_path / "whole")
+    whole.run()
+    part = sim(tmp_path / "part")
+
+    def stop_here():
+        if part.state.step == 150:
+            raise StopRequested()
+
+    with pytest.raises(StopRequested):
+        part.run(between_steps=stop_here)
+    assert part.state.particles.mstate[:, S_EPS].max() > 0.0
+    assert checkpoint_path(tmp_path / "part", "deck").exists()
+    again = sim(tmp_path / "part", resume=True)
+    again.resume()
+    assert again.state.step == 150
+    again.run()
+    assert again.state.step == whole.state.step > 150
+    assert np.array_equal(again.state.particles.mstate, whole.state.particles.mstate)
+    i = whole.recorder.names.index("wall_s")
+    assert [r[:i] + r[i + 1:] for r in again.recorder.rows] == [r[:i] + r[i + 1:] for r in whole.recorder.rows]
