@@ -10,10 +10,10 @@ history adds them up and adds the run's accounts. Columns, in order:
 - time, step, dt, wall_s (wall-clock seconds since the run started: not reproducible);
 - the volume-weighted Cauchy stress average over deformable material, kinetic and strain
   energy, the work put in (walls, rigid bodies, gravity, loads), internal energy (with
-  Mie–Grüneisen or artificial viscosity), linear momentum p<axis>, angular momentum about
-  the origin (L, or Lx, Ly, Lz in 3D; with APIC's affine part),
-  energy dissipated inside materials (plastic_work, with J2 plasticity), spin (angular momentum about
-  the centre of mass, L - c x p: spin, or spinx, spiny, spinz in 3D), interface energy;
+  Mie–Grüneisen or artificial viscosity), energy dissipated inside materials (plastic_work,
+  with J2 plasticity), linear momentum p<axis>, angular momentum about the origin (L, or Lx,
+  Ly, Lz in 3D; with APIC's affine part), spin (angular momentum about the centre of mass,
+  L - c x p: spin, or spinx, spiny, spinz in 3D), interface energy;
 - particle velocity noise (and its null-space part when asked for);
 - with output.energy_ledger: transfer_loss, contact_loss, condition_loss, force_gap_loss and
   energy_residual (mpmsim/tasks/ledger.py);
