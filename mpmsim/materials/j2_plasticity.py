@@ -4,8 +4,8 @@ doi:10.1016/0045-7825(92)90123-2; de Souza Neto, Peric, Owen 2008, ch. 14,
 doi:10.1002/9780470694626).
 
 Each particle keeps the elastic left Cauchy-Green tensor be = Fe Fe^T (as be - I: zero at the
-start; see j2_stress), the equivalent plastic strain eps_p and the plastic work per unit mass. A stress update with the increment
-f = F_{n+1} F_n^-1 (= I + dt L, the stress kernel's own increment):
+start; see j2_stress), the equivalent plastic strain eps_p and the plastic work per unit mass.
+A stress update with the increment f = F_{n+1} F_n^-1 (= I + dt L, the stress kernel's own):
 
 1. be_tr = f be_n f^T; its spectral decomposition be_tr = sum_i lam_i^2 n_i (x) n_i (Jacobi,
    mpmsim.linalg.symmetric_eigen: no LAPACK);
