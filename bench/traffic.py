@@ -465,7 +465,7 @@ def stress_flops(K: int, dim: int) -> dict[str, int]:
 
 
 @njit(cache=True, inline="always")
-def no_model(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+def no_model(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
     """A stand-in for the neo-Hookean model costing next to nothing (stress from F11 only), in
     the models' stress signature (mpmsim/materials/model.py)."""
     for a in range(6):

@@ -177,7 +177,7 @@ class State:
         mats = scene.materials
         scheme = run.update.scheme
         particles = Particles.from_seed(scene.deformable, mats.density, scene.semi_size, scene.deformable_bodies,
-                                        affine=scheme == "apic", energy=mats.tracks_energy)
+                                        affine=scheme == "apic", energy=mats.tracks_energy, state0=mats.state0)
         rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim, run.stability.rigid_penetration)
         sf = shape_function(run.shape_function)
         K = sf.nodes_per_particle(dim)

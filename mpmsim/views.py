@@ -69,6 +69,7 @@ class ParticleView(NamedTuple):
     pressure: np.ndarray
     q: np.ndarray
     xref: np.ndarray
+    mstate: np.ndarray  # (n, k) material state (history variables; k = 0 when no model keeps any)
 
 
 class RigidView(NamedTuple):

@@ -47,6 +47,10 @@ class Particles(BodySet):
     semi: np.ndarray  # (dim,) undeformed particle semi-lengths
     local_body: np.ndarray  # (n,) row of the particle's body in `infos`
     infos: list  # BodyInfo of each deformable particle body
+    # (n, k) material state (history variables of the models that keep some, e.g. J2
+    # plasticity's elastic left Cauchy-Green tensor and plastic strain; mpmsim/materials/model.py):
+    # k is the widest row the scene's models ask for, 0 when none does
+    mstate: np.ndarray = None
 
     kind = "particles"
     device_sums = None  # the energy check's sums from a GPU's arrays (mpmsim/gpu/step.py), when on one
@@ -65,7 +69,7 @@ class Particles(BodySet):
 
     def view(self) -> ParticleView:
         return ParticleView(self.x, self.v, self.mass, self.vol, self.vol0, self.F, self.stress, self.mat, self.x0,
-                            self.B, self.C, self.U, self.pressure, self.q, self.xref)
+                            self.B, self.C, self.U, self.pressure, self.q, self.xref, self.mstate)
 
     @property
     def affine(self) -> bool:
@@ -73,7 +77,9 @@ class Particles(BodySet):
         return len(self.B) == self.n and self.n > 0
 
     @classmethod
-    def from_seed(cls, seed, density, semi, infos: list[BodyInfo], affine: bool, energy: bool) -> "Particles":
+    def from_seed(cls, seed, density, semi, infos: list[BodyInfo], affine: bool, energy: bool,
+                  state0: np.ndarray | None = None) -> "Particles":
+        """state0: (n_deformable, k) each material's initial material state (None: k = 0)."""
         dim = seed.x.shape[1]
         mass = seed.vol * density[seed.mat]
         n = len(mass)
@@ -87,7 +93,8 @@ class Particles(BodySet):
         local = np.array([row[int(b)] for b in seed.body], dtype=np.int64) if n else np.zeros(0, dtype=np.int64)
         return cls(x, seed.v.copy(), mass, seed.vol.copy(), seed.vol.copy(), F, np.zeros((n, 6)), seed.mat.copy(),
                    seed.body.copy(), seed.x.copy(), np.zeros((na, dim, dim)), np.zeros((na, dim, dim)), np.zeros(ne),
-                   np.zeros(ne), np.zeros(ne), x.copy() if affine else x, np.asarray(semi, float), local, infos)
+                   np.zeros(ne), np.zeros(ne), x.copy() if affine else x, np.asarray(semi, float), local, infos,
+                   np.ascontiguousarray(state0[seed.mat]) if state0 is not None else np.zeros((n, 0)))
 
     def sums(self, state, detail: bool = True) -> Sums | None:
         if self.n == 0:
@@ -148,7 +155,24 @@ class Particles(BodySet):
             on = mats.energy[self.mat]
             data["internal_energy"] = np.where(on, self.U, 0.0)
             data["pressure"] = np.where(on, self.pressure, 0.0)
+        for name, slots in mats.state_slots("output").items():  # zero on particles of models without them
+            data[name] = self.state_values(slots)
         return [("particles", {"points": pad3(self.x), "point_data": data})]
+
+    def state_values(self, slots: np.ndarray) -> np.ndarray:
+        """(n,) each particle's material-state entry at its material's slot (slots: (n_deformable,),
+        -1 where the material has none: 0 there)."""
+        s = slots[self.mat]
+        out = np.zeros(self.n)
+        on = np.nonzero(s >= 0)[0]
+        out[on] = self.mstate[on, s[on]]
+        return out
+
+    def dissipation(self, materials) -> dict[str, float]:
+        """{name: energy} dissipated by the models' internal processes (plastic work: sum of
+        m_p times the energy per unit mass its model keeps; MaterialModel.dissipation)."""
+        return {name: float(linalg.dot(self.mass, self.state_values(slots)))
+                for name, slots in materials.state_slots("dissipation").items()}
 
     def describe(self, state, p: int, units) -> str:
         name = state.materials.deformable[int(self.mat[p])]

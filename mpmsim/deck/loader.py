@@ -201,7 +201,12 @@ def _names() -> tuple[set, set, list]:
     models = _all_models()
     tags = {"rigid", *MODELS, *schema.SHAPES_2D, *schema.SHAPES_3D, "box", "mesh"}
     branches = {c.__name__ for c in models} | {"list[float]", "list[int]", "float", "int"}
-    return tags, branches, sorted({name for c in models for name in c.model_fields})
+    return tags, branches, sorted({name for c in models for name in deck_keys(c)})
+
+
+def deck_keys(model: type[BaseModel]) -> list[str]:
+    """A schema model's keys as a deck spells them (a field's alias where it has one: `yield`)."""
+    return [f.alias or name for name, f in model.model_fields.items()]
 
 
 def _clean_loc(loc, data) -> tuple:
@@ -215,6 +220,9 @@ def _clean_loc(loc, data) -> tuple:
             continue
         if isinstance(key, str) and not is_last and key in known and not (isinstance(node, dict) and key in node):
             continue
+        if (isinstance(key, str) and not is_last and isinstance(node, dict) and key not in node
+                and key in [v for v in node.values() if isinstance(v, str)]):
+            continue  # the tag of a nested discriminated union (a hardening law's `law`)
         out.append(key)
         if isinstance(node, dict):
             node = node.get(key)
@@ -242,7 +250,7 @@ def _message(err) -> str:
         key = str(loc[-1]) if loc else "?"
         tags = [k for k in loc[:-1] if isinstance(k, str) and k in known]
         model = _model_of_tag(tags[-1]) if tags else None
-        names = sorted(model.model_fields) if model is not None else field_names
+        names = sorted(deck_keys(model)) if model is not None else field_names
         close = difflib.get_close_matches(key, [n for n in names if n != key], n=1, cutoff=0.75)
         if model is not None and key in field_names and not close:  # a key of another kind
             return f"unknown key '{key}' for '{tags[-1]}' (its keys: {', '.join(names)})"

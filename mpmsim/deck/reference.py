@@ -62,7 +62,7 @@ def _table(model: type[BaseModel]) -> str:
     rows = ["| key | type | default | meaning |", "|---|---|---|---|"]
     for name, f in model.model_fields.items():
         desc = (f.description or "").replace("\n", " ").replace("|", "\\|")
-        rows.append(f"| `{name}` | {_type_name(f.annotation)} | {_default(f)} | {desc} |")
+        rows.append(f"| `{f.alias or name}` | {_type_name(f.annotation)} | {_default(f)} | {desc} |")
     return "\n".join(rows)
 
 

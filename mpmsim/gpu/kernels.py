@@ -487,7 +487,8 @@ def stress_kernel(model: int, dim: int):
                 for b in range(3):
                     F[p, a, b] = F3[a, b]
         vol[p] = vol0[p] * J
-        modulus = STRESS(props[mt], L, dt, F3, J, n00, n01, n10, n11, stress[p], W, A, Ai, Q, eos)
+        # (no material state on the GPU: its models keep none, and get an empty row)
+        modulus = STRESS(props[mt], L, dt, F3, J, n00, n01, n10, n11, stress[p], W, A, Ai, Q, eos, eos[:0])
         speed2 = 0.0
         for a in range(dim):
             speed2 += v[p, a] * v[p, a]

@@ -1,5 +1,5 @@
 """Materials: one module per material model (linear_elastic, neo_hookean,
-compressible_neo_hookean, mie_gruneisen, transversely_isotropic), each registering a
+compressible_neo_hookean, mie_gruneisen, transversely_isotropic, j2_plasticity), each registering a
 `MaterialModel` (model.py: its deck schema, property row, MPM stress update, energy, wave and
 bulk moduli, FEM forms); and the table of (type code, property row) the kernels take
 (`MaterialTable`; mpmsim/scene/materials.py resolves it from the deck).
@@ -18,8 +18,9 @@ from ..views import MaterialView
 # the built-in models, in the order the deck reference lists them
 from . import linear_elastic, neo_hookean, compressible_neo_hookean  # noqa: F401,I001
 from . import mie_gruneisen, transversely_isotropic  # noqa: F401,I001
-from .model import (ANISOTROPIC, COMPRESSIBLE_NH, LINEAR_ELASTIC, MIE_GRUNEISEN, MODELS,  # noqa: F401
-                    NEO_HOOKEAN, NPROP, MaterialModel, model_of, register)
+from . import j2_plasticity  # noqa: F401,I001
+from .model import (ANISOTROPIC, COMPRESSIBLE_NH, J2_PLASTICITY, LINEAR_ELASTIC, MIE_GRUNEISEN,  # noqa: F401
+                    MODELS, NEO_HOOKEAN, NPROP, MaterialModel, model_of, register)
 from .transversely_isotropic import transversely_isotropic_compliance  # noqa: F401
 
 
@@ -54,6 +55,15 @@ class MaterialTable:
     av: np.ndarray = None  # (n_deformable, 2) artificial viscosity [A1, A2], zeros where off
     energy: np.ndarray = None  # (n_deformable,) bool: particles carry internal energy U and pressure
     rigid_bc: list = field(default_factory=list)  # (n_rigid,) bool: the rigid material sets velocity conditions
+    state0: np.ndarray = None  # (n_deformable, k) initial material state of each (k: the widest model's row)
+    # {name: (n_deformable,) slot of the material state, -1 where the material has none}: VTU
+    # fields (MaterialModel.state_output) and dissipated energies (MaterialModel.dissipation)
+    state_fields: dict = field(default_factory=dict)
+    dissipations: dict = field(default_factory=dict)
+
+    def state_slots(self, kind: str) -> dict[str, np.ndarray]:
+        """state_fields (kind "output") or dissipations (kind "dissipation")."""
+        return self.state_fields if kind == "output" else self.dissipations
 
     def wave_moduli(self) -> np.ndarray:
         """(n_deformable,) rho c^2 of each deformable material at rest (its model's)."""

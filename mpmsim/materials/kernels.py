@@ -68,12 +68,18 @@ def rotate_stress(L, dt, s, W, A, Ai, Q):
                 for d in range(3):
                     r += Q[a, c] * A[c, d] * Q[b, d]
             W[a, b] = r  # W reused as the rotated stress (upper triangle)
-    s[0] = W[0, 0]
-    s[1] = W[1, 1]
-    s[2] = W[2, 2]
-    s[3] = W[0, 1]
-    s[4] = W[1, 2]
-    s[5] = W[0, 2]
+    voigt_from_upper(W, s)
+
+
+@njit(cache=True, inline="always")
+def voigt_from_upper(M, s):
+    """s <- the symmetric 3x3 tensor whose upper triangle M holds, in Voigt order."""
+    s[0] = M[0, 0]
+    s[1] = M[1, 1]
+    s[2] = M[2, 2]
+    s[3] = M[0, 1]
+    s[4] = M[1, 2]
+    s[5] = M[0, 2]
 
 
 # slots of the eos row

@@ -59,7 +59,7 @@ def linear_elastic_energy(E, nu, mu, s):
 
 
 @njit(cache=True, inline="always")
-def stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+def stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
     return hypoelastic_stress(pr[0], pr[1], L, dt, s, W, A, Ai, Q)
 
 

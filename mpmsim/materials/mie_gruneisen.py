@@ -78,7 +78,7 @@ def mie_gruneisen_stress(K, G, gamma0, S1, F3, s, eos):
 
 
 @njit(cache=True, inline="always")
-def stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+def stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
     return mie_gruneisen_stress(pr[0], pr[1], pr[2], pr[3], F3, s, eos)
 
 

@@ -8,11 +8,12 @@ everything about it and registers a `MaterialModel`:
 - `row`: the property row the kernels read (NPROP floats) from a deck entry;
 - `wave_modulus`: rho c^2 of the material at rest (first time step, energy round-off scale);
 - `stress_2d`, `stress_3d`: the MPM stress update, compiled functions with one signature
-  (pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos) -> wave modulus; pr the row, L
-  the velocity gradient (3x3), F3 the new deformation gradient (3x3, F33 = 1 in 2D), J its
+  (pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs) -> wave modulus; pr the row,
+  L the velocity gradient (3x3), F3 the new deformation gradient (3x3, F33 = 1 in 2D), J its
   determinant, f00..f11 its in-plane entries (2D), s the particle's stress (Voigt, updated in
-  place), W, A, Ai, Q 3x3 scratch, eos the internal-energy row (mpmsim/materials/kernels.py);
-  None where the model has no explicit MPM form;
+  place), W, A, Ai, Q 3x3 scratch, eos the internal-energy row (mpmsim/materials/kernels.py),
+  hs the particle's material state row (below; updated in place); None where the model has
+  no explicit MPM form;
 - `energy`: strain energy per current volume (pr, F3, s, J) (compiled);
 - `bulk_modulus`: tangent bulk modulus J dp/deta (pr, J, p) for the artificial viscosity
   (compiled);
@@ -21,7 +22,14 @@ everything about it and registers a `MaterialModel`:
   only J and f00..f11);
 - `fem`: the model has the FEM forms (energy, first Piola stress, tangent) that FEM bodies
   and implicit particles use (mpmsim/fem/elements.py dispatches on the built-in codes);
-- `check`: deck checks of an entry, (entry, dim) -> [(key, message)].
+- `check`: deck checks of an entry, (entry, dim) -> [(key, message)];
+- per-particle material state (history variables): `state`, the initial row of the floats
+  each particle of the model carries, or a function of the deck entry that gives it (its
+  length is the width the model asks for; a scene's particles carry the widest row its
+  models ask for, none when no model asks); the stress update reads and updates it (`hs`);
+  `state_output`: VTU point fields the output takes from it, {name: slot} (or a function of
+  the deck entry giving that); `dissipation`: history totals of energy dissipated, {name: slot
+  of the energy per unit mass}, summed as sum m_p hs[slot] and booked by the energy ledger.
 
 `register(model)` gives a model its type code and adds its schema to the deck's; the built-in
 models keep the codes the kernels and tests name. An unknown code is an error
@@ -35,7 +43,7 @@ from typing import Callable
 
 NPROP = 72  # property row length
 # the built-in models' codes (tests and the FEM element kernels name them)
-LINEAR_ELASTIC, NEO_HOOKEAN, MIE_GRUNEISEN, ANISOTROPIC, COMPRESSIBLE_NH = 0, 1, 2, 3, 4
+LINEAR_ELASTIC, NEO_HOOKEAN, MIE_GRUNEISEN, ANISOTROPIC, COMPRESSIBLE_NH, J2_PLASTICITY = 0, 1, 2, 3, 4, 5
 FIRST_PLUGIN_CODE = 16  # codes of models registered outside mpmsim start here
 
 
@@ -57,6 +65,9 @@ class MaterialModel:
     code: int = -1
     tag: str = ""  # names the model's compiled kernels (its module's source digest for plugins)
     extra: dict = field(default_factory=dict)
+    state: tuple | Callable = ()
+    state_output: dict | Callable = field(default_factory=dict)
+    dissipation: dict = field(default_factory=dict)
 
     def stress(self, dim: int) -> Callable | None:
         return self.stress_2d if dim == 2 else self.stress_3d

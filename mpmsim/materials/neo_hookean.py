@@ -89,12 +89,12 @@ def neo_hookean_energy(K, G, F3):
 
 
 @njit(cache=True, inline="always")
-def stress_2d(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+def stress_2d(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
     return neo_hookean_stress_2d(pr[0], pr[1], J, f00, f01, f10, f11, s)
 
 
 @njit(cache=True, inline="always")
-def stress_3d(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+def stress_3d(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
     return neo_hookean_stress(pr[0], pr[1], F3, s)
 
 

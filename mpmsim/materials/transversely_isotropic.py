@@ -109,7 +109,7 @@ def compliance_energy(props, s):
 
 
 @njit(cache=True, inline="always")
-def stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+def stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
     return anisotropic_stress(pr, L, dt, s, W, A, Ai, Q)
 
 

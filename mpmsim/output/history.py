@@ -10,9 +10,10 @@ history adds them up and adds the run's accounts. Columns, in order:
 - time, step, dt, wall_s (wall-clock seconds since the run started: not reproducible);
 - the volume-weighted Cauchy stress average over deformable material, kinetic and strain
   energy, the work put in (walls, rigid bodies, gravity, loads), internal energy (with
-  Mie–Grüneisen or artificial viscosity), linear momentum p<axis>, angular momentum about
-  the origin (L, or Lx, Ly, Lz in 3D; with APIC's affine part), spin (angular momentum about
-  the centre of mass, L - c x p: spin, or spinx, spiny, spinz in 3D), interface energy;
+  Mie–Grüneisen or artificial viscosity), energy dissipated inside materials (plastic_work,
+  with J2 plasticity), linear momentum p<axis>, angular momentum about the origin (L, or Lx,
+  Ly, Lz in 3D; with APIC's affine part), spin (angular momentum about the centre of mass,
+  L - c x p: spin, or spinx, spiny, spinz in 3D), interface energy;
 - particle velocity noise (and its null-space part when asked for);
 - with output.energy_ledger: transfer_loss, contact_loss, condition_loss, force_gap_loss and
   energy_residual (mpmsim/tasks/ledger.py);
@@ -89,6 +90,8 @@ class History:
         self._internal = state.materials.tracks_energy
         if self._internal:  # Mie–Grüneisen or artificial viscosity: sum of m U
             self.columns += [("internal_energy", u.energy)]
+        self._dissipation = list(state.materials.state_slots("dissipation"))  # plastic_work
+        self.columns += [(name, u.energy) for name in self._dissipation]
         momentum = u.momentum.split(" (")[0]
         self.columns += [(f"p{a}", momentum) for a in axes]
         self._angular = [2] if dim == 2 else [0, 1, 2]
@@ -163,6 +166,9 @@ class History:
         row += [s[KINETIC], s[STRAIN], state.work_in]
         if self._internal:
             row.append(s[INTERNAL])
+        if self._dissipation:
+            dissipated = state.particles.dissipation(state.materials)
+            row += [dissipated[name] for name in self._dissipation]
         row += list(s[MOMENTUM][:dim])
         row += [s[ANGULAR][a] for a in self._angular]
         row += self._spin(s, dim)

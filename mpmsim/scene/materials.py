@@ -46,4 +46,26 @@ def build_material_table(deck: Deck) -> MaterialTable:
     own_eos = np.array([MODELS[deck.materials[n].type].internal_energy for n in deformable], dtype=bool)
     energy = own_eos | (av.sum(axis=1) > 0.0)
     rigid_bc = [deck.materials[n].mode == "bc" for n in rigid]
-    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain, av, energy, rigid_bc)
+    state0, fields, dissipations = material_state(deck, deformable)
+    return MaterialTable(names, deformable, rigid, codes, props, density, motions, constrain, av, energy, rigid_bc,
+                         state0, fields, dissipations)
+
+
+def material_state(deck: Deck, deformable: list[str]) -> tuple[np.ndarray, dict, dict]:
+    """Each deformable material's initial material state row (padded to the widest), and
+    {name: (n,) slot, -1 where absent} of the VTU fields and the dissipated energies its model
+    takes from the state (mpmsim/materials/model.py)."""
+    n = len(deformable)
+    entries = [deck.materials[name] for name in deformable]
+    models = [MODELS[m.type] for m in entries]
+    rows = [tuple(m.state(e) if callable(m.state) else m.state) for m, e in zip(models, entries)]
+    state0 = np.zeros((n, max((len(r) for r in rows), default=0)))
+    fields: dict[str, np.ndarray] = {}
+    dissipations: dict[str, np.ndarray] = {}
+    for k, (m, e, r) in enumerate(zip(models, entries, rows)):
+        state0[k, :len(r)] = r
+        out = m.state_output(e) if callable(m.state_output) else m.state_output
+        for table, names in ((fields, out), (dissipations, m.dissipation)):
+            for name, slot in names.items():
+                table.setdefault(name, np.full(n, -1, dtype=np.int64))[k] = slot
+    return state0, fields, dissipations

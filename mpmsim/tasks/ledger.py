@@ -17,6 +17,7 @@ f . (v_bar - v_s) dt on velocity the stress update does not integrate. Summed ov
 this gives the balance
 
   external_work + E0 = kinetic + strain (+ internal + interface) energy
+                       (+ energy dissipated in materials: plastic work)
                        + transfer_loss + contact_loss + condition_loss + force_gap_loss + R
 
 with the four losses (cumulative, energy units; history columns of the same names):
@@ -186,7 +187,17 @@ def energy_residual(state) -> float:
     """external_work + E0 minus the energies and the four losses (LOSSES) at this state."""
     s = total_sums(state)
     stored = s[KINETIC] + s[STRAIN] + s[INTERNAL] + state.interface_energy if s is not None else 0.0
+    dissipated = dissipation(state)
+    if dissipated:
+        stored += sum(dissipated.values())
     return state.energy0 + state.work_in - stored - float(np.sum(state.ledger))
+
+
+def dissipation(state) -> dict[str, float]:
+    """{name: energy} dissipated inside the materials (plastic work); empty when no model
+    dissipates."""
+    P = state.particles
+    return P.dissipation(state.materials) if P is not None and P.n else {}
 
 
 def ledger_summary(state, energy_unit: str) -> str:
@@ -200,6 +211,7 @@ def ledger_summary(state, energy_unit: str) -> str:
         parts.append(("internal", s[INTERNAL]))
     if state.interface_energy:
         parts.append(("interfaces", state.interface_energy))
+    parts += [(name.replace("_", " "), v) for name, v in dissipation(state).items()]
     parts += [(name.removesuffix("_loss").replace("_", " "), v) for name, v in zip(LOSSES, state.ledger)]
     parts.append(("residual", energy_residual(state)))
     supplied = state.energy0 + state.work_in

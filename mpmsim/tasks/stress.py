@@ -37,6 +37,7 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
     first bad particle."""
     nodes, G = entries.nodes, entries.G
     pvel, F, stress, vol, vol0, mat, U, pressure, qv = P.v, P.F, P.stress, P.vol, P.vol0, P.mat, P.U, P.pressure, P.q
+    mstate = P.mstate
     code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
     chunk_bad, chunk_code, chunk_value = faults.bad, faults.code, faults.value
     n, K = nodes.shape
@@ -122,7 +123,7 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
                 eos[EOS_DEN] = 1.0
             # the stress of this model (STRESS, bound per model: mpmsim/materials/model.py)
             pr, sp = props[mt], stress[p]
-            modulus = STRESS(pr, L, dt, F3, J, n00, n01, n10, n11, sp, W, A, Ai, Q, eos)
+            modulus = STRESS(pr, L, dt, F3, J, n00, n01, n10, n11, sp, W, A, Ai, Q, eos, mstate[p])
             if track:
                 q = eos[EOS_Q]
                 if OWN_EOS:

@@ -42,7 +42,7 @@ def toy_row(m) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def toy_stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos):
+def toy_stress(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
     """Hughes-Winget rotation, then sigma += lam tr(de) I + 2 mu de (de = sym(L) dt)."""
     lam, mu = pr[0], pr[1]
     rotate_stress(L, dt, s, W, A, Ai, Q)
