@@ -1,15 +1,13 @@
 """VTU output for ParaView: material names as field data, rigid bodies in their own
 collection, and the script `mpmsim paraview` writes, run by ParaView itself (pvbatch) when it
-is installed (CI installs Debian's paraview and xvfb; MPMSIM_REQUIRE_PARAVIEW=1 there makes a
+is installed, on a virtual screen of its own (tests/ecosystem/pvbatch.py; CI installs Debian's
+paraview and xvfb; MPMSIM_REQUIRE_PARAVIEW=1 there makes a
 missing ParaView a failure)."""
 
 from __future__ import annotations
 
-import itertools
 import os
 import re
-import shutil
-import subprocess
 from pathlib import Path
 
 import meshio
@@ -21,6 +19,8 @@ from typer.testing import CliRunner
 from mpmsim.cli import app
 from mpmsim.output.paraview import PALETTE, parse_report
 from mpmsim.output.vtu import material_names
+
+from .pvbatch import failure, pvbatch, run_pvbatch
 
 pytestmark = pytest.mark.ecosystem
 DECK = Path(__file__).with_name("platens.yaml")  # two deformable blocks between rigid platens
@@ -62,50 +62,17 @@ def test_paraview_command_errors(tmp_path):
     assert result.exit_code == 2 and "holds no .pvd" in result.output
 
 
-def pvbatch() -> list[str] | None:
-    """pvbatch, under a virtual screen of its own when there is no display. `xvfb-run -a` alone
-    starts every search for a free screen at :99: two runs at once (test workers, another job)
-    can both take :99, and the first to finish shuts the screen under the other, whose pvbatch
-    then aborts (exit 134). Each run here starts its search at a screen number of its own."""
-    exe, xvfb = shutil.which("pvbatch"), shutil.which("xvfb-run")
-    if exe is None:
-        return None
-    if not xvfb or os.environ.get("DISPLAY"):
-        return [exe]
-    screen = 1000 + 20 * (os.getpid() % 3000) + next(_SCREENS) % 20
-    return [xvfb, "-a", "-n", str(screen), exe]
-
-
-_SCREENS = itertools.count()
-
-
-def run_pvbatch(args: list[str], **kw) -> subprocess.CompletedProcess:
-    """Run pvbatch; again (up to three times in all) when it aborted while probing the virtual
-    screen's OpenGL, before reading the script: on the busy 2-core VM pvbatch aborted there
-    (exit 134, vtkPVRenderingCapabilitiesInformation in the trace) in one of the suite's runs
-    with a screen of its own, after an earlier one on a shared :99. Any other failure is
-    returned at once."""
-    for _ in range(3):
-        run = subprocess.run(args, **kw)
-        if not (run.returncode == 134 and "RenderingCapabilities" in (run.stdout or "") + (run.stderr or "")):
-            break
-        print(f"pvbatch aborted probing OpenGL (exit 134), run again: {' '.join(args[:4])}")
-    return run
-
-
 def test_paraview_script(results, tmp_path):
     result = CliRunner().invoke(app, ["paraview", str(results)])
     assert result.exit_code == 0, result.output
     script = results / "platens_paraview.py"
     compile(script.read_text(), str(script), "exec")  # valid Python whatever ParaView is here
-    cmd = pvbatch()
-    if cmd is None:
+    if pvbatch() is None:
         assert not os.environ.get("MPMSIM_REQUIRE_PARAVIEW"), "pvbatch not found"
         pytest.skip("ParaView (pvbatch) is not installed: the script was generated and compiled only")
     shot = tmp_path / "shot.png"
-    run = run_pvbatch(cmd + [str(script), "--report", "--screenshot", str(shot)], capture_output=True,
-                         text=True, timeout=300)
-    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    run = run_pvbatch([str(script), "--report", "--screenshot", str(shot)])
+    assert run.returncode == 0, failure(run)
     report = parse_report(run.stdout)
     last = meshio.read(results / frames(results / "platens.pvd")[-1])
     syy = last.point_data["stress"][:, 1]
@@ -133,11 +100,10 @@ def test_paraview_script(results, tmp_path):
     strip = np.asarray(Image.open(shot).convert("RGB"))[:, int(0.76 * 800):int(0.83 * 800)].reshape(-1, 3).astype(int)
     assert count(strip, PALETTE[0]) == 0 and count(strip, PALETTE[1]) == 0  # no data there
     # a time off every frame by more than half their interval (frames every 0.1) is an error
-    off = run_pvbatch(cmd + [str(script), "--time", "0.58"], capture_output=True, text=True, timeout=300)
-    assert off.returncode == 2, off.stdout[-2000:] + off.stderr[-2000:]
+    off = run_pvbatch([str(script), "--time", "0.58"])
+    assert off.returncode == 2, failure(off)
     assert "no output frame at --time 0.58: the nearest are 0.400054 and 0.5" in off.stderr
-    near = run_pvbatch(cmd + [str(script), "--time", "0.44", "--report"], capture_output=True, text=True,
-                          timeout=300)
+    near = run_pvbatch([str(script), "--time", "0.44", "--report"])
     assert near.returncode == 0 and parse_report(near.stdout)["time"] == pytest.approx(0.400054, abs=1e-6)
 
 
@@ -168,14 +134,13 @@ def test_paraview_script_in_3d_cuts_through_the_contact(tmp_path):
     assert result.exit_code == 0, result.output
     result = CliRunner().invoke(app, ["paraview", str(out)])
     assert result.exit_code == 0, result.output
-    cmd = pvbatch()
-    if cmd is None:
+    if pvbatch() is None:
         assert not os.environ.get("MPMSIM_REQUIRE_PARAVIEW"), "pvbatch not found"
         pytest.skip("ParaView (pvbatch) is not installed")
     script = out / "blocks3d_paraview.py"
     for extra, view in (([], "iso"), (["--view", "x"], "x")):
-        run = run_pvbatch(cmd + [str(script), "--report"] + extra, capture_output=True, text=True, timeout=300)
-        assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+        run = run_pvbatch([str(script), "--report"] + extra)
+        assert run.returncode == 0, failure(run)
         report = parse_report(run.stdout)
         assert report["view"] == view and report["cut"] == "z"
         # 4 particle layers of 8 in z: the crinkle clip keeps those below the middle, half
@@ -195,13 +160,11 @@ def test_paraview_script_with_fem_bodies(tmp_path):
     assert material_names(fem) == material_names(particles) == ["disk", "block"]
     result = CliRunner().invoke(app, ["paraview", str(out / "fem_disk_block_2d.pvd")])
     assert result.exit_code == 0, result.output
-    cmd = pvbatch()
-    if cmd is None:
+    if pvbatch() is None:
         assert not os.environ.get("MPMSIM_REQUIRE_PARAVIEW"), "pvbatch not found"
         pytest.skip("ParaView (pvbatch) is not installed")
-    run = run_pvbatch(cmd + [str(out / "fem_disk_block_2d_paraview.py"), "--report"], capture_output=True,
-                         text=True, timeout=300)
-    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    run = run_pvbatch([str(out / "fem_disk_block_2d_paraview.py"), "--report"])
+    assert run.returncode == 0, failure(run)
     report = parse_report(run.stdout)
     assert report["points"] == len(particles.points) + len(fem.points)
     assert report["materials"] == ["0", "disk", "1", "block"]
