@@ -4,7 +4,7 @@ The Taylor bar (inputs/taylor_bar_3d.yaml, 0.8 mm cells, 4,212 particles; `--cel
 run for the first `--steps` steps after impact, where nearly every particle yields, once
 with its j2_plasticity material and once with the same E and nu as linear_elastic; the two
 runs alternate `--repeats` times in one process (kernels compiled before timing), and the
-median seconds per step of each, their ratio and the stress task's share are printed with
+median seconds per step of each and their ratio are printed with
 the date, the CPU and the thread count.
 
     python bench/plasticity.py [--threads 1] [--steps 200] [--repeats 5] [--cell 0.8]

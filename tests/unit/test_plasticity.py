@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from mpmsim.cli import app
 from mpmsim.materials import MODELS
-from mpmsim.materials.j2_plasticity import S_BE, S_EPS, S_TEMP, S_WORK, STATE0
+from mpmsim.materials.j2_plasticity import P_H1, P_YIELD, S_BE, S_EPS, S_TEMP, S_WORK, STATE0
 from mpmsim.materials.kernels import VOIGT
 
 from ..conftest import deck_from
@@ -310,6 +310,67 @@ def test_a_hydrostatic_path_never_yields():
         p = K * np.log(J) / J
         assert np.abs(pt.s[:3] - p).max() <= 1e-12 * K  # (K: the stress of a unit log strain)
         assert np.abs(pt.s[3:]).max() <= 1e-12 * K
+
+
+# --- the update against numpy's eigen-solver --------------------------------------------------
+
+
+def reference_update(be_minus_i: np.ndarray, h: np.ndarray, eps: float, y0: float, hh: float) -> tuple:
+    """One step of the return map of the module's text with linear hardening (initial yield
+    stress y0, modulus hh), written with numpy's eigh: (Cauchy stress 3x3, be - I, eps_p) after the
+    increment f = I + h."""
+    f = np.eye(3) + h
+    B = h + h.T + h @ h.T + f @ be_minus_i @ f.T  # be_tr - I
+    mu, V = np.linalg.eigh(B)
+    e = 0.5 * np.log1p(mu)
+    m = e.sum() / 3
+    d = e - m
+    q = 2 * G * np.sqrt(1.5 * np.sum(d * d))
+    if q > y0 + hh * eps:
+        dg = (q - y0 - hh * eps) / (3 * G + hh)
+        d *= 1 - 3 * G * dg / q
+        eps += dg
+    J = np.linalg.det(f)
+    tau = K * 3 * m + 2 * G * d
+    return (V * tau) @ V.T / J, (V * np.expm1(2 * (m + d))) @ V.T, eps
+
+
+@pytest.mark.parametrize("size", [1e-7, 1e-3, 2e-2, 0.09, 0.12, 0.5])
+@pytest.mark.parametrize("plastic", [False, True], ids=["elastic", "plastic"])
+def test_the_update_is_the_spectral_return_map_to_round_off(size, plastic):
+    """Random states be_n - I of Frobenius norm `size` and random increments (|h| 1e-4), the
+    compiled update against reference_update: stress to 1e-12 of the trial stress's scale
+    (K + 2G)|be_tr - I| (a return to a small flow stress cancels most of it), be - I to 1e-13 of
+    |be_tr - I| and eps_p to 1e-12. Below |be_tr - I| = 0.1 the update sums its logarithm and
+    the plastic factor's exponential as series, above it it takes the Jacobi eigen-solver: both
+    must be the same map. `plastic`: a deviatoric be_n - I, an increment along it, and the
+    flow stress at half the trial von Mises stress; elastic: the yield stress out of
+    reach."""
+    rng = np.random.default_rng(int(size * 1e7) + plastic)
+    for trial in range(20):
+        a = rng.normal(size=(3, 3))
+        a = a + a.T
+        if plastic:
+            a -= np.trace(a) / 3 * np.eye(3)
+        a *= size / np.linalg.norm(a)
+        h = 1e-4 * (a / np.linalg.norm(a) if plastic else rng.normal(size=(3, 3)))
+        eps0 = 0.01
+        # plastic: the flow stress y0 + hh eps0 at half the trial von Mises stress (~ G sqrt(3/2) |a|)
+        y0 = 0.25 * G * np.sqrt(1.5) * size if plastic else 1e9 * Y0
+        hh = y0 / eps0
+        pr = row(LINEAR).copy()
+        pr[P_YIELD], pr[P_H1] = y0, hh
+        pt = Point(pr, 3, tuple(a[[0, 1, 2, 0, 1, 0], [0, 1, 2, 1, 2, 2]]) + (eps0, 0.0))
+        sig = pt.go(np.eye(3) + h, h=h)
+        ref_s, ref_be, ref_eps = reference_update(a, h, eps0, y0, hh)
+        got_s = np.array([[sig[VOIGT[i, j]] for j in range(3)] for i in range(3)])
+        got_be = np.array([[pt.hs[S_BE + VOIGT[i, j]] for j in range(3)] for i in range(3)])  # be - I
+        f = np.eye(3) + h
+        size_trial = np.linalg.norm(h + h.T + h @ h.T + f @ a @ f.T)  # |be_tr - I|
+        assert np.abs(got_s - ref_s).max() <= 1e-12 * (K + 2 * G) * size_trial, (trial, got_s, ref_s)
+        assert np.abs(got_be - ref_be).max() <= 1e-13 * size_trial, trial
+        assert pt.hs[S_EPS] == pytest.approx(ref_eps, rel=1e-12, abs=0)
+        assert (pt.hs[S_EPS] > eps0) == plastic
 
 
 # --- rigid rotation -------------------------------------------------------------------------
