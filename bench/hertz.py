@@ -4,6 +4,7 @@ contact, the pressure read from the contact traction output (output.contact_trac
     python bench/hertz.py run --rh 20 40 [--set contact.normal=average_gradient ...]
     python bench/hertz.py run --rh 20 40 --seeding rings --pair --end 0.9   # two cylinders
     python bench/hertz.py run --rh 20 --sphere [--seeding shells]             # 3D, a quarter sphere
+    python bench/hertz.py run --rh 20 40 --half --seeding rings_half_step     # the half cylinder x >= 0
     python bench/hertz.py run --rh 20 40 --augury [--hc 1]    # an FEM cylinder on an FEM block, augury contact
     python bench/hertz.py run --rh 20 40 80 --barrier         # an MPM cylinder on an FEM block, barrier contact
     python bench/hertz.py chart          # docs/figures/hertz_pressure.png from saved runs
@@ -62,11 +63,13 @@ def hertz(P: float, e_star: float = E_STAR) -> tuple[float, float]:
 
 
 def deck(rh: float, end: float | None = None, damping: float | None = None, overrides: dict | None = None,
-         pair: bool = False, a_target: float = A_TARGET, seeding: str = "lattice") -> dict:
+         pair: bool = False, a_target: float = A_TARGET, seeding: str = "lattice", half: bool = False) -> dict:
     """The Hertz scene at R/h = rh (a mapping for Simulation.from_deck). pair: a second,
     identical cylinder (material `upper`) stacked on the first (`lower`): their contact at
     y = 2R carries the upper one's weight P; for two identical cylinders R* = R/2 and
-    E* = E / (2 (1 - nu^2)), so a = sqrt(4 P R* / (pi E*)) is the same as on the rigid flat."""
+    E* = E / (2 (1 - nu^2)), so a = sqrt(4 P R* / (pi E*)) is the same as on the rigid flat.
+    half: the symmetry model, the cylinder clipped to x >= 0 on a roller wall at x = 0 (the
+    grid's xmin), carrying half the load."""
     h = R / rh
     c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)  # P-wave speed, mm/ms
     load = math.pi * a_target**2 * E_STAR / (4.0 * R)  # the Hertz load of half-width a_target
@@ -96,6 +99,12 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
         **run_settings(alpha, end),
         "stability": {},
     }
+    if half:
+        data["title"] = f"Hertz half cylinder on a rigid flat, R/h = {rh:g}"
+        data["grid"]["domain"]["min"][0] = 0.0
+        data["grid"]["boundaries"] = {"xmin": "roller"}
+        data["bodies"][0]["clip"] = {"min": [0.0, -1.0], "max": [R + 1.0, 2 * R + 1.0]}
+        data["bodies"][1]["min"][0] = 0.0
     if pair:
         data["title"] = f"Two Hertz cylinders on a rigid flat, R/h = {rh:g}"
         data["materials"] = {"lower": dict(data["materials"]["cylinder"]), "upper": dict(data["materials"]["cylinder"]),
@@ -194,7 +203,7 @@ def measure(prof: dict, P_applied: float, e_star: float = E_STAR) -> dict:
 
 def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, end: float | None = None,
              threads: int | None = None, seeding: str = "lattice", pair: bool = False,
-             a_target: float = A_TARGET) -> dict:
+             a_target: float = A_TARGET, half: bool = False) -> dict:
     """Run one resolution; returns the measurement and the profile (also saved as JSON).
     seeding: the circles' deck option, lattice (the grid-aligned lattice sites inside the circle,
     a staircase surface) or rings (rings that follow the surface)."""
@@ -204,8 +213,8 @@ def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, 
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
-    data = deck(rh, end=end, overrides=overrides, pair=pair, a_target=a_target, seeding=seeding)
-    tag = ("pair_" if pair else "") + f"rh{rh:g}" + ("" if seeding == "lattice" else f"_{seeding}") + (
+    data = deck(rh, end=end, overrides=overrides, pair=pair, a_target=a_target, seeding=seeding, half=half)
+    tag = ("pair_" if pair else "") + ("half_" if half else "") + f"rh{rh:g}" + ("" if seeding == "lattice" else f"_{seeding}") + (
         "" if a_target == A_TARGET else f"_a{a_target:g}") + "".join(
         f"_{k.split('.')[-1]}-{v}" for k, v in (overrides or {}).items())
     tag = re.sub(r"[^\w.-]", "", tag)
@@ -226,11 +235,19 @@ def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, 
     partner = names.index("upper" if pair else "flat")
     meshes = [meshio.read(out / f) for _, f in frames]
     prof = average_profiles([pressure_profile(mesh, partner) for mesh in meshes])
+    if half:  # the whole contact: the columns x > 0 mirrored, the symmetry line's (its nodes' half) doubled
+        x, side = prof["x"], prof["x"] > 0.0
+        on_axis = np.where(x == 0.0, 2.0, 1.0)
+        for k in ("F", "A"):
+            prof[k] = np.concatenate([prof[k][side][::-1], prof[k] * on_axis])
+        prof["x"] = np.concatenate([-x[side][::-1], x])
+        prof["p"] = np.divide(prof["F"], prof["A"], out=np.zeros_like(prof["F"]), where=prof["A"] > 0)
     prof["frames"] = np.array([t for t, _ in frames])
     y0 = 2 * R if pair else 0.0
     part = particle_pressures(out, [f.replace("_contact_", "_") for _, f in frames], y0)
     P = sim.state.particles
     m = P.mass[P.body == P.body.max()].sum() if pair else P.mass.sum()  # the upper cylinder's, or the one's
+    m *= 2.0 if half else 1.0  # (the load of the whole cylinder)
     g = -data["gravity"][1]
     result = measure(prof, float(m * g))
     if pair:  # where the contact sits: the force's centroid, and its level, against the symmetry x = 0
@@ -620,6 +637,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seeding", choices=["lattice", "rings", "rings_half_step", "shells"], default="lattice",
                     help="circles: lattice, rings or rings_half_step; the sphere (--sphere): lattice or shells")
     ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
+    ap.add_argument("--half", action="store_true", help="the half cylinder x >= 0 on a symmetry (roller) line")
     ap.add_argument("--sphere", action="store_true", help="3D: a quarter sphere on the flat (lattice-seeded)")
     ap.add_argument("--augury", action="store_true", help="an FEM cylinder on an FEM block, augury contact")
     ap.add_argument("--barrier", action="store_true", help="an MPM cylinder on an FEM block, implicit barrier contact")
@@ -648,7 +666,7 @@ def main(argv=None) -> int:
                                             seeding="shells" if args.seeding == "shells" else "lattice")["result"]))
                 continue
             r = run_case(rh, parse_set(args.set), end=args.end, threads=args.threads, seeding=args.seeding,
-                         pair=args.pair, a_target=args.a)["result"]
+                         pair=args.pair, a_target=args.a, half=args.half)["result"]
             print(json.dumps(r))
             sys.stdout.flush()
         return 0

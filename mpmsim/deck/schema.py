@@ -362,7 +362,9 @@ SEEDING_DESCRIPTION = (
     "bottom: the two lowest half a spacing either side of the vertical through the centre). For curved bodies in "
     "contact: the staircase's corners bias contact pressure and width; with a deformable partner "
     "rings_half_step keeps the pressure of neighbouring grid columns from alternating "
-    "(docs/contact.md, docs/bfemp.md). A rings body may not overlap another particle body nor be clipped; "
+    "(docs/contact.md, docs/bfemp.md). A rings body may not overlap another particle body; it may be clipped "
+    "by lines through its centre (a half or quarter symmetry model: rings_half_step, each ring's count a "
+    "multiple of 4 so the clip keeps whole sectors) or lines that miss it; "
     "the grid cell size must be the same along x and y.")
 
 

@@ -187,7 +187,10 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
                 r_in = body.inner_radius if body.shape == "annulus" else 0.0
                 r_out = body.outer_radius if body.shape == "annulus" else body.radius
                 pts, vol = ring_seed(body.center, r_in, r_out, float(spacing[0]), deck.thickness,
-                                     half_step=seeding == "rings_half_step")
+                                     half_step=seeding == "rings_half_step", quarters=body.clip is not None)
+            if body.clip is not None:  # (planes through the centre between sectors, or missing the body)
+                keep = np.all((pts >= np.asarray(body.clip.min)[:dim]) & (pts <= np.asarray(body.clip.max)[:dim]), axis=1)
+                pts, vol = pts[keep], vol[keep]
             if np.any((pts < grid.domain_lo) | (pts > grid.domain_hi)):
                 who = f"body '{body.name}'" if body.name else "the body"
                 problems.append((("bodies", i), f"{who} extends outside grid.domain; enlarge grid.domain or move the body"))
@@ -302,14 +305,37 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     return grid, deformable, rigid, 0.5 * spacing, notices
 
 
+def _clip_problem(body, r: float, axes: str, cuts: str, what: str) -> tuple[str | None, bool]:
+    """(why the clip of a round body of radius r seeded around its centre cannot be kept, or
+    None; whether a clip line or plane passes through the centre). Each side of the clip box must
+    miss the body or pass through its centre, the latter only along the axes in `cuts`."""
+    c = np.asarray(body.center, float)
+    lo, hi = np.asarray(body.clip.min, float), np.asarray(body.clip.max, float)
+    tol = 1e-9 * r
+    through = False
+    for a, name in enumerate(axes):
+        on_lo, on_hi = abs(lo[a] - c[a]) <= tol and name in cuts, abs(hi[a] - c[a]) <= tol and name in cuts
+        through = through or on_lo or on_hi
+        if not ((lo[a] <= c[a] - r or on_lo) and (hi[a] >= c[a] + r or on_hi)):
+            return (f"{what} (clip {name} range [{lo[a]:g}, {hi[a]:g}], centre {c[a]:g}, radius {r:g})"), through
+    return None, through
+
+
 def _rings_problem(body, dim: int, h: np.ndarray) -> str | None:
     """Why a `seeding: rings` body cannot be seeded so (None: it can)."""
     if dim != 2:
         return "rings seed 2D circles and annuli only (not a 3D deck's extruded shape)"
-    if body.clip is not None:
-        return "a body seeded in rings cannot be clipped: use seeding: lattice"
     if h[0] != h[1]:
         return "rings need a grid cell_size that is the same along x and y"
+    if body.clip is not None:
+        r = float(body.outer_radius if body.shape == "annulus" else body.radius)
+        problem, through = _clip_problem(body, r, "xy", "xy", "a body seeded in rings may be clipped only by lines "
+                                         "through its centre or lines that miss it")
+        if problem:
+            return problem
+        if through and body.seeding != "rings_half_step":
+            return ("rings put a particle on the vertical through the centre, where the clip cuts: seed a half or "
+                    "quarter body with seeding: rings_half_step")
     return None
 
 
@@ -320,17 +346,8 @@ def _shells_problem(body, dim: int, h: np.ndarray) -> str | None:
     if np.any(h != h[0]):
         return "shells need a grid cell_size that is the same along x, y and z"
     if body.clip is not None:
-        c, r = np.asarray(body.center, float), float(body.radius)
-        lo, hi = np.asarray(body.clip.min, float), np.asarray(body.clip.max, float)
-        tol = 1e-9 * r
-        for a in range(3):
-            through = (a != 1, a != 1)  # planes through the centre: normal to x or z only
-            lo_ok = lo[a] <= c[a] - r or (through[0] and abs(lo[a] - c[a]) <= tol)
-            hi_ok = hi[a] >= c[a] + r or (through[1] and abs(hi[a] - c[a]) <= tol)
-            if not (lo_ok and hi_ok):
-                return (f"a sphere seeded in shells may be clipped only by planes through its centre normal to x or z, "
-                        f"or planes that miss it (clip {'xyz'[a]} range [{lo[a]:g}, {hi[a]:g}], centre {c[a]:g}, "
-                        f"radius {r:g})")
+        return _clip_problem(body, float(body.radius), "xyz", "xz", "a sphere seeded in shells may be clipped only by "
+                             "planes through its centre normal to x or z, or planes that miss it")[0]
     return None
 
 

@@ -19,18 +19,24 @@ import numpy as np
 
 
 def ring_seed(center, r_in: float, r_out: float, spacing: float, thickness: float = 1.0,
-              half_step: bool = False) -> tuple[np.ndarray, np.ndarray]:
+              half_step: bool = False, quarters: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(x (n, 2), volume (n,)) of the particles of the ring-seeded disk or annulus: ring k's m
     particles at angles -pi/2 + 2 pi j / m (one at the bottom), or with half_step (`seeding:
     rings_half_step`) at -pi/2 + 2 pi (j + 1/2) / m (the two lowest at +-half a spacing from the
-    vertical through the centre, none below the centre on it)."""
+    vertical through the centre, none below the centre on it). quarters: each m rounded to a
+    multiple of 4 (at least 4), so that with half_step the sectors' edges include the two axes
+    through the centre and no particle lies on them: a half or quarter clipped by those axes
+    keeps whole sectors, the exact half or quarter of the area."""
     n = max(1, int(round((r_out - r_in) / spacing)))
     dr = (r_out - r_in) / n
     c = np.asarray(center, float)[:2]
     xs, vols = [], []
     for k in range(n):
         r = r_in + (k + 0.5) * dr
-        m = max(3, int(round(2.0 * math.pi * r / dr)))
+        if quarters:
+            m = 4 * max(1, int(round(2.0 * math.pi * r / (4.0 * dr))))
+        else:
+            m = max(3, int(round(2.0 * math.pi * r / dr)))
         th = -0.5 * math.pi + 2.0 * math.pi * (np.arange(m) + (0.5 if half_step else 0.0)) / m
         xs.append(c + np.stack([r * np.cos(th), r * np.sin(th)], axis=1))
         vols.append(np.full(m, 2.0 * math.pi * r * dr / m * thickness))

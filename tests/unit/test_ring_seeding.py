@@ -1,7 +1,8 @@
 """`seeding: rings` on circles and annuli (mpmsim/scene/rings.py): particles in rings that follow
 the surface, each with its ring sector's exact area; the default lattice seeding is unchanged;
-what the rings cannot take part in (overlaps, clipping, 3D, unequal cell sizes) is refused with
-one line naming the key."""
+half and quarter bodies clipped on lines through the centre keep whole sectors; what the rings
+cannot take part in (overlaps, other clips, 3D, unequal cell sizes) is refused with one line
+naming the key."""
 
 from __future__ import annotations
 
@@ -89,7 +90,10 @@ def test_rings_beside_lattice_bodies_keep_both():
 @pytest.mark.parametrize("extra, bodies, message", [
     ({}, [{"name": "block", "shape": "rectangle", "min": [-8, -8], "max": [8, -3], "material": "a"}],
      r"bodies\.0\.seeding.*seeded in rings and overlaps body 'block'"),
-    ({"clip": {"min": [-10, -10], "max": [10, 0]}}, [], r"bodies\.0\.seeding.*cannot be clipped"),
+    ({"clip": {"min": [-10, -10], "max": [10, 0]}}, [], r"bodies\.0\.seeding.*clipped only by lines through its "
+     r"centre or lines that miss it \(clip y range \[-10, 0\], centre 1, radius 5\)"),
+    ({"clip": {"min": [0, -10], "max": [10, 10]}}, [], r"bodies\.0\.seeding.*rings put a particle on the vertical "
+     r"through the centre.*rings_half_step"),
 ])
 def test_what_rings_cannot_do_is_refused_in_one_line(extra, bodies, message):
     with pytest.raises(DeckError, match=message) as err:
@@ -125,3 +129,33 @@ def test_half_step_rings_are_the_rings_turned_by_half_their_spacing():
     assert half.x[low[0], 0] == pytest.approx(-half.x[low[1], 0], abs=1e-12)
     mirror = np.stack([2 * c[0] - half.x[:, 0], half.x[:, 1]], axis=1)
     assert np.linalg.norm(mirror[:, None, :] - half.x[None, :, :], axis=2).min(axis=1).max() < 1e-12
+
+
+@pytest.mark.parametrize("clip, share", [
+    ({"min": [0.0, -10.0], "max": [10.0, 10.0]}, 0.5),  # the right half: a symmetry line x = centre
+    ({"min": [-10.0, -10.0], "max": [10.0, 1.0]}, 0.5),  # the lower half
+    ({"min": [0.0, -10.0], "max": [10.0, 1.0]}, 0.25),  # the lower right quarter
+    ({"min": [-10.0, -10.0], "max": [10.0, 10.0]}, 1.0),  # lines that miss it: the whole disk
+])
+def test_half_step_rings_clipped_through_the_centre_keep_whole_sectors(clip, share):
+    """rings_half_step clipped on lines through the centre (a symmetry model): each ring's count
+    a multiple of 4, so the sectors' edges include both axes and no particle lies on them; the
+    clipped body's area is exactly its share of the circle's, no particle is outside the clip
+    or on its lines, and the clipped set is the full body's (seeded the same way) inside the
+    clip. The full body's mirror images about both axes are particles."""
+    full = build_scene(deck_from(deck(circle("rings_half_step", clip={"min": [-10, -10], "max": [10, 10]})))).deformable
+    part = build_scene(deck_from(deck(circle("rings_half_step", clip=clip)))).deformable
+    c = np.array([0.0, 1.0])
+    assert part.vol.sum() == pytest.approx(share * math.pi * R**2, rel=1e-13)
+    lo, hi = np.array(clip["min"]), np.array(clip["max"])
+    assert np.all((part.x > lo) & (part.x < hi))
+    assert np.abs(part.x - c).min() > 0.01  # none on the lines through the centre
+    inside = np.all((full.x >= lo) & (full.x <= hi), axis=1)
+    assert np.array_equal(np.sort(part.x, axis=0), np.sort(full.x[inside], axis=0))
+    for axis in (0, 1):
+        mirror = full.x.copy()
+        mirror[:, axis] = 2 * c[axis] - mirror[:, axis]
+        assert np.linalg.norm(mirror[:, None, :] - full.x[None, :, :], axis=2).min(axis=1).max() < 1e-12
+    r = np.linalg.norm(full.x - c, axis=1)
+    for radius in np.unique(np.round(r, 9)):
+        assert np.isclose(r, radius).sum() % 4 == 0
