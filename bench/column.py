@@ -1,4 +1,5 @@
-"""Benchmark: particle-steps per second on the standard column problem, per task.
+"""Benchmark: particle-steps per second on the standard column problem, per task, after a line
+naming the machine (bench/machine.py: CPU model, numba's target CPU and its vector features).
 
 The LR paper's 40 x 100 mm neo-Hookean column, 1 mm cells, 4 particles per cell (16 000
 particles), uGIMP, one material, rigid platen at 0.05% of the wave speed; a fixed number
@@ -23,6 +24,8 @@ from mpmsim.deck import load_deck, load_deck_text
 from mpmsim.scene import build_scene
 from mpmsim.shapes import SHAPE_FUNCTIONS
 from mpmsim.solver import Simulation
+
+from machine import describe  # (bench/machine.py: run as python bench/column.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMES = {"flip": {"scheme": "flip"}, "xpic(5)": {"scheme": "xpic", "order": 5}, "apic": {"scheme": "apic"}}
@@ -65,6 +68,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--matrix-steps", type=int, default=100, help="steps per shape x scheme cell (0: skip)")
     args = ap.parse_args()
+    print(describe())
     t0 = time.perf_counter()
     numba.set_num_threads(1)
     Simulation(build_scene(load_deck(args.deck)), out_dir=None, threads=1).step()  # load/compile kernels

@@ -13,8 +13,6 @@ the date, the CPU and the thread count.
 from __future__ import annotations
 
 import argparse
-import datetime
-import platform
 import statistics
 import time
 from pathlib import Path
@@ -25,6 +23,8 @@ import yaml
 from mpmsim.deck import load_deck_text
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation
+
+from machine import describe  # (bench/machine.py: run as python bench/plasticity.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 DECK = ROOT / "inputs" / "taylor_bar_3d.yaml"
@@ -64,8 +64,7 @@ def main() -> None:
             t, n = seconds_per_step(material, a.cell, a.steps, a.threads)
             times[material].append(t)
     el, j2 = (statistics.median(times[m]) for m in times)
-    print(f"{datetime.date.today()}  {platform.processor() or platform.machine()}  threads {a.threads}  "
-          f"{n} particles, {a.steps} steps x {a.repeats} alternated runs")
+    print(f"{describe(a.threads)}  {n} particles, {a.steps} steps x {a.repeats} alternated runs")
     print(f"linear_elastic {el * 1e3:8.3f} ms/step  {n / el / 1e6:6.3f} M particle-steps/s")
     print(f"j2_plasticity  {j2 * 1e3:8.3f} ms/step  {n / j2 / 1e6:6.3f} M particle-steps/s")
     print(f"ratio j2 / elastic: {j2 / el:.3f}")

@@ -1,0 +1,47 @@
+"""One line naming the machine a benchmark ran on, for every figure the benches print: the date,
+the CPU model (/proc/cpuinfo, else platform), the CPU numba compiles for (LLVM's host CPU name,
+or NUMBA_CPU_NAME when set) and which vector features that target has: SSE4.2, AVX2, FMA,
+AVX-512F (an AVX-512 machine whose target lacks avx512f runs 256-bit code at best)."""
+
+from __future__ import annotations
+
+import datetime
+import platform
+from pathlib import Path
+
+WATCHED = ("sse4.2", "avx2", "fma", "avx512f", "avx512vl")
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def numba_target() -> str:
+    """'znver3 (avx2 fma sse4.2; no avx512f avx512vl)': the CPU name numba hands LLVM and the
+    watched features on (+) and off (-) for it."""
+    import llvmlite.binding as ll
+    from numba.core import config
+
+    name = config.CPU_NAME or ll.get_host_cpu_name()
+    if config.CPU_FEATURES:
+        flags = dict((f[1:], f[0] == "+") for f in config.CPU_FEATURES.split(","))
+    else:
+        flags = {k: bool(v) for k, v in ll.get_host_cpu_features().items()}
+    on = [f for f in WATCHED if flags.get(f)]
+    off = [f for f in WATCHED if not flags.get(f)]
+    return f"{name} ({' '.join(on) or 'none of ' + ' '.join(WATCHED)}" + (f"; no {' '.join(off)})" if off else ")")
+
+
+def describe(threads: int | None = None) -> str:
+    line = f"{datetime.date.today()}  {cpu_model()}  numba target {numba_target()}"
+    return line + (f"  threads {threads}" if threads is not None else "")
+
+
+if __name__ == "__main__":
+    print(describe())
