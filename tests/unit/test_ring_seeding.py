@@ -159,3 +159,29 @@ def test_half_step_rings_clipped_through_the_centre_keep_whole_sectors(clip, sha
     r = np.linalg.norm(full.x - c, axis=1)
     for radius in np.unique(np.round(r, 9)):
         assert np.isclose(r, radius).sum() % 4 == 0
+
+
+def test_check_says_how_round_bodies_are_seeded(tmp_path):
+    """`mpmsim check` names the seeding of each round body; a lattice-seeded one in a scene with
+    contact gets the staircase's cost and the seeding that follows the surface (one line each)."""
+    import yaml
+    from typer.testing import CliRunner
+
+    from mpmsim.cli import app
+
+    flat = {"name": "flat", "shape": "rectangle", "min": [-8, -5], "max": [8, -4], "material": "wall"}
+    for seeding, want in (("lattice", "body 'disk' (circle): seeded on the lattice, its surface a staircase"),
+                          ("rings_half_step", "body 'disk' (circle): seeded in rings_half_step that follow its surface")):
+        d = deck(circle(seeding), flat)
+        d["materials"]["wall"] = {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0]}
+        path = tmp_path / f"{seeding}.yaml"
+        path.write_text(yaml.safe_dump(d))
+        result = CliRunner().invoke(app, ["check", str(path), "--no-probe"])
+        assert result.exit_code == 0, result.output
+        lines = [line for line in result.output.splitlines() if "(circle)" in line]
+        assert len(lines) == 1 and lines[0].startswith(want), result.output
+        assert ("seeding: rings (rings_half_step" in lines[0]) == (seeding == "lattice")
+    alone = tmp_path / "alone.yaml"  # no contact: nothing to say of a lattice circle
+    alone.write_text(yaml.safe_dump(deck(circle("lattice"))))
+    result = CliRunner().invoke(app, ["check", str(alone), "--no-probe"])
+    assert result.exit_code == 0 and "(circle)" not in result.output, result.output
