@@ -180,9 +180,6 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
                 continue
             if seeding == "shells":
                 pts, vol = shell_seed(body.center, body.radius, float(spacing[0]))
-                if body.clip is not None:
-                    keep = np.all((pts >= np.asarray(body.clip.min)) & (pts <= np.asarray(body.clip.max)), axis=1)
-                    pts, vol = pts[keep], vol[keep]
             else:
                 r_in = body.inner_radius if body.shape == "annulus" else 0.0
                 r_out = body.outer_radius if body.shape == "annulus" else body.radius
@@ -334,7 +331,7 @@ def _rings_problem(body, dim: int, h: np.ndarray) -> str | None:
         if problem:
             return problem
         if through and body.seeding != "rings_half_step":
-            return ("rings put a particle on the vertical through the centre, where the clip cuts: seed a half or "
+            return ("rings put particles on the axes through the centre, where the clip cuts: seed a half or "
                     "quarter body with seeding: rings_half_step")
     return None
 

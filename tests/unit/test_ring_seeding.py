@@ -92,7 +92,7 @@ def test_rings_beside_lattice_bodies_keep_both():
      r"bodies\.0\.seeding.*seeded in rings and overlaps body 'block'"),
     ({"clip": {"min": [-10, -10], "max": [10, 0]}}, [], r"bodies\.0\.seeding.*clipped only by lines through its "
      r"centre or lines that miss it \(clip y range \[-10, 0\], centre 1, radius 5\)"),
-    ({"clip": {"min": [0, -10], "max": [10, 10]}}, [], r"bodies\.0\.seeding.*rings put a particle on the vertical "
+    ({"clip": {"min": [0, -10], "max": [10, 10]}}, [], r"bodies\.0\.seeding.*rings put particles on the axes "
      r"through the centre.*rings_half_step"),
 ])
 def test_what_rings_cannot_do_is_refused_in_one_line(extra, bodies, message):
