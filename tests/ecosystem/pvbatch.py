@@ -11,12 +11,15 @@ three times in all; what failed, with the screen's log, is in the returned recor
 from __future__ import annotations
 
 import os
+import select
 import shutil
 import subprocess
 import tempfile
+import time
 
 ATTEMPTS = 3
 SCREEN = "1280x1024x24"
+START_S = 30.0  # the longest wait for a screen to accept clients
 
 
 def pvbatch() -> str | None:
@@ -37,12 +40,19 @@ def _start_screen(log) -> tuple[subprocess.Popen, str]:
     finally:
         os.close(write)
     number = b""
-    with os.fdopen(read, "rb") as pipe:  # Xvfb writes the display number when it accepts clients
-        number = pipe.readline().strip()
-    if not number:
-        server.wait(timeout=30)
+    deadline = time.monotonic() + START_S
+    with os.fdopen(read, "rb", buffering=0) as pipe:  # Xvfb writes the display number when it accepts clients
+        while not number.endswith(b"\n") and time.monotonic() < deadline:
+            if not select.select([pipe], [], [], max(deadline - time.monotonic(), 0.0))[0]:
+                break
+            chunk = pipe.read(16)
+            if not chunk:
+                break  # (the server closed it: it did not start)
+            number += chunk
+    if not number.strip():
+        _stop_screen(server)
         return server, ""
-    return server, ":" + number.decode()
+    return server, ":" + number.decode().strip()
 
 
 def _stop_screen(server: subprocess.Popen) -> None:
@@ -75,7 +85,7 @@ def run_pvbatch(args: list[str], *, cwd=None, env=None, timeout: float = 300) ->
             server, display = _start_screen(log)
             try:
                 if not display:
-                    run = subprocess.CompletedProcess([exe] + args, 1, "", "Xvfb did not start")
+                    run = subprocess.CompletedProcess([exe] + args, 1, "", f"Xvfb gave no display within {START_S:g} s")
                 else:
                     run = subprocess.run([exe] + args, cwd=cwd, env={**env, "DISPLAY": display},
                                          capture_output=True, text=True, timeout=timeout)
