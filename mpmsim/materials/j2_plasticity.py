@@ -29,6 +29,7 @@ the particle's temperature (state slot S_TEMP), raised by beta d w_p / c_p after
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Literal, Union
 
 import numpy as np
@@ -38,7 +39,8 @@ from pydantic import Field
 from .. import linalg
 from ..schema_base import Strict
 from .kernels import VOIGT, voigt_from_upper
-from .model import J2_PLASTICITY, NPROP, MaterialModel, register
+from .mie_gruneisen import mg_cold, mg_pressure
+from .model import J2_MIE_GRUNEISEN, J2_PLASTICITY, NPROP, MaterialModel, register
 
 # hardening laws (property row slot LAW)
 LINEAR, POWER, VOCE, JOHNSON_COOK = 0, 1, 2, 3
@@ -47,6 +49,8 @@ LINEAR, POWER, VOCE, JOHNSON_COOK = 0, 1, 2, 3
 # its adiabatic heating (Taylor-Quinney factor beta, heat capacity cp)
 P_K, P_G, P_YIELD, P_LAW, P_H1, P_H2, P_RHO = range(7)
 P_C, P_RATE0, P_TMELT, P_TROOM, P_M, P_BETA, P_CP = range(7, 14)
+# with a Mie-Grüneisen equation of state: its Grüneisen parameter and Hugoniot slope
+P_GAMMA0, P_S1 = 14, 15
 # material state row: be - I (Voigt xx yy zz xy yz xz), equivalent plastic strain, plastic work
 # per unit mass; Johnson-Cook: temperature
 S_BE, S_EPS, S_WORK, S_TEMP = 0, 6, 7, 8
@@ -106,6 +110,16 @@ class JohnsonCookHardening(Strict):
                                   "the particle (Taylor-Quinney factor beta).")
 
 
+class MieGruneisenEOS(Strict):
+    """The Mie-Grüneisen pressure of the LR paper's Eq. (51) with the bulk modulus K = E/(3(1 - 2 nu))
+    and the particle's internal energy (docs/shock.md), in place of Hencky's."""
+
+    type: Literal["mie_gruneisen"]
+    gamma0: float = Field(ge=0, description="Grüneisen parameter gamma0 (gamma rho = gamma0 rho0).")
+    S1: float = Field(ge=0, description="Slope S1 of the linear shock-speed / particle-speed Hugoniot "
+                      "(Us = C0 + S1 up, C0 = sqrt(K / density)).")
+
+
 class J2Plasticity(Strict):
     """J2 (von Mises) plasticity at finite strain: F = Fe Fp, Hencky elasticity with moduli
     E and nu, the exponential return map, isotropic hardening of the flow stress sigma_y with
@@ -123,11 +137,15 @@ class J2Plasticity(Strict):
         description="Hardening law: {law: linear, modulus} (the default, modulus 0: perfectly plastic), "
                     "{law: power, K, n}, {law: voce, saturation, rate} or {law: johnson_cook, A, B, n, C, "
                     "reference_rate, m, melt_temperature, room_temperature, heat_capacity, taylor_quinney}.")
+    eos: MieGruneisenEOS | None = Field(
+        default=None, description="Equation of state for the pressure: {type: mie_gruneisen, gamma0, S1}, the "
+        "Mie-Grüneisen pressure (LR paper Eq. 51, K = E/(3(1 - 2 nu)), the particle's internal energy tracked) "
+        "with the J2 deviator; none: Hencky's p = -K ln J / J.")
 
 
 def row(m) -> np.ndarray:
     """[K, G, yield, law, h1, h2, density] (+ Johnson-Cook's [C, reference_rate, T_m, T_r, m,
-    beta, c_p])"""
+    beta, c_p]; + a Mie-Grüneisen eos's [gamma0, S1])"""
     out = np.zeros(NPROP)
     E, nu = m.E, m.nu
     h = m.hardening
@@ -140,6 +158,8 @@ def row(m) -> np.ndarray:
         law, h1, h2 = ((LINEAR, h.modulus, 0.0) if h.law == "linear" else (POWER, h.K, h.n) if h.law == "power"
                        else (VOCE, h.saturation, h.rate))
     out[:7] = (E / (3.0 * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu)), y0, law, h1, h2, m.density)
+    if m.eos is not None:
+        out[P_GAMMA0], out[P_S1] = m.eos.gamma0, m.eos.S1
     return out
 
 
@@ -445,8 +465,41 @@ def bulk_modulus(pr, J, p):
     return pr[P_K] * (1.0 - np.log(J)) / J
 
 
+@njit(cache=True, inline="always")
+def stress_mie_gruneisen(pr, L, dt, F3, J, f00, f01, f10, f11, s, W, A, Ai, Q, eos, hs):
+    """The J2 update's deviatoric Cauchy stress with the Mie-Grüneisen pressure of mie_gruneisen.py
+    (and its internal-energy update) in place of Hencky's; wave modulus J dp/deta|_S + 4/3 G / J."""
+    j2_stress(pr, L, dt, J, s, W, A, Ai, Q, hs)
+    mean = (s[0] + s[1] + s[2]) / 3.0
+    p, bulk = mg_pressure(pr[P_K], pr[P_GAMMA0], pr[P_S1], J, eos)
+    for a in range(3):
+        s[a] = (s[a] - mean) - p
+    return bulk + 4.0 / 3.0 * pr[P_G] / J
+
+
+@njit(cache=True, inline="always")
+def energy_deviatoric(pr, F3, s, J):
+    """The Hencky shear energy per current volume, J |dev sigma|^2 / (4 G) (the volumetric part is
+    in the internal energy U)."""
+    m = (s[0] + s[1] + s[2]) / 3.0
+    dev2 = (s[0] - m) ** 2 + (s[1] - m) ** 2 + (s[2] - m) ** 2 + 2.0 * (s[3] ** 2 + s[4] ** 2 + s[5] ** 2)
+    return J * dev2 / (4.0 * pr[P_G])
+
+
+@njit(cache=True, inline="always")
+def bulk_modulus_mie_gruneisen(pr, J, p):
+    _, dpc, _ = mg_cold(pr[P_K], pr[P_GAMMA0], pr[P_S1], 1.0 - J)
+    return J * (dpc + pr[P_GAMMA0] * p)
+
+
 MODEL = register(MaterialModel(
     "j2_plasticity", J2Plasticity, row, wave_modulus=lambda r: r[P_K] + 4.0 / 3.0 * r[P_G], energy=energy,
     bulk_modulus=bulk_modulus, stress_2d=stress, stress_3d=stress, reads_F3_2d=False, check=check, state=initial_state,
-    state_output=state_fields, dissipation={"plastic_work": S_WORK}),
+    state_output=state_fields, dissipation={"plastic_work": S_WORK},
+    variant=lambda m: "j2_plasticity_mie_gruneisen" if m.eos is not None else None),
     J2_PLASTICITY)
+# the same deck type with `eos: mie_gruneisen`: its kernel tracks each particle's internal energy
+MIE_GRUNEISEN_MODEL = register(replace(
+    MODEL, name="j2_plasticity_mie_gruneisen", energy=energy_deviatoric, bulk_modulus=bulk_modulus_mie_gruneisen,
+    stress_2d=stress_mie_gruneisen, stress_3d=stress_mie_gruneisen, internal_energy=True, variant=None, tag=""),
+    J2_MIE_GRUNEISEN)

@@ -61,20 +61,27 @@ def mie_gruneisen_stress(K, G, gamma0, S1, F3, s, eos):
     so the EOS lands on the linear Us-up Hugoniot; an explicit U0 lags the pressure by the
     energy the increment deposits, which at a shock is most of it. Returns the wave modulus
     J dp/deta|_S (with dU = p deta / rho0 along the isentrope) + 4/3 of the stretched shear."""
-    J = det3(F3)
+    p, bulk = mg_pressure(K, gamma0, S1, det3(F3), eos)
+    shear = neo_hookean_stress(0.0, G, F3, s)  # deviatoric part only (K = 0)
+    for a in range(3):
+        s[a] -= p
+    return bulk + shear
+
+
+@njit(cache=True, inline="always")
+def mg_pressure(K, gamma0, S1, J, eos):
+    """The pressure of Eq. (51) at J with the energy update of mie_gruneisen_stress, written into the eos row (U, p,
+    1 - S1 eta); returns (p, J dp/deta|_S). Shared by every model with this equation of state."""
     eta = 1.0 - J
     U0, p0, q, J0, rho0 = eos[EOS_U], eos[EOS_P], eos[EOS_Q], eos[EOS_J0], eos[EOS_RHO0]
     pc, dpc, den = mg_cold(K, gamma0, S1, eta)
     dJ = J - J0
     U = (U0 - (0.5 * (p0 + pc) + q) * dJ / rho0) / (1.0 + 0.5 * gamma0 * dJ)
     p = pc + rho0 * gamma0 * U
-    shear = neo_hookean_stress(0.0, G, F3, s)  # deviatoric part only (K = 0)
-    for a in range(3):
-        s[a] -= p
     eos[EOS_U] = U
     eos[EOS_P] = p
     eos[EOS_DEN] = den
-    return J * (dpc + gamma0 * p) + shear
+    return p, J * (dpc + gamma0 * p)
 
 
 @njit(cache=True, inline="always")

@@ -29,7 +29,10 @@ everything about it and registers a `MaterialModel`:
   models ask for, none when no model asks); the stress update reads and updates it (`hs`);
   `state_output`: VTU point fields the output takes from it, {name: slot} (or a function of
   the deck entry giving that); `dissipation`: history totals of energy dissipated, {name: slot
-  of the energy per unit mass}, summed as sum m_p hs[slot] and booked by the energy ledger.
+  of the energy per unit mass}, summed as sum m_p hs[slot] and booked by the energy ledger;
+- `variant`: a function of the deck entry naming another registered model (sharing this one's
+  schema) that runs that entry instead, or None (`model_for`): one deck type whose entries
+  need different kernel flags (an equation of state that tracks internal energy).
 
 `register(model)` gives a model its type code and adds its schema to the deck's; the built-in
 models keep the codes the kernels and tests name. An unknown code is an error
@@ -43,7 +46,7 @@ from typing import Callable
 
 NPROP = 72  # property row length
 # the built-in models' codes (tests and the FEM element kernels name them)
-LINEAR_ELASTIC, NEO_HOOKEAN, MIE_GRUNEISEN, ANISOTROPIC, COMPRESSIBLE_NH, J2_PLASTICITY = 0, 1, 2, 3, 4, 5
+LINEAR_ELASTIC, NEO_HOOKEAN, MIE_GRUNEISEN, ANISOTROPIC, COMPRESSIBLE_NH, J2_PLASTICITY, J2_MIE_GRUNEISEN = range(7)
 FIRST_PLUGIN_CODE = 16  # codes of models registered outside mpmsim start here
 
 
@@ -68,6 +71,7 @@ class MaterialModel:
     state: tuple | Callable = ()
     state_output: dict | Callable = field(default_factory=dict)
     dissipation: dict = field(default_factory=dict)
+    variant: Callable | None = None  # deck entry -> the name of the registered model that runs it, or None
 
     def stress(self, dim: int) -> Callable | None:
         return self.stress_2d if dim == 2 else self.stress_3d
@@ -114,5 +118,14 @@ def model_named(name: str) -> MaterialModel:
     return MODELS[name]
 
 
+def model_for(entry) -> MaterialModel:
+    """The model that runs a deck entry: its type's, or the variant that type names for it (a
+    J2 entry with a Mie-Grüneisen `eos` runs the model whose kernel tracks internal energy)."""
+    model = MODELS[entry.type]
+    name = model.variant(entry) if model.variant is not None else None
+    return MODELS[name] if name else model
+
+
 def schemas() -> list[type]:
-    return [m.schema for m in MODELS.values()]
+    """The deck entries of the registered models, each once (a variant shares its type's)."""
+    return list(dict.fromkeys(m.schema for m in MODELS.values()))

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..deck.schema import Deck, Rigid, VelocityTable
-from ..materials import MODELS, NPROP, MaterialTable, RigidMotion
+from ..materials import NPROP, MaterialTable, RigidMotion
+from ..materials.model import model_for
 
 
 def build_material_table(deck: Deck) -> MaterialTable:
@@ -19,7 +20,7 @@ def build_material_table(deck: Deck) -> MaterialTable:
     density = np.zeros(len(deformable))
     for k, n in enumerate(deformable):
         m = deck.materials[n]
-        model = MODELS[m.type]
+        model = model_for(m)
         density[k] = m.density
         codes[k], props[k] = model.code, model.row(m)
     motions, constrain = [], np.zeros((len(rigid), dim), dtype=np.bool_)
@@ -43,7 +44,7 @@ def build_material_table(deck: Deck) -> MaterialTable:
         for k, n in enumerate(deformable):
             if spec.materials is None or n in spec.materials:
                 av[k] = (spec.A1, spec.A2)
-    own_eos = np.array([MODELS[deck.materials[n].type].internal_energy for n in deformable], dtype=bool)
+    own_eos = np.array([model_for(deck.materials[n]).internal_energy for n in deformable], dtype=bool)
     energy = own_eos | (av.sum(axis=1) > 0.0)
     rigid_bc = [deck.materials[n].mode == "bc" for n in rigid]
     state0, fields, dissipations = material_state(deck, deformable)
@@ -57,7 +58,7 @@ def material_state(deck: Deck, deformable: list[str]) -> tuple[np.ndarray, dict,
     takes from the state (mpmsim/materials/model.py)."""
     n = len(deformable)
     entries = [deck.materials[name] for name in deformable]
-    models = [MODELS[m.type] for m in entries]
+    models = [model_for(m) for m in entries]
     rows = [tuple(m.state(e) if callable(m.state) else m.state) for m, e in zip(models, entries)]
     state0 = np.zeros((n, max((len(r) for r in rows), default=0)))
     fields: dict[str, np.ndarray] = {}

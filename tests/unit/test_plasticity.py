@@ -650,3 +650,89 @@ def test_a_j2_run_restarted_from_its_checkpoint_ends_as_the_uninterrupted_run(tm
     assert np.array_equal(again.state.particles.mstate, whole.state.particles.mstate)
     i = whole.recorder.names.index("wall_s")
     assert [r[:i] + r[i + 1:] for r in again.recorder.rows] == [r[:i] + r[i + 1:] for r in whole.recorder.rows]
+
+
+# --- with a Mie-Grüneisen equation of state --------------------------------------------------
+
+NI = {"K": 188000.0, "G": 76000.0, "gamma0": 2.0, "S1": 1.44, "density": 0.00887}  # nickel, mm-g-ms
+
+
+def nickel_j2(yield_stress: float = 1000.0) -> dict:
+    """Nickel's Mie-Grüneisen constants (inputs/nickel_shock.yaml) with a shear modulus and a
+    yield stress: E and nu from K and G."""
+    K_, G_ = NI["K"], NI["G"]
+    return {"type": "j2_plasticity", "E": 9 * K_ * G_ / (3 * K_ + G_), "nu": (3 * K_ - 2 * G_) / (2 * (3 * K_ + G_)),
+            "density": NI["density"], "yield": yield_stress, "hardening": {"law": "linear", "modulus": 0.0},
+            "eos": {"type": "mie_gruneisen", "gamma0": NI["gamma0"], "S1": NI["S1"]}}
+
+
+def eos_path(name: str, entry: dict, stretches) -> tuple[list, list, list]:
+    """Drive a model along uniaxial strain F = diag(lam, 1, 1) as the stress kernel does: the eos
+    row carries U and p from step to step, J0 the previous J (no artificial viscosity).
+    Returns per step (Cauchy stress, U, eps_p)."""
+    from mpmsim.materials.kernels import EOS_J0, EOS_P, EOS_Q, EOS_RHO0, EOS_U
+
+    model = MODELS[name]
+    m = model.schema.model_validate(entry)
+    pr, hs = model.row(m), np.array(model.state(m) if callable(model.state) else model.state, float)
+    fn, s, eos = model.stress(3), np.zeros(6), np.zeros(6)
+    scratch = [np.zeros((3, 3)) for _ in range(4)]
+    F, U, p = np.eye(3), 0.0, 0.0
+    out_s, out_u, out_e = [], [], []
+    for lam in stretches:
+        Fn = np.diag([lam, 1.0, 1.0])
+        L = Fn @ np.linalg.inv(F) - np.eye(3)
+        eos[EOS_U], eos[EOS_P], eos[EOS_Q], eos[EOS_J0], eos[EOS_RHO0] = U, p, 0.0, np.linalg.det(F), m.density
+        J = float(np.linalg.det(Fn))
+        fn(pr, L, 1.0, Fn, J, lam, 0.0, 0.0, 1.0, s, *scratch, eos, hs)
+        U, p, F = eos[EOS_U], eos[EOS_P], Fn
+        out_s.append(s.copy())
+        out_u.append(U)
+        out_e.append(hs[S_EPS] if len(hs) > S_EPS else 0.0)
+    return out_s, out_u, out_e
+
+
+def test_a_j2_entry_with_a_mie_gruneisen_eos_runs_the_energy_tracking_model():
+    from mpmsim.materials.model import J2_MIE_GRUNEISEN, J2_PLASTICITY, model_for
+
+    base = MODEL.schema.model_validate({"type": "j2_plasticity", "E": E, "nu": NU, "density": RHO, "yield": Y0})
+    with_eos = MODEL.schema.model_validate(nickel_j2())
+    assert model_for(base).code == J2_PLASTICITY and not model_for(base).internal_energy
+    assert model_for(with_eos).code == J2_MIE_GRUNEISEN and model_for(with_eos).internal_energy
+    import yaml
+
+    from mpmsim.scene import build_scene
+
+    data = yaml.safe_load(ELASTIC_BASE)
+    data["materials"] = {"block": nickel_j2()}
+    d = deck_from(data)
+
+    mats = build_scene(d).materials
+    assert list(mats.type_code) == [J2_MIE_GRUNEISEN] and mats.energy.all()
+
+
+def test_uniaxial_strain_with_mie_gruneisen_is_its_pressure_plus_the_j2_deviator():
+    """Nickel compressed in uniaxial strain to J = 0.8 in 400 steps: the pressure is the
+    mie_gruneisen model's (G = 0) on the same path to 1e-12 (the same equation of state and
+    energy update), the deviator sits on the yield surface once yielded (J |s_xx - s_yy| = Y,
+    1e-10), and the axial stress where yielding starts is the Hugoniot elastic limit
+    Y (1 - nu) / (1 - 2 nu) within 1% (the EOS's stiffening over the elastic strain, 0.3%,
+    is the difference)."""
+    Y = 1000.0
+    lams = np.linspace(1.0, 0.8, 401)[1:]
+    s_j2, u_j2, eps = eos_path("j2_plasticity_mie_gruneisen", nickel_j2(Y), lams)
+    mg = {"type": "mie_gruneisen", "K": NI["K"], "G": 0.0, "gamma0": NI["gamma0"], "S1": NI["S1"],
+          "density": NI["density"]}
+    s_mg, u_mg, _ = eos_path("mie_gruneisen", mg, lams)
+    for a, b, ua, ub in zip(s_j2, s_mg, u_j2, u_mg):
+        assert np.mean(a[:3]) == pytest.approx(np.mean(b[:3]), rel=1e-12)
+        assert ua == pytest.approx(ub, rel=1e-12)
+    yielded = [k for k, e in enumerate(eps) if e > 0.0]
+    assert yielded and yielded[0] > 0
+    for k in yielded:
+        assert lams[k] * abs(s_j2[k][0] - s_j2[k][1]) == pytest.approx(Y, rel=1e-10)
+    nu = (3 * NI["K"] - 2 * NI["G"]) / (2 * (3 * NI["K"] + NI["G"]))
+    hel = Y * (1 - nu) / (1 - 2 * nu)
+    first = yielded[0]  # the axial stress crosses the HEL between the last elastic step and the first plastic one
+    assert -s_j2[first - 1][0] <= hel * 1.01 and -s_j2[first][0] >= hel * 0.99
+    assert abs(-s_j2[first - 1][0] - hel) / hel < 0.01 or abs(-s_j2[first][0] - hel) / hel < 0.01
