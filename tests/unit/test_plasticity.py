@@ -591,6 +591,13 @@ BAD = [
      "less than or equal to 1"),
     ("FEM body", ("material: block}", "material: block, discretization: fem, element_size: 1.0}"),
      "bodies.0.material", "not j2_plasticity"),
+    ("eos gamma0 negative", ("hardening: {law: linear, modulus: 2000.0}", "hardening: {law: linear, modulus: "
+     "2000.0}, eos: {type: mie_gruneisen, gamma0: -1.0, S1: 1.4}"), "materials.block.eos.gamma0",
+     "greater than or equal to 0"),
+    ("eos S1 missing", ("hardening: {law: linear, modulus: 2000.0}", "hardening: {law: linear, modulus: 2000.0}, "
+     "eos: {type: mie_gruneisen, gamma0: 2.0}"), "materials.block.eos.S1", "required key is missing"),
+    ("eos of another type", ("hardening: {law: linear, modulus: 2000.0}", "hardening: {law: linear, modulus: "
+     "2000.0}, eos: {type: tillotson, gamma0: 2.0, S1: 1.4}"), "materials.block.eos.type", "'mie_gruneisen'"),
 ]
 
 
