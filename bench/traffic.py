@@ -513,7 +513,7 @@ def replays(sim) -> dict:
 
     def forces(m):
         pm, em, sc = cut(m)
-        p2g_forces(sc, em.G, pm, st.gravity, bool(st.gravity.any()), f.force)
+        p2g_forces(sc, em.G, em.T, pm, st.gravity, bool(st.gravity.any()), f.force)
 
     def update_stress(m):
         pm, em, _ = cut(m)

@@ -534,7 +534,10 @@ def _describe_particles(scene, state, u) -> None:
     dims = " x ".join(str(c) for c in cells)
     sizes = " x ".join(f"{h:g}" for h in g.h)
     box = " x ".join(f"[{a:g}, {b:g}]" for a, b in zip(g.domain_lo, g.domain_hi))
-    faces = ", ".join(f"{f}={getattr(d.grid.boundaries, f)}" for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * g.dim])
+    named = {0: "free", 1: "fixed", 2: "roller"}  # (the grid's: an axisymmetric axis face is a roller)
+    faces = ", ".join(f"{f}={named[int(g.face_type[k])]}" + (" (the axis r = 0)" if k == 0 and scene.settings.axisymmetric
+                                                            and int(g.face_type[0]) and g.domain_lo[0] == 0 else "")
+                      for k, f in enumerate(("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")[: 2 * g.dim]))
     out.print(f"grid: {dims} cells of {sizes} {u.length}; domain {box}; "
               f"{g.n_nodes} nodes with {g.ghost} ghost layer(s); faces {faces}", highlight=False)
     P = state.particles
@@ -598,6 +601,9 @@ def kernel_dimension(state) -> str:
     """What the dimension-parameterised kernels run on: in 2D, two-component arrays, dim^2 nodes
     per particle and one node layer in z (no 3D work)."""
     dim, K = state.dim, state.sd.S.shape[1]
+    if state.shape.axisymmetric:
+        return (f"axisymmetric (x = r, y = z): 2-component vectors, 3x3 F (hoop stretch F_tt), {K} nodes per "
+                f"particle ({state.shape.name}, r-weighted, with the hoop function), masses and forces per radian")
     return (f"{dim}D: {state.particles.x.shape[1]}-component vectors, {dim}x{dim} F, {K} nodes per particle "
             f"({state.shape.name}), {state.grid.shape[2]} node layer(s) in z")
 

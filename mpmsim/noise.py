@@ -48,7 +48,7 @@ def _current_shape_data(state):
     scratch = state.noise_scratch
     if scratch is None:
         K = state.sd.S.shape[1]
-        scratch = (ShapeData.empty(P.n, K, state.dim), np.zeros(state.grid.n_nodes),
+        scratch = (ShapeData.empty(P.n, K, state.dim, state.shape.axisymmetric), np.zeros(state.grid.n_nodes),
                    np.zeros((state.grid.n_nodes, state.dim)))
         state.noise_scratch = scratch
     sd = scratch[0]

@@ -177,9 +177,13 @@ class State:
         mats = scene.materials
         scheme = run.update.scheme
         particles = Particles.from_seed(scene.deformable, mats.density, scene.semi_size, scene.deformable_bodies,
-                                        affine=scheme == "apic", energy=mats.tracks_energy, state0=mats.state0)
+                                        affine=scheme == "apic", energy=mats.tracks_energy, state0=mats.state0,
+                                        hoop=run.axisymmetric)
         rigid = RigidParticles.from_seed(scene.rigid, mats, scene.rigid_bodies, dim, run.stability.rigid_penetration)
         sf = shape_function(run.shape_function)
+        axisymmetric = run.axisymmetric
+        if axisymmetric:
+            sf = sf.for_axisymmetric()
         K = sf.nodes_per_particle(dim)
         if not threads:  # no count asked for: one thread for a small scene
             threads, _ = auto_threads(n_threads(), particles.n)
@@ -194,8 +198,8 @@ class State:
             contact = ContactWorkspace.create(scene.contact.grid, particles.mat, rigid.mat, nn, K, dim)
         state = cls(
             dim=dim, grid=scene.grid, materials=mats, shape=sf, particles=particles, rigid=rigid,
-            bodies=[particles, rigid], sd=ShapeData.empty(particles.n, K, dim),
-            rigid_sd=ShapeData.empty(rigid.n, K, dim),
+            bodies=[particles, rigid], sd=ShapeData.empty(particles.n, K, dim, axisymmetric),
+            rigid_sd=ShapeData.empty(rigid.n, K, dim, axisymmetric),
             fields=GridFields.allocate(nn, dim, nr, scheme in ("xpic", "fmpm")),
             box=ActiveBox(scene.grid.shape), gravity=g, threads=threads, nchunk=chunks_for(threads),
             entry_offsets=offsets, contact=contact, loads=build_loads(scene, particles.x, particles.vol),

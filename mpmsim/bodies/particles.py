@@ -31,7 +31,8 @@ class Particles(BodySet):
     mass: np.ndarray  # (n,)
     vol0: np.ndarray  # (n,) initial volume
     vol: np.ndarray  # (n,) current volume = vol0 * J
-    F: np.ndarray  # (n, dim, dim) deformation gradient (2D: F33 = 1)
+    F: np.ndarray  # (n, dim, dim) deformation gradient (plane strain: F33 = 1); axisymmetric:
+    # (n, 3, 3), F[2, 2] the hoop stretch (x = r, y = z, the third axis theta)
     stress: np.ndarray  # (n, 6) Cauchy stress, Voigt [xx, yy, zz, xy, yz, xz]
     mat: np.ndarray  # (n,) deformable material index
     body: np.ndarray  # (n,) deck body index
@@ -78,13 +79,15 @@ class Particles(BodySet):
 
     @classmethod
     def from_seed(cls, seed, density, semi, infos: list[BodyInfo], affine: bool, energy: bool,
-                  state0: np.ndarray | None = None) -> "Particles":
-        """state0: (n_deformable, k) each material's initial material state (None: k = 0)."""
+                  state0: np.ndarray | None = None, hoop: bool = False) -> "Particles":
+        """state0: (n_deformable, k) each material's initial material state (None: k = 0);
+        hoop: axisymmetric, F is 3x3 with the hoop stretch F[2, 2]."""
         dim = seed.x.shape[1]
         mass = seed.vol * density[seed.mat]
         n = len(mass)
-        F = np.zeros((n, dim, dim))
-        for a in range(dim):
+        nf = 3 if hoop else dim
+        F = np.zeros((n, nf, nf))
+        for a in range(nf):
             F[:, a, a] = 1.0
         na = n if affine else 1
         ne = n if energy else 1
@@ -138,7 +141,8 @@ class Particles(BodySet):
             return []
         F9 = np.zeros((n, 3, 3))
         F9[:, 2, 2] = 1.0
-        F9[:, :dim, :dim] = self.F
+        nf = self.F.shape[1]
+        F9[:, :nf, :nf] = self.F
         gid = np.array([mats.global_id(m) for m in mats.deformable], dtype=np.int32)
         data = {
             "velocity": pad3(self.v),
@@ -232,6 +236,7 @@ def particle_sums_kernel(P, M, nchunk, out, density):
     stress, vol, v, mass, F, mat, U = P.stress, P.vol, P.v, P.mass, P.F, P.mat, P.U
     code, props, energy = M.code, M.props, M.energy
     n, dim = v.shape
+    nf = F.shape[1]  # (axisymmetric: 3, the hoop stretch in F[2, 2])
     keep = density.size == n
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
@@ -249,7 +254,7 @@ def particle_sums_kernel(P, M, nchunk, out, density):
             acc[7] += 0.5 * mass[p] * v2
             for a in range(3):
                 for b in range(3):
-                    F3[a, b] = F[p, a, b] if (a < dim and b < dim) else (1.0 if a == b else 0.0)
+                    F3[a, b] = F[p, a, b] if (a < nf and b < nf) else (1.0 if a == b else 0.0)
             J = det3(F3)
             mt = mat[p]
             e = vp * ENERGY(code[mt], props[mt], F3, stress[p], J)

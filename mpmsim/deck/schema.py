@@ -510,7 +510,9 @@ class TractionLoad(Strict):
     """A load on one edge of a body: the outermost particles toward `face` (or `normal`) among
     those inside `region`. Either a traction on an axis-aligned face (each particle carries
     traction x its face area; 2D: x thickness), or a total `force` shared by particle volume
-    over a band `depth` deep (tilted edges)."""
+    over a band `depth` deep (tilted edges), or a `pressure` on a round surface about `center`
+    (a cylinder's or sphere's inner or outer face: the particle layer nearest to it, each
+    pushed along its radius by pressure x its share of the surface)."""
 
     region: Domain = Field(description="Box around the loaded edge (particle centres inside it).")
     face: Literal["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"] | None = Field(
@@ -523,10 +525,24 @@ class TractionLoad(Strict):
     traction: Vector | None = Field(default=None, description="Force per area on a `face` (e.g. [0, -0.5] MPa).")
     force: Vector | None = Field(default=None, description="Total force, shared by particle volume (2D: on "
                                  "the deck's thickness, like every 2D force).")
+    pressure: float | None = Field(
+        default=None, description="Instead of traction or force: a pressure (force per area, > 0 pushes on the "
+        "surface) on the round surface about `center` (a circle or annulus edge in 2D: a cylinder; a sphere in 3d and, "
+        "centred on the axis, in axisymmetric analysis). Best with rings seeding, whose layers follow the surface.")
+    center: Vector | None = Field(default=None, description="Centre of the round surface a `pressure` acts on.")
+    side: Literal["inner", "outer"] = Field(
+        default="inner", description="With pressure: the surface nearest the centre (a cavity's wall) or farthest "
+        "from it (an outer face).")
     ramp: float = Field(default=0.0, ge=0.0, description="Ramp time: the load grows linearly from 0, then is held.")
 
     @model_validator(mode="after")
     def _one_of_each(self):
+        if self.pressure is not None or self.center is not None:
+            if self.pressure is None or self.center is None:
+                raise ValueError("a pressure load needs both pressure and center")
+            if self.face is not None or self.normal is not None or self.traction is not None or self.force is not None:
+                raise ValueError("a pressure load (pressure, center) takes no face, normal, traction or force")
+            return self
         if (self.face is None) == (self.normal is None):
             raise ValueError("give either face or normal")
         if (self.traction is None) == (self.force is None):

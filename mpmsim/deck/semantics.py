@@ -18,13 +18,38 @@ from .units import MAX_WAVE_SPEED, unit_system
 FIELD_LAWS = ("frictionless", "coulomb", "stick", "none")  # the laws augury field contact applies
 
 
+AXISYMMETRIC_SHAPES = ("linear", "gimp")  # shape functions with an r-z form (mpmsim/shapes/axisymmetric.py)
+
+
+def _check_axisymmetric(deck: Deck) -> list[tuple[tuple, str]]:
+    """What an axisymmetric deck (x = r >= 0, y = z) cannot ask for: one line each, naming the key."""
+    out = []
+    add = lambda path, msg: out.append((tuple(path), msg))  # noqa: E731
+    if deck.integrator != "explicit":
+        add(["integrator"], "axisymmetric analysis runs the explicit MPM step; the implicit integrator is plane "
+                            "strain or 3d only")
+    for i, b in enumerate(deck.bodies):
+        if b.discretization == "fem":
+            add(["bodies", i, "discretization"], "axisymmetric analysis takes particle bodies; FEM bodies are plane "
+                                                 "strain or 3d only")
+    if deck.shape_function not in AXISYMMETRIC_SHAPES:
+        add(["shape_function"], f"axisymmetric analysis takes shape_function {' or '.join(AXISYMMETRIC_SHAPES)} "
+                                f"(their r-weighted forms), not {deck.shape_function}")
+    if "thickness" in deck.model_fields_set:
+        add(["thickness"], "axisymmetric masses, volumes and forces are per radian: thickness does not apply")
+    if deck.grid is not None and deck.grid.domain is not None and deck.grid.domain.min and deck.grid.domain.min[0] < 0:
+        add(["grid", "domain", "min", 0], f"x is the radius r in axisymmetric analysis: the domain starts at r >= 0, "
+                                          f"not {deck.grid.domain.min[0]:g}")
+    if deck.gravity is not None and len(deck.gravity) == 2 and deck.gravity[0] != 0:
+        add(["gravity", 0], "gravity along r breaks the axial symmetry: give [0, g_z]")
+    return out
+
+
 def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
     problems: list[tuple[tuple, str]] = []
     add = lambda path, msg: problems.append((tuple(path), msg))  # noqa: E731
     if deck.analysis == "axisymmetric":
-        add(["analysis"], "axisymmetric analysis is reserved in the schema but not available yet; "
-                          "use plane_strain or 3d")
-        return problems
+        problems += _check_axisymmetric(deck)
     dim = deck.dim
     axes = "xyz"[:dim]
 
@@ -102,6 +127,10 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
         add(["shape_function"], "cpdi_q (9-point qCPDI) is 2D only; use cpdi or b2cpdi in 3d")
     vec(["gravity"], deck.gravity)
     for i, load in enumerate(deck.loads):
+        vec(["loads", i, "center"], load.center)
+        if load.center is not None and deck.analysis == "axisymmetric" and load.center[0] != 0:
+            add(["loads", i, "center", 0], "an axisymmetric pressure surface is a sphere centred on the axis: "
+                                           "center r must be 0")
         vec(["loads", i, "traction"], load.traction)
         vec(["loads", i, "force"], load.force)
         vec(["loads", i, "normal"], load.normal)

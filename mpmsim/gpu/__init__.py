@@ -34,6 +34,8 @@ def unsupported(scene) -> list[tuple[tuple, str]]:
     later = "is not on the GPU yet (run it without --device cuda)"
     if deck.integrator != "explicit":
         out.append((("integrator",), f"integrator {deck.integrator} {later}"))
+    if deck.analysis == "axisymmetric":
+        out.append((("analysis",), f"axisymmetric analysis {later}"))
     if scene.fem is not None:
         out.append((("bodies",), f"FEM bodies (discretization: fem) {later}"))
     if deck.shape_function not in SHAPES:

@@ -23,7 +23,7 @@ from ..shapes import shape_function
 from .contact import ContactModel, build_contact_model
 from .fem import FemSeed, build_fem
 from .settings import RunSettings, run_settings
-from .grid import FACE_CODES, FACES, GridSpec, plan_grid
+from .grid import FACE_CODES, FACES, FREE, ROLLER, GridSpec, plan_grid
 from .rings import ring_seed, shell_seed
 from .memory import CANDIDATE_BYTES, NODE_BYTES, PARTICLE_BYTES, too_big
 
@@ -123,6 +123,7 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     dim = deck.dim
     h = _cell_sizes(deck)
     faces = [FACE_CODES[getattr(deck.grid.boundaries, f)] for f in FACES[: 2 * dim]]
+    axisymmetric = deck.analysis == "axisymmetric"
 
     boxes, problems = [], []
     for i, b in particle_bodies:
@@ -130,6 +131,11 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
             boxes.append(clipped(bbox(b, base, dim), b.clip))
         except MeshError as exc:
             problems.append((("bodies", i, "file"), str(exc)))
+            continue
+        if axisymmetric and boxes[-1][0][0] < -1e-12 * h[0]:
+            who = f"body '{b.name}'" if getattr(b, "name", None) else "the body"
+            problems.append((("bodies", i), f"{who} reaches r = {boxes[-1][0][0]:g} < 0: in axisymmetric analysis x is "
+                                            "the radius; a body of revolution lies at r >= 0 (clip it at r = 0)"))
     if problems:
         raise_at(problems, loaded)
     if deck.grid.domain is not None:
@@ -150,7 +156,11 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
                 lo[a] -= deck.grid.margin * h[a]
             if faces[2 * a + 1] == 0:
                 hi[a] += deck.grid.margin * h[a]
+        if axisymmetric:
+            lo[0] = max(lo[0], 0.0)  # the grid stops at the axis
         explicit = False
+    if axisymmetric and lo[0] <= 0.0 and faces[0] == FREE:
+        faces[0] = ROLLER  # the axis r = 0 is a symmetry line: no radial velocity there
     grid, problem = plan_grid(dim, h, lo, hi, faces, explicit, shape_function(deck.shape_function).ghost)
     if problem:
         raise_at([(("grid", "domain" if explicit else "cell_size"), problem)], loaded)
@@ -253,6 +263,8 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     keep = np.sort(len(keys) - 1 - first_in_rev)
     notices = overwritten(deck, keys, owners, keep)
     keys, owners, mat_names, x, vol = keys[keep], owners[keep], mat_names[keep], x_all[keep], vol_all[keep]
+    if axisymmetric:  # volumes (and so masses) per radian: the r-z area times the particle's radius
+        vol = vol * x[:, 0]
 
     lat = keys >= 0  # gaps closed between lattice-filled bodies (ring bodies' domains end at their surface)
     kk = np.empty((int(lat.sum()), dim), dtype=int)

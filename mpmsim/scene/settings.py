@@ -29,6 +29,7 @@ class RunSettings:
     damping: float  # grid damping alpha (1/time)
     loads: list  # the deck's traction loads
     artificial_viscosity: bool
+    axisymmetric: bool = False  # x = r, y = z: masses, volumes and forces per radian (docs/axisymmetric.md)
 
     @property
     def has_gravity(self) -> bool:
@@ -47,4 +48,4 @@ def run_settings(deck) -> RunSettings:
                        deck.output, deck.stability, implicit,
                        deck.grid.boundaries if deck.grid is not None else None, g,
                        deck.damping.grid if deck.damping is not None else 0.0, list(deck.loads),
-                       deck.artificial_viscosity is not None)
+                       deck.artificial_viscosity is not None, deck.analysis == "axisymmetric")

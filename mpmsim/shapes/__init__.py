@@ -19,11 +19,12 @@ scatter slabs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 
+from .axisymmetric import AXISYMMETRIC_KINDS, BAD_AXIS
 from .cpdi import BAD_DOMAIN, BAD_SPAN, CORNERS, NINE_POINT, cpdi_shape_functions
 from .grid_functions import BSPLINE2, BSPLINE3, GIMP, LINEAR, NODES
 from .tensor import BAD_SUPPORT, tensor_shape_functions
@@ -33,6 +34,7 @@ SHAPE_BAD_MESSAGES = {
     BAD_SPAN: "its deformed CPDI domain spans more than two cells along an axis; refine the grid "
               "or use more particles per cell",
     BAD_DOMAIN: "its CPDI domain inverted (det F <= 0)",
+    BAD_AXIS: "it reached the axis r = 0 of the axisymmetric analysis (or its support left the grid)",
 }
 
 
@@ -43,6 +45,7 @@ class ShapeKind(NamedTuple):
     per_axis: int  # nodes per axis of a sample point (tensor) or of the CPDI node box
     npc: int  # nodes per axis of the grid function alone
     cpdi_scheme: int  # -1 for tensor-product functions, else CORNERS / NINE_POINT
+    axisymmetric: bool  # x is r: the r-weighted radial factor and the hoop function (shapes/axisymmetric.py)
 
 
 class ChunkBoxes(NamedTuple):
@@ -61,6 +64,7 @@ class ShapeFunction:
     cpdi_scheme: int  # -1 for tensor-product functions, else CORNERS / NINE_POINT
     ghost: int  # ghost node layers needed outside the domain
     dims: tuple = (2, 3)
+    axisymmetric: bool = False  # the r-z form (x = r): see `for_axisymmetric`
 
     @property
     def per_axis(self) -> int:
@@ -86,7 +90,13 @@ class ShapeFunction:
 
     @property
     def kind(self) -> ShapeKind:
-        return ShapeKind(self.grid_kind, self.per_axis, NODES[self.grid_kind], self.cpdi_scheme)
+        return ShapeKind(self.grid_kind, self.per_axis, NODES[self.grid_kind], self.cpdi_scheme, self.axisymmetric)
+
+    def for_axisymmetric(self) -> "ShapeFunction":
+        """The r-z form of this function (linear and uGIMP: shapes/axisymmetric.py)."""
+        if self.cpdi_scheme >= 0 or self.grid_kind not in AXISYMMETRIC_KINDS:
+            raise ValueError(f"shape function {self.name} has no axisymmetric form here (linear, gimp)")
+        return replace(self, axisymmetric=True)
 
     def compute(self, x, F, semi, grid, nchunk, sd: "ShapeData"):
         """Fill `sd` for particles at x (F: deformation gradients, or None for rigid particles).
@@ -129,8 +139,9 @@ class ShapeData(NamedTuple):
     S: np.ndarray  # (n, K)
     G: np.ndarray  # (n, K, dim)
     lowest: np.ndarray  # (n, 3) lowest node (i, j, k) the particle touches
+    T: np.ndarray  # (n, K) hoop function T_ip of an axisymmetric scene; (0, K) otherwise
 
     @classmethod
-    def empty(cls, n: int, K: int, dim: int) -> "ShapeData":
+    def empty(cls, n: int, K: int, dim: int, axisymmetric: bool = False) -> "ShapeData":
         return cls(np.zeros((n, K), dtype=np.int64), np.zeros((n, K)), np.zeros((n, K, dim)),
-                   np.zeros((n, 3), dtype=np.int64))
+                   np.zeros((n, 3), dtype=np.int64), np.zeros((n if axisymmetric else 0, K)))

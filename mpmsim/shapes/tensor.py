@@ -8,6 +8,7 @@ from numba import njit, prange
 
 from ..gridops import chunk_range
 from ..parallel import chunk_kernel
+from .axisymmetric import BAD_AXIS, radial_weights
 from .grid_functions import weights_1d
 
 BAD_SUPPORT = 5  # a particle's support (or a CPDI sample point's) left the grid
@@ -31,15 +32,16 @@ def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
     particle whose nodes would fall outside the grid gets zero weights on node 0 and is
     flagged in boxes.bad."""
     origin, h, shape = grid.origin, grid.h, grid.shape
-    kind, per_axis = sk.grid_kind, sk.per_axis
-    nodes, S, G, lowest = sd.nodes, sd.S, sd.G, sd.lowest
-    chunk_lo, chunk_hi, chunk_bad = boxes.lo, boxes.hi, boxes.bad
+    kind, per_axis, axisymmetric = sk.grid_kind, sk.per_axis, sk.axisymmetric
+    nodes, S, G, lowest, T = sd.nodes, sd.S, sd.G, sd.lowest, sd.T
+    chunk_lo, chunk_hi, chunk_bad, chunk_code = boxes.lo, boxes.hi, boxes.bad, boxes.code
     n, dim = x.shape
     K = S.shape[1]
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
         w = np.ones((3, 4))
         dw = np.zeros((3, 4))
+        wt = np.zeros(4)  # axisymmetric: the hoop function's r factor
         base = np.zeros(3, dtype=np.int64)
         chunk_bad[c] = -1
         for d in range(3):
@@ -48,18 +50,34 @@ def tensor_shape_functions(x, grid, semi, sk, nchunk, sd, boxes):
         for p in range(start, stop):
             inside = True
             for d in range(dim):
-                base[d], ok = axis_weights(kind, x[p, d], origin[d], h[d], semi[d], per_axis, shape[d], w[d], dw[d])
+                if d == 0 and axisymmetric:
+                    base[0], ok = radial_weights(kind, x[p, 0], origin[0], h[0], semi[0], per_axis, shape[0], w[0],
+                                                 dw[0], wt)
+                else:
+                    base[d], ok = axis_weights(kind, x[p, d], origin[d], h[d], semi[d], per_axis, shape[d], w[d],
+                                               dw[d])
                 inside = inside and ok
             if not inside:
                 clear_entries(p, nodes, S, G)
+                for k in range(T.shape[1] if axisymmetric else 0):
+                    T[p, k] = 0.0
                 if chunk_bad[c] < 0:
                     chunk_bad[c] = p
+                    if axisymmetric:
+                        chunk_code[c] = BAD_AXIS
                 continue
             for d in range(dim):
                 lowest[p, d] = base[d]
                 chunk_lo[c, d] = min(chunk_lo[c, d], base[d])
                 chunk_hi[c, d] = max(chunk_hi[c, d], base[d] + per_axis - 1)
             fill_entries(p, base, w, dw, per_axis, dim, shape, nodes, S, G)
+            if axisymmetric:  # T_ip = T_r(r) N_z(z) (2D: node k = a + per_axis b)
+                k = 0
+                for bb in range(per_axis):
+                    wz = w[1, bb]
+                    for a in range(per_axis):
+                        T[p, k] = wt[a] * wz
+                        k += 1
 
 
 @njit(cache=True, inline="always")

@@ -85,7 +85,7 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     energy = "; internal energy" + (", artificial viscosity" if run.artificial_viscosity else "") \
         if scene.materials.tracks_energy else ""
     fraction = 0.5 if upd.stress == "usavg" else 1.0
-    stress = stress_kernels(scene.materials, scene.dim)  # one per material model in the scene
+    stress = stress_kernels(scene.materials, scene.dim, run.axisymmetric)  # one per material model in the scene
     if upd.stress in ("usf", "usavg"):
         tasks.append(Task("update stress first", update_stress_first(fraction, stress),
                           f"{upd.stress}: {'half' if upd.stress == 'usavg' else 'full'} step from extrapolated velocities"

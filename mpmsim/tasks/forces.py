@@ -1,5 +1,6 @@
 """Task: grid forces. f_i = -sum_p V_p sigma_p . G_ip + sum_p S_ip m_p g, plus traction loads
- and grid damping -alpha p when the deck has them."""
+ and grid damping -alpha p when the deck has them. Axisymmetric (x = r): V_p per radian and the
+ hoop stress's radial force -V_p sigma_tt T_ip (T: the hoop function, shapes/axisymmetric.py)."""
 
 from __future__ import annotations
 
@@ -12,10 +13,12 @@ from .boundary import fold_ghost_forces, has_walls
 
 
 @chunk_kernel
-def p2g_forces(sc, G, P, gravity, has_gravity, gforce):
-    """Internal forces (and gravity) of particles P scattered to their fields (sc: views.Scatter)."""
+def p2g_forces(sc, G, T, P, gravity, has_gravity, gforce):
+    """Internal forces (and gravity) of particles P scattered to their fields (sc: views.Scatter;
+    T: the hoop functions of an axisymmetric scene, else (0, K))."""
     nodes, S, vol, stress, pmass = sc.fidx, sc.S, P.vol, P.stress, P.mass
     K = S.shape[1]
+    hoop = T.shape[0] > 0
     dim = G.shape[2]
     order, ptr = sc.order, sc.ptr
     g0, g1, g2 = gravity[0], gravity[1], gravity[dim - 1]  # (g2 read only in 3D)
@@ -35,6 +38,8 @@ def p2g_forces(sc, G, P, gravity, has_gravity, gforce):
                     gz = G[p, k, 2] if dim == 3 else 0.0
                     fx, fy, fz = node_force(G[p, k, 0], G[p, k, 1], gz, w, vp, wm, sxx, syy, szz, sxy, syz, sxz, g0, g1,
                                             g2, has_gravity, dim)
+                    if hoop:
+                        fx -= szz * T[p, k] * vp
                     gforce[i, 0] += fx
                     gforce[i, 1] += fy
                     if dim == 3:
@@ -67,10 +72,11 @@ def forces(state) -> None:
     f, box, P, sd = state.fields, state.box, state.particles, state.sd
     zero_fields(box.fields, f.force)
     has_g = bool(state.gravity.any())
-    p2g_forces(box.scatter(state.field_index, sd.S), sd.G, P.view(), state.gravity, has_g, f.force)
+    p2g_forces(box.scatter(state.field_index, sd.S), sd.G, sd.T, P.view(), state.gravity, has_g, f.force)
     loads = state.loads
     if loads is not None:  # their work is booked by the particle update, over the step's displacement
-        p2g_loads(loads.particle, loads.start_step(P.x, state.t + 0.5 * state.dt), state.field_index, sd.S, f.force)
+        p2g_loads(loads.particle, loads.start_step(P.x, state.t + 0.5 * state.dt), loads.at_surface, loads.offset, P.x,
+                  state.field_index, sd.S, sd.lowest, state.entry_offsets, state.grid.view, f.force)
     # only B-splines: with linear hats the ghosts carry only the force of a CPDI corner pushed
     # past the wall, and folding that back flings the particle out (Fig. 6 ellipses, 75% strain)
     if state.shape.reaches_ghosts and has_walls(state):

@@ -26,7 +26,7 @@ from .boundary import set_grid_velocity
 
 
 # the constants of one compiled stress kernel, bound per model by `update_stress_kernel`
-MODEL_CODE, DIM, TRACKED, READS_L_2D, READS_F3_2D, OWN_EOS = -1, 2, False, True, True, False
+MODEL_CODE, DIM, TRACKED, READS_L_2D, READS_F3_2D, OWN_EOS, AXISYMMETRIC = -1, 2, False, True, True, False, False
 STRESS = BULK = None
 
 
@@ -35,7 +35,7 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
     are the particles' fields), F and volume, then the stress of each particle whose material
     (M: views.MaterialView) is of this model; per chunk the largest wave speed + |v| and the
     first bad particle."""
-    nodes, G = entries.nodes, entries.G
+    nodes, G, T = entries.nodes, entries.G, entries.T
     pvel, F, stress, vol, vol0, mat, U, pressure, qv = P.v, P.F, P.stress, P.vol, P.vol0, P.mat, P.U, P.pressure, P.q
     mstate = P.mstate
     code, props, density, energy, av = M.code, M.props, M.density, M.energy, M.av
@@ -57,7 +57,17 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
                 continue
             # F <- (I + dt L) F, padded to 3x3 (plane strain: F33 = 1, no z gradient)
             n00 = n01 = n10 = n11 = 0.0  # 2D: the new F's in-plane entries
-            if DIM == 2:
+            n22 = 1.0  # axisymmetric: the new hoop stretch
+            if DIM == 2 and AXISYMMETRIC:
+                # r-z: the in-plane gradient plus the hoop rate L_tt = sum_i v_r,i T_ip; the
+                # material sees the 3D tensors (L, F block-diagonal: r-z block and theta)
+                l00, l01, l10, l11 = velocity_gradient_2d(p, nodes, G, gvel)
+                l22 = hoop_rate(p, nodes, T, gvel)
+                L[0, 0], L[0, 1], L[1, 0], L[1, 1], L[2, 2] = l00, l01, l10, l11, l22
+                n00, n01, n10, n11 = deform_2d(dt, l00, l01, l10, l11, F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1])
+                n22 = F[p, 2, 2] * (1.0 + dt * l22)
+                F3[0, 0], F3[0, 1], F3[1, 0], F3[1, 1], F3[2, 2] = n00, n01, n10, n11, n22
+            elif DIM == 2:
                 # in 2D the sums run in scalar locals: a compiled plain loop must assume the
                 # scratch rows may overlap the arrays it reads, and reloads them (1.5x slower)
                 l00, l01, l10, l11 = velocity_gradient_2d(p, nodes, G, gvel)
@@ -89,13 +99,15 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
                         F3[a, b] = s
             # det3 of the padded F; in 2D its out-of-plane terms are exact zeros, which change
             # nothing where J > 0 (elsewhere the particle is reported inverted either way)
-            J = n00 * n11 - n01 * n10 if DIM == 2 else det3(F3)
+            J = (n00 * n11 - n01 * n10) * n22 if DIM == 2 else det3(F3)
             if not (J > 0.0):
                 if bad < 0:
                     bad, bad_code, bad_value = p, BAD_INVERTED, J
                 continue
             if DIM == 2:
                 F[p, 0, 0], F[p, 0, 1], F[p, 1, 0], F[p, 1, 1] = n00, n01, n10, n11
+                if AXISYMMETRIC:
+                    F[p, 2, 2] = n22
             else:
                 for a in range(dim):
                     for b in range(dim):
@@ -107,7 +119,7 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
             if track:
                 # Eq. (52): q only in compression, C the current bulk wave speed
                 trD = 0.0
-                for a in range(dim):
+                for a in range(3 if AXISYMMETRIC else dim):
                     trD += L[a, a]
                 if trD < 0.0 and av[mt, 0] + av[mt, 1] > 0.0:
                     C = np.sqrt(max(BULK(props[mt], J, pressure[p]), 0.0) * J / density[mt])
@@ -175,6 +187,15 @@ def velocity_gradient_2d(p, nodes, G, gvel):
 
 
 @njit(cache=True, inline="always")
+def hoop_rate(p, nodes, T, gvel):
+    """The axisymmetric hoop strain rate of particle p, L_tt = sum_k v_r,i T_pk."""
+    l22 = 0.0
+    for k in range(nodes.shape[1]):
+        l22 += gvel[nodes[p, k], 0] * T[p, k]
+    return l22
+
+
+@njit(cache=True, inline="always")
 def deform_2d(dt, l00, l01, l10, l11, f00, f01, f10, f11):
     """The in-plane entries of (I + dt L) F. Also the GPU step's."""
     n00 = f00 + dt * l00 * f00 + dt * l01 * f10
@@ -185,28 +206,31 @@ def deform_2d(dt, l00, l01, l10, l11, f00, f01, f10, f11):
 
 
 @cache
-def update_stress_kernel(model: int, tracked: bool, dim: int):
+def update_stress_kernel(model: int, tracked: bool, dim: int, axisymmetric: bool = False):
     """The stress update of the particles of one material model (type code `model`), compiled
     for that model alone: its stress and bulk-modulus functions and flags
     (mpmsim/materials/model.py), `tracked` (some material of the model carries internal energy)
     and `dim` are bound as constants of the kernel, so a scene compiles only the models it
-    uses. (Plain ints and bools: they key numba's cache; the model's tag names the copy.)"""
+    uses. (Plain ints and bools: they key numba's cache; the model's tag names the copy.)
+    `axisymmetric`: the r-z form, the model's 3D update on block-diagonal L and F (x = r,
+    y = z, the third axis the hoop direction)."""
     m = model_of(model)
-    if m.stress(dim) is None:
+    law = m.stress(3 if axisymmetric else dim)
+    if law is None:
         raise ValueError(f"material model {m.name} has no explicit MPM stress update")
-    tag = f"{m.tag}_{int(tracked)}_{dim}d"
+    tag = f"{m.tag}_{int(tracked)}_{'rz' if axisymmetric else f'{dim}d'}"
     return chunk_kernel(specialize(stress_kernel, tag, MODEL_CODE=m.code, DIM=dim, TRACKED=tracked,
                                    READS_L_2D=m.reads_L_2d, READS_F3_2D=m.reads_F3_2d, OWN_EOS=m.internal_energy,
-                                   STRESS=m.stress(dim), BULK=m.bulk_modulus))
+                                   STRESS=law, BULK=m.bulk_modulus, AXISYMMETRIC=axisymmetric))
 
 
-def stress_kernels(materials, dim: int) -> list:
+def stress_kernels(materials, dim: int, axisymmetric: bool = False) -> list:
     """The stress kernels of a material table: one per material model its deformable
     materials use (models without an explicit update are those of FEM bodies only: the
     deck's checks keep them off explicit particles)."""
     codes = np.asarray(materials.type_code)
-    return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any()), int(dim)) for m in np.unique(codes)
-            if model_of(int(m)).stress(dim) is not None]
+    return [update_stress_kernel(int(m), bool(materials.energy[codes == m].any()), int(dim), bool(axisymmetric))
+            for m in np.unique(codes) if model_of(int(m)).stress(dim) is not None]
 
 
 def _update_stress(state, dt, gvel, kernels) -> None:

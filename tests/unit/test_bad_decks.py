@@ -42,7 +42,23 @@ CASES = [
     ("vector length", [("min: [0, 0], max: [4, 4]", "min: [0, 0, 0], max: [4, 4, 4]")], "bodies.0.min", 9, "2 components"),
     ("3D shape in 2D", [("shape: rectangle, min: [0, 0], max: [4, 4]", "shape: sphere, center: [0, 0, 0], radius: 1")],
      "bodies.0.shape", 9, "3D shape"),
-    ("axisymmetric reserved", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric")], "analysis", 3, "not available"),
+    ("axisymmetric with CPDI", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric\nshape_function: cpdi")], "shape_function", 4,
+     "axisymmetric analysis takes shape_function linear or gimp"),
+    ("axisymmetric body across the axis", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric"), ("min: [0, 0]", "min: [-1, 0]")], "bodies.0", 10,
+     "reaches r = -1 < 0"),
+    ("axisymmetric thickness", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric\nthickness: 2.0")], "thickness", 4, "per radian"),
+    ("axisymmetric radial gravity", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric\ngravity: [-9.81, 0.0]")], "gravity.0", 4,
+     "breaks the axial symmetry"),
+    ("axisymmetric domain at r < 0", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric"), ("  cell_size: 1.0", "  cell_size: 1.0\n"
+                                      "  domain: {min: [-1, 0], max: [5, 5]}")], "grid.domain.min.0", 6, "r >= 0"),
+    ("axisymmetric pressure off the axis", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric"),
+                                            ("time: {end: 0.1}", "time: {end: 0.1}\nloads:\n  - {region: {min: [0, 0], "
+                                             "max: [4, 4]}, pressure: 1.0, center: [1.0, 0.0]}")],
+     "loads.0.center.0", 13, "center r must be 0"),
+    ("pressure without a centre", [("time: {end: 0.1}", "time: {end: 0.1}\nloads:\n  - {region: {min: [0, 0], "
+                                    "max: [4, 4]}, pressure: 1.0}")], "loads.0", 12, "needs both pressure and center"),
+    ("axisymmetric implicit", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric\nintegrator: implicit\nupdate: {scheme: pic}"),
+                               ("time: {end: 0.1}", "time: {end: 0.1, dt: 0.01}")], "integrator", 4, "explicit MPM"),
     ("bad enum", [("{ymin: fixed}", "{ymin: glued}")], "grid.boundaries.ymin", 5, "'fixed'"),
     ("both cfl and dt", [("time: {end: 0.1}", "time: {end: 0.1, cfl: 0.5, dt: 0.001}")], "time.dt", 10, "either"),
     ("energy ledger off the explicit step", [("time: {end: 0.1}", "time: {end: 0.1, dt: 0.01}\n"
