@@ -771,7 +771,8 @@ class Deck(Strict):
         default="SI", description="Named consistent unit system (see docs/units.md).")
     analysis: Literal["plane_strain", "3d", "axisymmetric"] = Field(
         default="plane_strain",
-        description="plane_strain (2D) or 3d. axisymmetric is reserved and not yet available.",
+        description="plane_strain (2D), 3d, or axisymmetric: x is the radius r >= 0 and y the axis z; masses, "
+        "volumes, forces and energies per radian (docs/axisymmetric.md).",
     )
     thickness: float = Field(default=1.0, gt=0, description="Out-of-plane thickness in 2D.")
     grid: Grid | None = Field(default=None, description="The MPM background grid (needed by particle bodies).")
