@@ -155,6 +155,9 @@ class Particles(BodySet):
             "mass": self.mass,
             "volume": self.vol,
         }
+        if nf == 3 and dim == 2:  # axisymmetric: the hoop (theta) components, named
+            data["hoop_stress"] = self.stress[:, 2]
+            data["hoop_stretch"] = self.F[:, 2, 2]
         if mats.tracks_energy:  # zero on particles of materials without internal energy
             on = mats.energy[self.mat]
             data["internal_energy"] = np.where(on, self.U, 0.0)

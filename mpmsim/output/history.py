@@ -30,7 +30,8 @@ history adds them up and adds the run's accounts. Columns, in order:
   runs): contact_f<axis>_<a>_<b>, the force b exerted on a in the last step, and
   contact_impulse_<axis>_<a>_<b>, its impulse since t = 0 (contact.ContactTasks).
 Names taken from the deck have every character other than letters, digits and '_' replaced
-by '_'. In 2D, forces, energies and momenta are for the deck's thickness.
+by '_'. In 2D, forces, energies and momenta are for the deck's thickness; in an axisymmetric
+run (x = r, y = z) they are per radian, as the sidecar's `measure` says (x 2 pi: the whole body).
 """
 
 from __future__ import annotations
@@ -79,6 +80,8 @@ class History:
         self.deck = scene.record  # the validated deck, for the sidecar (a restart takes it from the scene again)
         run = scene.settings
         self.title = " ".join(str(run.title).split())  # one line
+        self.measure = ("per radian: masses, momenta, forces, impulses, energies and work of the axisymmetric "
+                        "run (x = r, y = z); x 2 pi for the whole body" if run.axisymmetric else None)
         u = unit_system(scene.settings.units)
         dim = state.dim
         axes = "xyz"[:dim]
@@ -259,7 +262,7 @@ class History:
         from .runlog import versions
 
         meta = {"title": self.title, "columns": dict(self.columns), "deck": self.deck,
-                **versions()}
+                **({"measure": self.measure} if self.measure else {}), **versions()}
         write_text(sidecar_path(self.path), json.dumps(meta, indent=1) + "\n")
 
 

@@ -67,7 +67,7 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     if contact is not None:
         ct = ContactTasks(contact, scene.grid, shape_function(run.shape_function).grid_kind >= 2, scene.thickness,
                           pass_1_moves_particles=upd.scheme in ("pic", "apic", "fmpm")
-                          or (upd.scheme == "xpic" and contact.xpic_term))
+                          or (upd.scheme == "xpic" and contact.xpic_term), axisymmetric=run.axisymmetric)
         tasks.append(Task("material fields", material_fields,
                           f"{contact.n_groups} material groups: own velocity fields where they meet"))
     else:

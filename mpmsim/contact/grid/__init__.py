@@ -79,10 +79,21 @@ def extrapolate_contact(state, with_mass: bool) -> None:
         interface_sums = (cs.udisp, cs.ugrad) if spec.has_interface else ()  # read only by interfaces
         for arr in (cs.vol, cs.disp, cs.pos, cs.grad, *interface_sums):
             arr[:ns] = 0.0
-        scatter_slot_extras(box.scatter(cs.fidx, sd.S), sd.G, state.particles.view(), state.grid.view, nn,
-                            cs.slot_node, wants, cs.sums())
+        scatter_slot_extras(box.scatter(cs.fidx, sd.S), sd.G, contact_measure(state.particles, state), state.grid.view,
+                            nn, cs.slot_node, wants, cs.sums())
     if R.n:
-        scatter_rigid_slots(cs.rfidx, state.rigid_sd, R.view(), nn, with_mass, wants, f.mass, f.mom, cs.sums())
+        scatter_rigid_slots(cs.rfidx, state.rigid_sd, contact_measure(R, state), nn, with_mass, wants, f.mass, f.mom,
+                            cs.sums())
+
+
+def contact_measure(bodies, state):
+    """The particle view whose volumes the contact methods weigh by: the volumes, or in an
+    axisymmetric scene the r-z areas V_p / r_p (the LR paper's A_p, Eq. 11), so that normals and
+    contact volumes do not lean toward larger radii."""
+    view = bodies.view()
+    if not state.shape.axisymmetric:
+        return view
+    return view._replace(vol=bodies.vol / bodies.x[:, 0])
 
 
 def screen_volume(spec, grid, thickness: float) -> float:
@@ -98,14 +109,16 @@ def screen_volume(spec, grid, thickness: float) -> float:
 class ContactTasks:
     """The contact tasks of one scene, with the scene's settings bound."""
 
-    def __init__(self, spec, grid, spline: bool, thickness: float, pass_1_moves_particles: bool = True):
+    def __init__(self, spec, grid, spline: bool, thickness: float, pass_1_moves_particles: bool = True,
+                 axisymmetric: bool = False):
         """pass_1_moves_particles: the particle update takes the particles' new velocity from
         the grid velocity, so pass 1's change of the extrapolated momenta reaches the particles
-        and counts in the contact force between materials (FLIP adds only dt a: it does not)."""
+        and counts in the contact force between materials (FLIP adds only dt a: it does not).
+        axisymmetric: contact volumes are r-z areas and contact areas per radian (docs/axisymmetric.md)."""
         self.spec = spec
         self.pass_1_counts = pass_1_moves_particles
         h_min = float(grid.h.min())
-        self.method = spec.method(h_min, spline, screen_volume(spec, grid, thickness))
+        self.method = spec.method(h_min, spline, screen_volume(spec, grid, thickness), axisymmetric)
         self.laws = spec.laws()
         self.touch = self.method.touch
         self.sep_velocity = spec.separation == SEP_VELOCITY

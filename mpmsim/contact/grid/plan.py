@@ -389,6 +389,12 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
         specified_normal(ga, gb, rigid_b, xnode, method, dim, n)
     else:
         gradient_normal(a, b, s0, s1, rigid_b, omega_a, omega_b, inp, dim, va, vb, n)
+    if method.axisymmetric and xnode[0] <= 0.0:  # on the axis the normal has no r component
+        n[0] = 0.0
+        if n[1] == 0.0:
+            geo.role[a] = 0
+            return
+        n[1] = 1.0 if n[1] > 0.0 else -1.0
     hp = h_perp(n, inp.grid.h, dim) if method.use_h_perp else inp.grid.h[0]
     d_edge = 0.0
     use_edge = False
@@ -403,6 +409,8 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
     area = contact_area(omega_a, omega_b, hp, d_edge, use_edge, method.spline)
     if not method.area_correction:
         area = (omega_a + omega_b) / hp
+    if method.axisymmetric:  # per radian: the node's radius (zero on the axis)
+        area *= xnode[0]
     geo.area[a] = area
     # Eq. 20's factor sqrt(2 min / total) is the linear shape function of the node at the
     # interface: 1 on the node, 1/2 half a cell away; the node sits on the side of its larger
