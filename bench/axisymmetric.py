@@ -15,17 +15,14 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 from pathlib import Path
 
 import numba
 import yaml
 
 from mpmsim.deck import load_deck_text
-from mpmsim.scene import build_scene
-from mpmsim.solver import Simulation
 
-from machine import describe  # (bench/machine.py: run as python bench/axisymmetric.py)
+from machine import describe, seconds_per_step  # (bench/machine.py: run as python bench/axisymmetric.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 DECK = ROOT / "inputs" / "sphere_pressure_rz.yaml"
@@ -40,15 +37,6 @@ def deck(path: Path, analysis: str):
     return load_deck_text(yaml.safe_dump(data), path)
 
 
-def seconds_per_step(path: Path, analysis: str, steps: int, threads: int) -> tuple[float, int]:
-    sim = Simulation(build_scene(deck(path, analysis)), out_dir=None, threads=threads)
-    sim.step()  # (compiles on the first call)
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        sim.step()
-    return (time.perf_counter() - t0) / steps, sim.state.particles.n
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--threads", type=int, default=1)
@@ -61,7 +49,7 @@ def main() -> None:
     n = {}
     for _ in range(a.repeats):
         for analysis in times:
-            t, n[analysis] = seconds_per_step(a.deck, analysis, a.steps, a.threads)
+            t, n[analysis] = seconds_per_step(deck(a.deck, analysis), a.steps, a.threads)
             times[analysis].append(t / n[analysis])
     ps, rz = (statistics.median(times[m]) for m in times)
     print(f"{describe(a.threads)}  {a.deck.name}: {n['axisymmetric']} particles, {a.steps} steps x {a.repeats} "

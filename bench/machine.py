@@ -45,3 +45,19 @@ def describe(threads: int | None = None) -> str:
 
 if __name__ == "__main__":
     print(describe())
+
+
+def seconds_per_step(deck, steps: int, threads: int) -> tuple[float, int]:
+    """(seconds per step over `steps` steps after a first, compiling one; deformable particles) of
+    a validated deck run in this process (the benches' shared timing loop)."""
+    import time
+
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    sim = Simulation(build_scene(deck), out_dir=None, threads=threads)
+    sim.step()  # (compiles on the first call)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        sim.step()
+    return (time.perf_counter() - t0) / steps, sim.state.particles.n

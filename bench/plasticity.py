@@ -14,17 +14,14 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 from pathlib import Path
 
 import numba
 import yaml
 
 from mpmsim.deck import load_deck_text
-from mpmsim.scene import build_scene
-from mpmsim.solver import Simulation
 
-from machine import describe  # (bench/machine.py: run as python bench/plasticity.py)
+from machine import describe, seconds_per_step  # (bench/machine.py: run as python bench/plasticity.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 DECK = ROOT / "inputs" / "taylor_bar_3d.yaml"
@@ -40,15 +37,6 @@ def deck(material: str, cell: float):
     return load_deck_text(yaml.safe_dump(data), DECK)
 
 
-def seconds_per_step(material: str, cell: float, steps: int, threads: int) -> tuple[float, int]:
-    sim = Simulation(build_scene(deck(material, cell)), out_dir=None, threads=threads)
-    sim.step()  # (compiles on the first call)
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        sim.step()
-    return (time.perf_counter() - t0) / steps, sim.state.particles.n
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--threads", type=int, default=1)
@@ -61,7 +49,7 @@ def main() -> None:
     n = 0
     for _ in range(a.repeats):
         for material in times:
-            t, n = seconds_per_step(material, a.cell, a.steps, a.threads)
+            t, n = seconds_per_step(deck(material, a.cell), a.steps, a.threads)
             times[material].append(t)
     el, j2 = (statistics.median(times[m]) for m in times)
     print(f"{describe(a.threads)}  {n} particles, {a.steps} steps x {a.repeats} alternated runs")

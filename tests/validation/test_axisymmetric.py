@@ -95,8 +95,9 @@ A, B, P_IN, E, NU = 5.0, 10.0, 100.0, 200000.0, 0.3  # inputs/sphere_pressure_rz
 
 
 @functools.cache
-def sphere_run():
-    sim = Simulation(build_scene(deck_from(example("sphere_pressure_rz"), ROOT / "inputs")))
+def run_of(name: str):
+    """The finished run of inputs/<name>.yaml (one per module: the tests read it)."""
+    sim = Simulation(build_scene(deck_from(example(name), ROOT / "inputs")))
     sim.run()
     return sim
 
@@ -108,7 +109,7 @@ def test_thick_sphere_under_internal_pressure_matches_lame():
     within 0.5% of Lame's; the radial stress within 0.5% of p. (Measured: u within 0.05%, the
     cells' hoop stress within 0.4%; with the pressure applied at the loaded layer's centres instead
     of the surface the shell is 1.0% too stiff.)"""
-    P = sphere_run().state.particles
+    P = run_of("sphere_pressure_rz").state.particles
     s = P.stress
     R0 = np.hypot(P.x0[:, 0], P.x0[:, 1])
     R = np.hypot(P.x[:, 0], P.x[:, 1])
@@ -138,20 +139,13 @@ def test_thick_sphere_hoop_stretch_follows_the_radius():
     strain two cells and more from the axis. (Nearer, the position lags behind F_tt: a particle
     moves with sum_i S_ip v_i, the velocity of its r-weighted centroid r_p + l^2 / (3 r_p), as in
     the reference code; docs/axisymmetric.md.)"""
-    P = sphere_run().state.particles
+    P = run_of("sphere_pressure_rz").state.particles
     stretch = P.x[:, 0] / P.x0[:, 0]
     away = P.x0[:, 0] > 0.5
     assert np.abs(P.F[away, 2, 2] - stretch[away]).max() < 1e-2 * np.abs(stretch - 1).max()
 
 
 # ----------------------------------------------------------------------------- long cylinder
-@functools.cache
-def cylinder_run():
-    sim = Simulation(build_scene(deck_from(example("cylinder_axial_rz"), ROOT / "inputs")))
-    sim.run()
-    return sim
-
-
 def test_long_cylinder_under_axial_traction_is_uniaxial_and_uniform():
     """Lower half (10 radii from the loaded end): the cells' volume-averaged sigma_zz uniform to
     1e-5 and equal to the traction over the current section (-100 MPa / (1 + nu eps)^2, 3e-4
@@ -160,7 +154,7 @@ def test_long_cylinder_under_axial_traction_is_uniaxial_and_uniform():
     cells uniform to 5.6e-6. The particles of a cell differ by up to 3e-4, alternating along z:
     the traction acts at the loaded layer's particle centres, and plane strain shows the same
     pattern, docs/axisymmetric.md.)"""
-    sim = cylinder_run()
+    sim = run_of("cylinder_axial_rz")
     st = sim.state
     P, s, h = st.particles, st.particles.stress, 0.5
     low = P.x0[:, 1] < 20.0
