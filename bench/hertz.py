@@ -4,6 +4,7 @@ contact, the pressure read from the contact traction output (output.contact_trac
     python bench/hertz.py run --rh 20 40 [--set contact.normal=average_gradient ...]
     python bench/hertz.py run --rh 20 40 --seeding rings --pair --end 0.9   # two cylinders
     python bench/hertz.py run --rh 20 --sphere [--seeding shells]             # 3D, a quarter sphere
+    python bench/hertz.py run --rh 40 80 --sphere --rz --a 1 --seeding rings_half_step  # the sphere, axisymmetric
     python bench/hertz.py run --rh 20 40 --half --seeding rings_half_step     # the half cylinder x >= 0
     python bench/hertz.py run --rh 20 40 --augury [--hc 1]    # an FEM cylinder on an FEM block, augury contact
     python bench/hertz.py run --rh 20 40 80 --barrier         # an MPM cylinder on an FEM block, barrier contact
@@ -280,11 +281,13 @@ def sphere_load(a: float = A_TARGET) -> float:
     return 4.0 * E_STAR * a**3 / (3.0 * R)
 
 
-def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET, seeding: str = "lattice") -> dict:
+def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET, seeding: str = "lattice",
+                rz: bool = False) -> dict:
     """A quarter of an elastic sphere (x, z >= 0; roller faces xmin and zmin are its symmetry
     planes) of the cylinder's material on a rigid flat, loaded by gravity for the Hertz contact
     radius a_target; seeding lattice (the grid-aligned sites inside the sphere: a stepped surface, a flat
-    bottom facet) or shells (concentric shells that follow the surface, clipped to the quarter)."""
+    bottom facet) or shells (concentric shells that follow the surface, clipped to the quarter).
+    rz: the same sphere axisymmetric (its half disk r >= 0; seeding lattice, rings or rings_half_step)."""
     h = R / rh
     c = math.sqrt(E * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) / RHO)
     g = sphere_load(a_target) / (RHO * 4.0 / 3.0 * math.pi * R**3)
@@ -308,24 +311,43 @@ def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET,
                    {"name": "flat", "shape": "box", "min": [0.0, -2 * h, 0.0], "max": [w, 0.0, w], "material": "flat"}],
         "gravity": [0.0, -g, 0.0],
         **run_settings(alpha, end),
+    } if not rz else {
+        "title": f"Hertz sphere on a rigid flat (axisymmetric), R/h = {rh:g}",
+        "units": "mm-g-ms",
+        "analysis": "axisymmetric",
+        "grid": {"cell_size": h, "domain": {"min": [0.0, -2 * h], "max": [R + 2 * h, 2 * R + 2 * h]}},
+        "shape_function": "gimp",
+        "particles_per_direction": 2,
+        "materials": {"sphere": {"type": "linear_elastic", "E": E, "nu": NU, "density": RHO},
+                      "flat": {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0]}},
+        "bodies": [{"name": "sphere", "shape": "circle", "center": [0.0, R], "radius": R, "material": "sphere",
+                    **({"seeding": seeding} if seeding != "lattice" else {}),
+                    "clip": {"min": [0.0, -1.0], "max": [R + 1.0, 2 * R + 1.0]}},
+                   {"name": "flat", "shape": "rectangle", "min": [0.0, -2 * h], "max": [w, 0.0], "material": "flat"}],
+        "gravity": [0.0, -g],
+        **run_settings(alpha, end),
     }
 
 
 def run_sphere(rh: float, out: Path | None = None, end: float | None = None, threads: int | None = None,
-               seeding: str = "lattice") -> dict:
+               seeding: str = "lattice", rz: bool = False, a_target: float = A_TARGET) -> dict:
     """The quarter sphere at R/h = rh; the pressure per normal line of contact nodes (the traction
     output's contact_pressure: each node carries its line's), averaged over the frames of the
     last third; radius from the force's second moment, a_m = sqrt(5/2 sum r^2 F / sum F) (= a for
     Hertz's distribution), and from Hertz's ellipsoid fitted to the lines above a tenth of the
-    peak; the load carried (4 x the quarter's) against the applied m g."""
+    peak; the load carried (4 x the quarter's) against the applied m g. rz: the axisymmetric
+    sphere; forces and areas per radian (x 2 pi), a line per node column r_i; the axis column has
+    no area (r_i = 0), so the centre pressure is the fitted ellipsoid's p(0) = sqrt(c_0)."""
     import meshio
 
     from mpmsim.deck import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
-    data = sphere_deck(rh, end=end, seeding=seeding)
-    out = out or RESULTS / (f"sphere_rh{rh:g}" + ("" if seeding == "lattice" else f"_{seeding}"))
+    data = sphere_deck(rh, end=end, seeding=seeding, rz=rz, a_target=a_target)
+    out = out or RESULTS / (f"sphere{'_rz' if rz else ''}_rh{rh:g}" + ("" if seeding == "lattice" else f"_{seeding}")
+                            + ("" if a_target == A_TARGET else f"_a{a_target:g}"))
+    whole = 2.0 * math.pi if rz else 4.0  # the whole body's share: per radian, or a quarter
     t0 = time.perf_counter()
     sim = Simulation(build_scene(as_loaded_deck(data, "hertz", None)), out_dir=out, threads=threads)
     sim.run()
@@ -341,7 +363,7 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
         fn = -np.sum(np.asarray(pd.point_data["contact_force"]) * np.asarray(pd.point_data["normal"]), axis=1)
         area = np.asarray(pd.point_data["contact_area"])
         node_p_max = max(node_p_max, float(np.asarray(pd.point_data["contact_pressure"]).max()))
-        xz = np.round(pd.points[:, [0, 2]], 9)
+        xz = np.round(pd.points[:, [0, 2]], 9)  # (rz: (r, 0))
         for key in np.unique(xz, axis=0):
             on = np.all(xz == key, axis=1)
             acc = lines.setdefault(tuple(key), [0.0, 0.0])
@@ -353,10 +375,10 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
     r = np.hypot(keys[:, 0], keys[:, 1])
     p = np.divide(F, A, out=np.zeros_like(F), where=A > 0)
     P = sim.state.particles
-    P_applied = 4.0 * float(P.mass.sum()) * -data["gravity"][1]
+    P_applied = whole * float(P.mass.sum()) * -data["gravity"][1]
     a = (3.0 * P_applied * R / (4.0 * E_STAR)) ** (1 / 3)
     p0 = 3.0 * P_applied / (2.0 * math.pi * a**2)
-    load = 4.0 * float(F.sum())
+    load = whole * float(F.sum())
     a_m = math.sqrt(2.5 * float((r**2 * F).sum() / F.sum()))
     fit = p > 0.1 * p.max()
     c = np.linalg.lstsq(np.stack([np.ones(fit.sum()), r[fit] ** 2], 1), p[fit] ** 2, rcond=None)[0]
@@ -364,10 +386,11 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
     inner = r < 0.8 * a
     ph = p0 * np.sqrt(np.clip(1 - (r / a) ** 2, 0, None))
     hist = sim.history
+    centre = math.sqrt(c[0]) if rz and c[0] > 0 else (float(p[r == 0].max()) if np.any(r == 0) else float("nan"))
     result = {"rh": rh, "h": R / rh, "a_hertz": a, "p0_hertz": p0, "load_applied": P_applied, "load_carried": load,
-              "load_error": load / P_applied - 1, "reaction_y": 4.0 * float(hist["F_flat_y"].iloc[-1]),
+              "load_error": load / P_applied - 1, "reaction_y": whole * float(hist["F_flat_y"].iloc[-1]),
               "a_moment_error": a_m / a - 1, "a_fit_error": a_fit / a - 1,
-              "centre_error": float(p[r == 0].max()) / p0 - 1 if np.any(r == 0) else float("nan"),
+              "centre_error": centre / p0 - 1, "analysis": "axisymmetric" if rz else "3d",
               "p_max_over_p0": float(p.max() / p0), "node_p_max_over_p0": node_p_max / p0,
               "profile_max_error": float(np.abs(p[inner] - ph[inner]).max() / p0),
               "n_particles": int(P.n), "steps": int(hist["step"].iloc[-1]), "wall_s": wall, "seeding": seeding}
@@ -639,6 +662,7 @@ def main(argv=None) -> int:
     ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
     ap.add_argument("--half", action="store_true", help="the half cylinder x >= 0 on a symmetry (roller) line")
     ap.add_argument("--sphere", action="store_true", help="3D: a quarter sphere on the flat (lattice-seeded)")
+    ap.add_argument("--rz", action="store_true", help="with --sphere: the sphere axisymmetric (r-z)")
     ap.add_argument("--augury", action="store_true", help="an FEM cylinder on an FEM block, augury contact")
     ap.add_argument("--barrier", action="store_true", help="an MPM cylinder on an FEM block, implicit barrier contact")
     ap.add_argument("--flat", type=float, default=E_FLAT / E,
@@ -662,8 +686,9 @@ def main(argv=None) -> int:
                                             e_flat=args.flat * E)["result"]))
                 continue
             if args.sphere:
-                print(json.dumps(run_sphere(rh, end=args.end, threads=args.threads,
-                                            seeding="shells" if args.seeding == "shells" else "lattice")["result"]))
+                seeding = args.seeding if args.rz else ("shells" if args.seeding == "shells" else "lattice")
+                print(json.dumps(run_sphere(rh, end=args.end, threads=args.threads, seeding=seeding, rz=args.rz,
+                                            a_target=args.a)["result"]))
                 continue
             r = run_case(rh, parse_set(args.set), end=args.end, threads=args.threads, seeding=args.seeding,
                          pair=args.pair, a_target=args.a, half=args.half)["result"]
