@@ -258,3 +258,13 @@ def test_composite_sphere_bulk_modulus_is_hashins(D, measured):
     K = p * p * (b**3 / 3) / (2 * U)
     csa = csa_bulk_modulus(2400.0, 0.33, 70000.0, 0.25, (a / b) ** 3, D, a)
     assert K == pytest.approx(csa, rel=0.01), (K, csa)
+
+
+def test_the_gpu_step_refuses_axisymmetric_naming_the_key():
+    """--device cuda: the GPU step has no r-z form; the refusal is one line naming `analysis`."""
+    from mpmsim.errors import DeckError
+    from mpmsim.solver import check_device
+
+    scene = build_scene(deck_from(example("cylinder_axial_rz"), ROOT / "inputs"))
+    with pytest.raises(DeckError, match="analysis: axisymmetric analysis is not on the GPU yet"):
+        check_device(scene, "cuda", driver=False)
