@@ -12,7 +12,10 @@ direction, or along an axis (`--view`), and the stress view shows the half below
 `--time` more than half the frames' interval from every frame is an error naming the nearest. The script is plain ParaView
 (`paraview.simple`, ParaView 5.10 or newer); `paraview --script=FILE` opens it in the GUI,
 `pvbatch FILE --screenshot out.png` renders a picture, and `--report` prints what it shows
-(JSON) for checks.
+(JSON) for checks. An axisymmetric series (its particles carry `hoop_stress`) is shown revolved
+in the left view: the r-z plane turned upright (the axis along z) and swept three quarters round
+the axis by ParaView's RotationalExtrusion, seen obliquely; the right view keeps the r-z section
+with the stress (`--section`: both views the section).
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ PALETTE = {palette!r}
 COMPONENTS = {components!r}
 DIM = {dim}
 RIGID = {rigid!r}  # material ids of the rigid materials (drawn grey, listed grey)
+AXISYMMETRIC = {axisymmetric!r}  # x = r, y = z: the left view revolves the section about the axis
 GREY = (0.6, 0.6, 0.6)
 UNIT = {unit!r}  # the stress unit of the run (from its history's sidecar; empty if none)
 SPACING = {spacing!r}  # median distance between neighbouring particles at t = 0 (0: no particles)
@@ -159,6 +163,8 @@ def main(argv):
                     help="3D: the stress view shows the half below the middle plane normal to this axis, seen "
                          "along it, which opens the bodies' inside and their contact (default: z; none: whole)")
     ap.add_argument("--report", action="store_true", help="print what is shown as JSON")
+    ap.add_argument("--section", action="store_true",
+                    help="axisymmetric: show the r-z section in both views (default: the left one revolved)")
     args = ap.parse_args(argv)
 
     reader = PVDReader(registrationName=STEM, FileName=os.path.join(HERE, STEM + ".pvd"))
@@ -180,6 +186,20 @@ def main(argv):
     nodal = CellDatatoPointData(registrationName=STEM + " (nodal)", Input=reader)
     nodal.PassCellData = 1
     nodal.UpdatePipeline(t)
+    revolve = AXISYMMETRIC and not args.section
+    body = nodal
+    if revolve:  # (r, z, 0) -> (r, 0, z), swept 270 degrees about z, turned back (the axis along y)
+        upright = Transform(registrationName=STEM + " (upright)", Input=nodal)
+        upright.Transform = "Transform"
+        upright.Transform.Rotate = [90.0, 0.0, 0.0]
+        surface = ExtractSurface(registrationName=STEM + " (surface)", Input=upright)
+        swept = RotationalExtrusion(registrationName=STEM + " (swept)", Input=surface)
+        swept.Resolution = 72
+        swept.Angle = 270.0
+        body = Transform(registrationName=STEM + " (revolved)", Input=swept)
+        body.Transform = "Transform"
+        body.Transform.Rotate = [-90.0, 0.0, 0.0]
+        body.UpdatePipeline(t)
 
     left = CreateView("RenderView")
     right = CreateView("RenderView")
@@ -190,10 +210,10 @@ def main(argv):
     size = [800, 700]
     for view in (left, right):
         view.ViewSize = size
-        view.OrientationAxesVisibility = 0 if DIM == 2 else 1
+        view.OrientationAxesVisibility = 0 if DIM == 2 and not (revolve and view is left) else 1
 
     # left: material, categorical; rigid materials grey, as they are drawn
-    shown = Show(nodal, left)
+    shown = Show(body, left)
     style(shown)
     ColorBy(shown, ("POINTS", "material"))
     lut = GetColorTransferFunction("material")
@@ -242,7 +262,7 @@ def main(argv):
     if os.path.exists(rigid_path):
         rigid = PVDReader(registrationName=STEM + " rigid", FileName=rigid_path)
         rigid.UpdatePipeline(t)
-        for view in (left, right):
+        for view in ((right,) if revolve else (left, right)):
             r = Show(rigid, view)
             style(r)
             ColorBy(r, ("POINTS", None))
@@ -251,15 +271,20 @@ def main(argv):
         bounds = [min(bounds[0], rb[0]), max(bounds[1], rb[1]), min(bounds[2], rb[2]), max(bounds[3], rb[3]),
                   min(bounds[4], rb[4]), max(bounds[5], rb[5])]
     for view in (left, right):
-        if DIM == 2:
+        if DIM == 2 and not (revolve and view is left):
             view.InteractionMode = "2D"
         Render(view)  # a view's first render resets its camera: frame it after
     direction, up = camera_axes(view_name)
-    data_box = frame_camera(left, bounds, direction, up, size)
-    if cut != "none":  # seen from above the plane: the kept half's cut face
-        direction, up = camera_axes(cut)
-    frame_camera(right, bounds, direction, up, size)
-    if cut == "none":  # both views show the same: one camera
+    if revolve:  # the revolved body obliquely, the section along z
+        data_box = frame_camera(left, body.GetDataInformation().GetBounds(), *camera_axes(args.view or "iso"),
+                                size)
+        frame_camera(right, bounds, *camera_axes("z"), size)
+    else:
+        data_box = frame_camera(left, bounds, direction, up, size)
+        if cut != "none":  # seen from above the plane: the kept half's cut face
+            direction, up = camera_axes(cut)
+        frame_camera(right, bounds, direction, up, size)
+    if cut == "none" and not revolve:  # both views show the same: one camera
         AddCameraLink(left, right, "views")
     Render(left)
     Render(right)
@@ -271,7 +296,8 @@ def main(argv):
                           "colours": list(lut.IndexedColors), "stress": args.stress, "stress_range": list(rng),
                           "stress_title": bar.Title, "points": nodal.GetDataInformation().GetNumberOfPoints(),
                           "shown_points": info.GetNumberOfPoints(), "view": view_name, "cut": cut,
-                          "data_box": data_box, "bar_at": bar_at,
+                          "data_box": data_box, "bar_at": bar_at, "revolved": bool(revolve),
+                          "revolved_points": body.GetDataInformation().GetNumberOfPoints() if revolve else 0,
                           "rigid_points": rigid.GetDataInformation().GetNumberOfPoints() if rigid else 0}}))
     if args.screenshot:
         SaveScreenshot(args.screenshot, layout, ImageResolution=[1600, 700])
@@ -322,7 +348,8 @@ def write_script(results: Path, stress: str = "yy") -> Path:
     script = pvd.parent / f"{stem}_paraview.py"
     text = TEMPLATE.format(stem=stem, script=script.name, materials=material_names(mesh), palette=PALETTE,
                            components=COMPONENTS, dim=dim, spacing=spacing, folder=str(pvd.parent.resolve()),
-                           stress=stress, rigid=rigid_ids(pvd), unit=stress_unit(pvd))
+                           stress=stress, rigid=rigid_ids(pvd), unit=stress_unit(pvd),
+                           axisymmetric="hoop_stress" in mesh.point_data)
     write_text(script, text)
     return script
 

@@ -171,3 +171,30 @@ def test_paraview_script_with_fem_bodies(tmp_path):
     nodal_min = min(particles.point_data["stress"][:, 1].min(), fem.cell_data["stress"][0][:, 1].min())
     assert report["stress_range"][0] >= nodal_min - 1e-9 * abs(nodal_min)  # node averages within the cells'
     assert report["stress_range"][0] < 0.5 * nodal_min  # and the disk's impact shows
+
+
+@pytest.mark.axisymmetric
+def test_paraview_script_revolves_an_axisymmetric_series(tmp_path):
+    """An r-z series (its particles carry hoop_stress): the left view is the section turned
+    upright and swept 270 degrees about the axis (73 copies of every particle, ParaView's
+    RotationalExtrusion at resolution 72), the right view the section with the stress;
+    --section shows the section in both."""
+    out = tmp_path / "res"
+    deck = Path(__file__).parents[2] / "inputs" / "sphere_impact_rz.yaml"
+    result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet", "--steps", "10", "--threads", "1"])
+    assert result.exit_code == 0, result.output
+    last = meshio.read(out / frames(out / "sphere_impact_rz.pvd")[-1])
+    assert "hoop_stress" in last.point_data and "hoop_stretch" in last.point_data
+    result = CliRunner().invoke(app, ["paraview", str(out)])
+    assert result.exit_code == 0, result.output
+    if pvbatch() is None:
+        assert not os.environ.get("MPMSIM_REQUIRE_PARAVIEW"), "pvbatch not found"
+        pytest.skip("ParaView (pvbatch) is not installed")
+    script = out / "sphere_impact_rz_paraview.py"
+    run = run_pvbatch([str(script), "--report"])
+    assert run.returncode == 0, failure(run)
+    report = parse_report(run.stdout)
+    assert report["revolved"] and report["revolved_points"] == 73 * report["points"] == 73 * len(last.points)
+    run = run_pvbatch([str(script), "--report", "--section"])
+    assert run.returncode == 0, failure(run)
+    assert not parse_report(run.stdout)["revolved"]
