@@ -14,7 +14,8 @@ so a shape function only has to fill them. Two kernels serve all seven functions
 | b2cpdi | cpdi | quadratic B-spline at the corners | 25, 125 | 3 |
 
 `span` (the largest node-index spread of one particle along an axis) sizes the parallel
-scatter slabs.
+scatter slabs. Linear and gimp have axisymmetric forms (`ShapeFunction.for_axisymmetric`: the
+r-weighted radial factor and the hoop function T, shapes/axisymmetric.py).
 """
 
 from __future__ import annotations
