@@ -180,7 +180,7 @@ def test_paraview_script_revolves_an_axisymmetric_series(tmp_path):
     RotationalExtrusion at resolution 72), the right view the section with the stress;
     --section shows the section in both."""
     out = tmp_path / "res"
-    deck = Path(__file__).parents[2] / "inputs" / "sphere_impact_rz.yaml"
+    deck = Path(__file__).parents[2] / "tests" / "validation" / "data" / "sphere_rz" / "sphere_impact_rz.yaml"
     result = CliRunner().invoke(app, ["run", str(deck), "--out", str(out), "--quiet", "--steps", "10", "--threads", "1"])
     assert result.exit_code == 0, result.output
     last = meshio.read(out / frames(out / "sphere_impact_rz.pvd")[-1])

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from mpmsim.scene import build_scene
 from mpmsim.shapes import ShapeData, shape_function
@@ -206,7 +207,7 @@ def reference_velocity(name: str) -> tuple[np.ndarray, np.ndarray]:
 
 @functools.cache
 def sphere_impact(law: str):
-    deck = example("sphere_impact_rz")
+    deck = yaml.safe_load((REFERENCE / "sphere_impact_rz.yaml").read_text())
     if law != "frictionless":
         deck["contact"]["default"] = {"law": "coulomb", "friction": 0.3}
     sim = Simulation(build_scene(deck_from(deck, ROOT / "inputs")))
@@ -217,7 +218,7 @@ def sphere_impact(law: str):
 @pytest.mark.parametrize("law,name", [("frictionless", "sphere_rz_h0.5_frictionless"),
                                       ("coulomb", "sphere_rz_h0.5_mu0.3")])
 def test_sphere_impact_follows_the_reference_codes_axisymmetric_run(law, name):
-    """inputs/sphere_impact_rz.yaml (1,397 particles, the reference code's count) against
+    """tests/validation/data/sphere_rz/sphere_impact_rz.yaml (1,397 particles, the reference code's count) against
     NairnMPM's axisymmetric run of the same scene (tests/validation/data/sphere_rz): the rebound
     velocity within 2% (measured +0.02% frictionless, -0.003% with mu = 0.3) and the sphere's
     velocity at every 0.001 ms of the contact within 0.005 m/s of the reference's (measured
