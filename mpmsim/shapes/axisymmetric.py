@@ -13,9 +13,10 @@ module computes it:
 
 - linear (point values): S, G planar at r_p; T = N_i(r_p) / r_p.
 - gimp (uGIMP, undeformed half-width l): the integrals over the particle's radial extent
-  [max(r_p - l, 0), r_p + l], taken exactly piece by piece between the hat's kinks (N_i r is
-  quadratic on each piece: Simpson's rule is exact). A domain that crosses the axis is cut
-  there, as the reference code does; the nodes at r < 0 get no weight.
+  [lo, hi] = [max(r_p - l, 0), r_p + l], exactly, as differences of the hat's antiderivatives
+  int N dr and int N r dr (piecewise polynomials in u = (r - r_i)/h), with
+  int N' r dr = [N r] - int N dr. A domain that crosses the axis is cut there, as the reference
+  code does; the nodes at r < 0 get no weight.
 
 Both reproduce what the r-z step needs: sum_i S_ip = 1, sum_i G_ip = 0 and sum_i r_i T_ip = 1,
 so a homogeneous expansion v_r = c r gives L_rr = L_tt = c exactly, next to the axis too.
@@ -33,16 +34,15 @@ BAD_AXIS = 9  # a particle of an axisymmetric scene reached the axis r = 0
 
 
 @njit(cache=True, inline="always")
-def _hat_piece(u, v, node, h):
-    """(int N, int N r, int N' r) over [u, v] where the hat of the node at r = node (spacing
-    h) is linear (no kink inside)."""
-    m = 0.5 * (u + v)
-    nu = max(0.0, 1.0 - abs(u - node) / h)
-    nv = max(0.0, 1.0 - abs(v - node) / h)
-    nm = max(0.0, 1.0 - abs(m - node) / h)
-    slope = (nv - nu) / (v - u) if v > u else 0.0
-    return (0.5 * (nu + nv) * (v - u), (v - u) / 6.0 * (nu * u + 4.0 * nm * m + nv * v),
-            0.5 * slope * (v * v - u * u))
+def _hat_antiderivatives(u):
+    """For the unit hat n(u) = max(0, 1 - |u|): (n(u), int_-1^u n dt, int_-1^u n t dt)."""
+    if u <= -1.0:
+        return 0.0, 0.0, 0.0
+    if u <= 0.0:
+        return 1.0 + u, 0.5 * (1.0 + u) ** 2, u * u * (0.5 + u / 3.0) - 1.0 / 6.0
+    if u < 1.0:
+        return 1.0 - u, 1.0 - 0.5 * (1.0 - u) ** 2, u * u * (0.5 - u / 3.0) - 1.0 / 6.0
+    return 0.0, 1.0, 0.0
 
 
 @njit(cache=True, inline="always")
@@ -63,29 +63,18 @@ def radial_weights(kind, rp, o, h, semi, per_axis, n, w, dw, wt):
         for a in range(per_axis):
             wt[a] = w[a] / rp
         return b, True
-    # GIMP: the r-weighted averages over [lo, hi]
+    # GIMP: the r-weighted averages over [lo, hi]; with r = c + h u about the node c,
+    # int N dr = h [A0], int N r dr = c h [A0] + h^2 [A1], int N' r dr = [N r] - int N dr
     lo = max(rp - semi, 0.0)
     hi = rp + semi
     den = 0.5 * (hi * hi - lo * lo)
     for a in range(per_axis):
-        node = o + (b + a) * h
-        s0 = 0.0  # int N
-        s1 = 0.0  # int N r
-        g1 = 0.0  # int N' r
-        u = lo
-        for kink in (node - h, node, node + h, hi):
-            if kink <= u:
-                continue
-            v = min(kink, hi)
-            a0, a1, a2 = _hat_piece(u, v, node, h)
-            s0 += a0
-            s1 += a1
-            g1 += a2
-            u = v
-            if u >= hi:
-                break
-        w[a] = s1 / den
-        dw[a] = g1 / den
+        c = o + (b + a) * h
+        n_lo, a0_lo, a1_lo = _hat_antiderivatives((lo - c) / h)
+        n_hi, a0_hi, a1_hi = _hat_antiderivatives((hi - c) / h)
+        s0 = h * (a0_hi - a0_lo)  # int N
+        w[a] = (c * s0 + h * h * (a1_hi - a1_lo)) / den
+        dw[a] = (n_hi * hi - n_lo * lo - s0) / den
         wt[a] = s0 / den
     return b, True
 
