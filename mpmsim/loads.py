@@ -107,8 +107,9 @@ def pressure_forces(load, x: np.ndarray, vol: np.ndarray, spacing: float, dim: i
     beyond it (radius s), the layer one spacing deep (its other face s +- spacing). A particle's
     share of the surface is its volume times area/volume of that shell: (k+1) s^k / |s'^(k+1) -
     s^(k+1)| with k = 1 for a cylinder (plane strain) and 2 for a sphere (3d; axisymmetric about
-    a centre on the axis). Exact for a layer of ring-seeded particles; for a lattice-seeded
-    surface only as good as the layer's volume follows the shell."""
+    a centre on the axis). Exact for a layer of ring-seeded particles whose ring step is the
+    spacing (a wall a whole number of spacings thick; ring_seed rounds the step otherwise); for
+    a lattice-seeded surface only as good as the layer's volume follows the shell."""
     c = np.asarray(load.center, float)
     rel = x - c
     d = np.sqrt(np.sum(rel * rel, axis=1))
