@@ -93,7 +93,7 @@ def deck(rh: float, end: float | None = None, damping: float | None = None, over
         },
         "bodies": [
             {"name": "cylinder", "shape": "circle", "center": [0.0, R], "radius": R, "material": "cylinder",
-             "seeding": seeding},
+             **({} if seeding == "auto" else {"seeding": seeding})},  # auto: written plainly, the default
             {"name": "flat", "shape": "rectangle", "min": [-w, -2 * h], "max": [w, 0.0], "material": "flat"},
         ],
         "gravity": [0.0, -g],
@@ -160,6 +160,26 @@ def particle_pressures(out: Path, files: list[str], y0: float = 0.0) -> dict:
     p = np.mean([np.asarray(m.point_data["contact_pressure"]) for m in ps], axis=0)
     on = (p > 0.0) & (np.abs(ps[-1].points[:, 1] - y0) < 0.5 * R)
     return {"x": ps[-1].points[on, 0], "p": p[on]}
+
+
+def bottom_row(P, data: dict, half: bool, a: float, p0: float) -> dict:
+    """The pressure read as a user reads it from the particles: -sigma_yy of the bottom row (the
+    particles within one particle spacing of the lowest surface, their centres half a spacing above
+    the contact, where Hertz's sigma_yy is within 0.2% of p(x) at R/h >= 20), at the end of the run;
+    the half model's mirrored. Centre: the mean of the particles within a spacing of x = 0; half-width:
+    Hertz's ellipse fitted to those above a tenth of the peak (p^2 linear in x^2)."""
+    s = data["grid"]["cell_size"] / data["particles_per_direction"]
+    x, y, p = P.x[:, 0], P.x[:, 1], -P.stress[:, 1]
+    r = np.hypot(x, y - R)
+    row = (y < R) & (r > R - s)  # the outer layer of the lower half: one spacing deep, lattice or rings
+    x, p = x[row], p[row]
+    if half:
+        x, p = np.concatenate([x, -x]), np.concatenate([p, p])
+    centre = float(p[np.abs(x) < s].mean())
+    fit = p > 0.1 * p.max()
+    c = np.linalg.lstsq(np.stack([np.ones(fit.sum()), x[fit] ** 2], 1), p[fit] ** 2, rcond=None)[0]
+    a_fit = math.sqrt(-c[0] / c[1]) if c[0] > 0 > c[1] else float("nan")
+    return {"row_centre_error": centre / p0 - 1.0, "row_a_fit_error": a_fit / a - 1.0}
 
 
 def average_profiles(profiles: list[dict]) -> dict:
@@ -266,6 +286,8 @@ def run_case(rh: float, overrides: dict | None = None, out: Path | None = None, 
     hz = p0_h * np.sqrt(np.clip(1 - (part["x"] / a_h) ** 2, 0, None))
     result["particle_p_max_over_p0"] = float(part["p"].max() / p0_h)
     result["particle_profile_max_error"] = float(np.abs(part["p"][inner] - hz[inner]).max() / p0_h)
+    if not pair:
+        result.update(bottom_row(sim.state.particles, data, half, a_h, p0_h))
     result.update({"seeding": seeding, "rh": rh, "h": R / rh, "overrides": overrides or {}, "wall_s": wall, "steps": int(hist["step"].iloc[-1]),
                    "reaction_y": float(hist["F_flat_y"].iloc[-1]), "n_particles": int(sim.state.particles.n),
                    "ke_final": float(hist["kinetic_energy"].iloc[-1]) if "kinetic_energy" in hist else None})
@@ -321,7 +343,7 @@ def sphere_deck(rh: float, end: float | None = None, a_target: float = A_TARGET,
         "materials": {"sphere": {"type": "linear_elastic", "E": E, "nu": NU, "density": RHO},
                       "flat": {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0]}},
         "bodies": [{"name": "sphere", "shape": "circle", "center": [0.0, R], "radius": R, "material": "sphere",
-                    **({"seeding": seeding} if seeding != "lattice" else {}),
+                    "seeding": seeding,
                     "clip": {"min": [0.0, -1.0], "max": [R + 1.0, 2 * R + 1.0]}},
                    {"name": "flat", "shape": "rectangle", "min": [0.0, -2 * h], "max": [w, 0.0], "material": "flat"}],
         "gravity": [0.0, -g],
@@ -657,8 +679,9 @@ def main(argv=None) -> int:
     ap.add_argument("what", choices=["run", "chart", "table"])
     ap.add_argument("--rh", type=float, nargs="+", default=[20.0, 40.0, 80.0])
     ap.add_argument("--set", nargs="*", default=[], help="deck overrides key=value (YAML values)")
-    ap.add_argument("--seeding", choices=["lattice", "rings", "rings_half_step", "shells"], default="lattice",
-                    help="circles: lattice, rings or rings_half_step; the sphere (--sphere): lattice or shells")
+    ap.add_argument("--seeding", choices=["lattice", "auto", "rings", "rings_half_step", "shells"], default="lattice",
+                    help="circles: lattice, auto (no seeding key: the default), rings or rings_half_step; the sphere "
+                         "(--sphere): lattice or shells")
     ap.add_argument("--pair", action="store_true", help="two identical cylinders stacked on the flat")
     ap.add_argument("--half", action="store_true", help="the half cylinder x >= 0 on a symmetry (roller) line")
     ap.add_argument("--sphere", action="store_true", help="3D: a quarter sphere on the flat (lattice-seeded)")

@@ -553,28 +553,24 @@ def _describe_particles(scene, state, u) -> None:
 
 
 def _seeding_lines(scene) -> list[str]:
-    """How each round particle body (circle, annulus, sphere) is seeded. On the lattice in a scene
-    with contact: that its surface is a staircase whose corners carry the contact load, and the
-    seeding that follows the surface (docs/contact.md, "The staircase is the error"); not for a
-    body laid over others (`overwrites`: an inclusion), which a surface seeding cannot be."""
-    contact, dim = scene.contact.grid is not None, scene.dim
+    """How each round particle body (circle, annulus, sphere) is seeded and why. On the lattice
+    in a scene with grid contact: that its surface is a staircase whose corners carry the contact
+    load (docs/contact.md, "The staircase is the error"), and why the default did not follow the
+    surface (a body laid over others, `overwrites`, cannot)."""
+    contact = scene.contact.grid is not None
     lines = []
     for i, body in enumerate(scene.deck.bodies):
         shape = getattr(body, "shape", None)
         if shape not in ("circle", "annulus", "sphere") or getattr(body, "discretization", "particles") != "particles":
             continue
         who = f"body '{body.name}'" if body.name else f"bodies.{i}"
-        seeding = getattr(body, "seeding", "lattice")
-        if seeding != "lattice":
-            lines.append(f"{who} ({shape}): seeded in {seeding} that follow its surface")
-            continue
-        if not contact or (dim == 3 and shape != "sphere") or getattr(body, "overwrites", False):
-            continue  # (an extruded circle has no surface seeding; one laid over another body cannot have one)
-        better = ("shells" if shape == "sphere" else "rings (rings_half_step for two curved bodies in contact or a "
-                  "body clipped through its centre)")
-        lines.append(f"{who} ({shape}): seeded on the lattice, its surface a staircase whose corners carry the "
-                     f"contact load (Hertz cylinder: centre pressure -29% at R/h = 20); seeding: {better} follows "
-                     f"the surface (docs/contact.md)")
+        seeding = scene.seedings[i]
+        why = f" ({seeding.why})" if seeding.why else ""
+        if seeding.how != "lattice":
+            lines.append(f"{who} ({shape}): seeded in {seeding.how} that follow its surface{why}")
+        elif contact:
+            lines.append(f"{who} ({shape}): seeded on the lattice{why}, its surface a staircase whose corners carry "
+                         "the contact load (Hertz cylinder: centre pressure -29% at R/h = 20; docs/contact.md)")
     return lines
 
 

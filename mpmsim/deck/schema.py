@@ -352,8 +352,13 @@ class Round(BodyBase):
     radius: float = Field(gt=0)
 
 
+AUTO_SEEDING = (
+    "auto (the default): rings_half_step (shells for a sphere) when grid contact acts between the body's "
+    "material and another (an explicit deck with two or more velocity fields) and the body can be so seeded "
+    "(a particle body, a square grid cell, no `overwrites`, a clip through its centre or missing it, no "
+    "overlap with another particle body); lattice otherwise. `mpmsim check` says which it chose and why. ")
 SEEDING_DESCRIPTION = (
-    "How particles fill the body (2D decks). lattice: the sites of the grid-aligned lattice inside the shape "
+    "How particles fill the body (2D decks). " + AUTO_SEEDING + "lattice: the sites of the grid-aligned lattice inside the shape "
     "(its surface a staircase of particle-sized steps). rings: rings that follow the surface, one particle "
     "spacing (cell_size / particles_per_direction) apart, each ring's particles spaced as close to it as a "
     "whole number allows, one at the bottom of every ring, each with its ring sector's exact area (the areas "
@@ -369,16 +374,16 @@ SEEDING_DESCRIPTION = (
 
 
 def _seeding():
-    return Field(default="lattice", description=SEEDING_DESCRIPTION)
+    return Field(default="auto", description=SEEDING_DESCRIPTION)
 
 
 class Circle(Round):
     shape: Literal["circle"]
-    seeding: Literal["lattice", "rings", "rings_half_step"] = _seeding()
+    seeding: Literal["auto", "lattice", "rings", "rings_half_step"] = _seeding()
 
 
 SHELLS_DESCRIPTION = (
-    "How particles fill the sphere (3D decks). lattice: the sites of the grid-aligned lattice inside it (its "
+    "How particles fill the sphere (3D decks). " + AUTO_SEEDING + "lattice: the sites of the grid-aligned lattice inside it (its "
     "surface a staircase, its bottom a flat facet). shells: concentric shells one particle spacing (cell_size / "
     "particles_per_direction) apart, each cut into bands of polar angle from the bottom pole (-y) and each band "
     "into a multiple of 4 particles spaced as close to the spacing as whole numbers allow, mirror-symmetric "
@@ -391,7 +396,7 @@ SHELLS_DESCRIPTION = (
 
 class Sphere(Round):
     shape: Literal["sphere"]
-    seeding: Literal["lattice", "shells"] = Field(default="lattice", description=SHELLS_DESCRIPTION)
+    seeding: Literal["auto", "lattice", "shells"] = Field(default="auto", description=SHELLS_DESCRIPTION)
 
 
 class Ellipse(BodyBase):
@@ -417,7 +422,7 @@ class Annulus(BodyBase):
     center: Vector
     inner_radius: float = Field(ge=0)
     outer_radius: float = Field(gt=0)
-    seeding: Literal["lattice", "rings", "rings_half_step"] = _seeding()
+    seeding: Literal["auto", "lattice", "rings", "rings_half_step"] = _seeding()
 
 
 class MeshFile(BodyBase):

@@ -60,6 +60,7 @@ class Scene:
     digest: str  # sha256 of the validated deck (a checkpoint belongs to it)
     record: dict  # the validated deck as JSON values (the history's sidecar keeps it)
     notices: tuple = ()  # what `check` and `run` warn about (overlapping bodies, gaps closed by filling)
+    seedings: dict | None = None  # particle body's deck index -> Seeding (how it was filled, and why)
 
     @property
     def has_particles(self) -> bool:
@@ -106,13 +107,13 @@ def build_scene(loaded: LoadedDeck) -> Scene:
         return Scene(loaded, None, mats, empty_seed(dim), empty_seed(dim), None, deck.thickness,
                      build_contact_model(deck, mats, fem), [], [], fem, settings,
                      deck_digest(deck), deck.model_dump(mode="json"))
-    grid, deformable, rigid, semi, notices = build_particles(loaded, mats, particle_bodies)
+    grid, deformable, rigid, semi, notices, seedings = build_particles(loaded, mats, particle_bodies)
     infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind,  # noqa: E731
                                          deck.bodies[i].material) for i in np.unique(seed.body)]
     contact = build_contact_model(deck, mats, fem, np.unique(deformable.mat))
     return Scene(loaded, grid, mats, deformable, rigid, semi, deck.thickness, contact,
                  infos(deformable, "particles"), infos(rigid, "rigid particles"), fem, settings,
-                 deck_digest(deck), deck.model_dump(mode="json"), tuple(notices))
+                 deck_digest(deck), deck.model_dump(mode="json"), tuple(notices), seedings)
 
 
 def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: list):
@@ -177,14 +178,129 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
                       "a coarser grid.cell_size, fewer particles_per_direction or smaller bodies")
     if problem:
         raise_at([(("grid", "cell_size"), problem)], loaded)
+    seedings = resolve_seedings(deck, mats, particle_bodies, h)
+    while True:  # twice at most: auto-seeded bodies found overlapping others fall back to the lattice
+        seeded = _seed_bodies(loaded, particle_bodies, boxes, seedings, grid, spacing, n_lat)
+        keys, owners, mat_names, where, vols, n_rings = seeded
+        problems = _rings_overlaps(particle_bodies, base, seedings, where) if n_rings else []
+        auto = [p for p in problems if seedings[p[0][1]].auto]
+        if not auto:
+            break
+        for (_, i, _), why in auto:  # (why: "body 'a' is seeded in ... and overlaps body 'b': ...")
+            seedings[i] = Seeding("lattice", True, "auto: it " + why.split(" and ", 1)[1].split(":")[0])
+    if problems:
+        raise_at(problems, loaded)
+
+    keys = np.concatenate(keys)
+    owners = np.concatenate(owners)
+    mat_names = np.concatenate(mat_names)
+    x_all = np.concatenate(where)
+    vol_all = np.concatenate(vols)
+    # later bodies win: keep the last occurrence of each lattice site (ring particles' keys are unique)
+    rev = slice(None, None, -1)
+    _, first_in_rev = np.unique(keys[rev], return_index=True)
+    keep = np.sort(len(keys) - 1 - first_in_rev)
+    notices = overwritten(deck, keys, owners, keep)
+    keys, owners, mat_names, x, vol = keys[keep], owners[keep], mat_names[keep], x_all[keep], vol_all[keep]
+    if axisymmetric:  # volumes (and so masses) per radian: the r-z area times the particle's radius
+        vol = vol * x[:, 0]
+
+    lat = keys >= 0  # gaps closed between lattice-filled bodies (ring bodies' domains end at their surface)
+    kk = np.empty((int(lat.sum()), dim), dtype=int)
+    rem = keys[lat].copy()
+    for a in range(dim):
+        kk[:, a] = rem % n_lat[a]
+        rem //= n_lat[a]
+    notices += gaps_closed(deck, base, keys[lat], kk, owners[lat], x[lat], spacing, n_lat)
+
+    rigid_mask = np.array([m in mats.rigid for m in mat_names], dtype=bool)
+    seeds = []
+    for want_rigid in (False, True):
+        sel = rigid_mask == want_rigid
+        xs, own, names = x[sel], owners[sel], mat_names[sel]
+        mat = np.array([mats.local_index(m) for m in names], dtype=np.int64)
+        v = np.zeros_like(xs)
+        for i in np.unique(own):
+            on = own == i
+            body = deck.bodies[i]
+            if want_rigid:
+                for r in np.unique(mat[on]):
+                    v[on & (mat == r)] = mats.motions[r].velocity(0.0)
+            elif isinstance(body.velocity, SineVelocity):
+                sv = body.velocity
+                phase = 2 * np.pi * (xs[on, "xyz".index(sv.axis)] - sv.origin) / sv.wavelength
+                v[on] = np.sin(phase)[:, None] * np.array(sv.amplitude)[None, :]
+            elif isinstance(body.velocity, RotationVelocity):
+                rv = body.velocity
+                r = xs[on] - np.array(rv.center)
+                if dim == 2:
+                    v[on] = rv.angular_velocity * np.stack([-r[:, 1], r[:, 0]], axis=1)
+                else:
+                    v[on] = np.cross(np.array(rv.angular_velocity), r)
+                if rv.translation is not None:
+                    v[on] += np.array(rv.translation)
+            elif body.velocity is not None:
+                v[on] = np.array(body.velocity)
+        seeds.append(ParticleSeed(xs, v, vol[sel], mat, own.astype(np.int64)))
+    deformable, rigid = seeds
+    if len(deformable.x) == 0 and not any(b.discretization == "fem" for b in deck.bodies):
+        raise_at([(("bodies",), "no body made of a deformable material holds any particle")], loaded)
+    empty = [(("loads", i, "region"), "holds no particle centre of a deformable material")
+             for i, load in enumerate(deck.loads)
+             if not np.all((deformable.x >= load.region.min) & (deformable.x <= load.region.max), axis=1).any()]
+    if empty:
+        raise_at(empty, loaded)
+    return grid, deformable, rigid, 0.5 * spacing, notices, seedings
+
+
+@dataclass
+class Seeding:
+    """How a particle body is filled: `how` (lattice, rings, rings_half_step, shells), whether
+    the deck left it to `auto`, and why (what `mpmsim check` prints)."""
+
+    how: str
+    auto: bool
+    why: str = ""
+
+
+def resolve_seedings(deck, mats: MaterialTable, particle_bodies: list, h: np.ndarray) -> dict[int, Seeding]:
+    """Each particle body's seeding (deck index -> Seeding). `auto` (a round body's default)
+    follows the surface (rings_half_step in 2D, shells for a sphere) where grid contact acts and
+    the body can be so seeded; the lattice otherwise (docs/contact.md, "The staircase is the
+    error"). Overlaps with other bodies are found after seeding (build_particles)."""
+    contact = None
+    out = {}
+    for i, body in particle_bodies:
+        how = getattr(body, "seeding", "lattice")
+        if how != "auto":
+            out[i] = Seeding(how, False)
+            continue
+        if contact is None:
+            contact = "the implicit step's contact is not grid contact" if deck.integrator == "implicit" else (
+                "" if build_contact_model(deck, mats).grid is not None else "no grid contact in the scene")
+        surface = "shells" if body.shape == "sphere" else "rings_half_step"
+        why = contact or ("laid over another body (overwrites)" if getattr(body, "overwrites", False) else None)
+        if not why:
+            why = _shells_problem(body, deck.dim, h) if surface == "shells" else _rings_problem(body, deck.dim, h, True)
+        out[i] = Seeding("lattice", True, f"auto: {why}") if why else Seeding(
+            surface, True, "auto: grid contact acts on it")
+    return out
+
+
+def _seed_bodies(loaded, particle_bodies, boxes, seedings, grid, spacing, n_lat):
+    """Particles of each body as its seeding says: (lattice keys (ring particles -1, -2, ...),
+    owning body, material names, positions, volumes, ring-seeded count), lists per body."""
+    deck, base, dim = loaded.deck, loaded.base_dir, loaded.deck.dim
+    h = spacing * deck.particles_per_direction
     keys, owners, mat_names, where, vols = [], [], [], [], []
     lattice_vol = np.prod(spacing) * (deck.thickness if dim == 2 else 1.0)
     problems = []
     n_rings = 0  # ring-seeded particles so far: their keys are -1, -2, ... (no lattice site)
     for (i, body), (blo, bhi) in zip(particle_bodies, boxes):
-        seeding = getattr(body, "seeding", "lattice")
+        seeding = seedings[i].how
         if seeding in SURFACE_SEEDINGS:
-            problem = _shells_problem(body, dim, h) if seeding == "shells" else _rings_problem(body, dim, h)
+            problem = (_shells_problem(body, dim, h) if seeding == "shells"
+                       else _rings_problem(body, dim, h, seeding == "rings_half_step"))
             if problem:
                 problems.append((("bodies", i, "seeding"), problem))
                 continue
@@ -247,71 +363,7 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
         vols.append(np.full(len(flat), lattice_vol))
     if problems:
         raise_at(problems, loaded)
-    if n_rings:
-        problems = _rings_overlaps(deck, base, particle_bodies, where)
-        if problems:
-            raise_at(problems, loaded)
-
-    keys = np.concatenate(keys)
-    owners = np.concatenate(owners)
-    mat_names = np.concatenate(mat_names)
-    x_all = np.concatenate(where)
-    vol_all = np.concatenate(vols)
-    # later bodies win: keep the last occurrence of each lattice site (ring particles' keys are unique)
-    rev = slice(None, None, -1)
-    _, first_in_rev = np.unique(keys[rev], return_index=True)
-    keep = np.sort(len(keys) - 1 - first_in_rev)
-    notices = overwritten(deck, keys, owners, keep)
-    keys, owners, mat_names, x, vol = keys[keep], owners[keep], mat_names[keep], x_all[keep], vol_all[keep]
-    if axisymmetric:  # volumes (and so masses) per radian: the r-z area times the particle's radius
-        vol = vol * x[:, 0]
-
-    lat = keys >= 0  # gaps closed between lattice-filled bodies (ring bodies' domains end at their surface)
-    kk = np.empty((int(lat.sum()), dim), dtype=int)
-    rem = keys[lat].copy()
-    for a in range(dim):
-        kk[:, a] = rem % n_lat[a]
-        rem //= n_lat[a]
-    notices += gaps_closed(deck, base, keys[lat], kk, owners[lat], x[lat], spacing, n_lat)
-
-    rigid_mask = np.array([m in mats.rigid for m in mat_names], dtype=bool)
-    seeds = []
-    for want_rigid in (False, True):
-        sel = rigid_mask == want_rigid
-        xs, own, names = x[sel], owners[sel], mat_names[sel]
-        mat = np.array([mats.local_index(m) for m in names], dtype=np.int64)
-        v = np.zeros_like(xs)
-        for i in np.unique(own):
-            on = own == i
-            body = deck.bodies[i]
-            if want_rigid:
-                for r in np.unique(mat[on]):
-                    v[on & (mat == r)] = mats.motions[r].velocity(0.0)
-            elif isinstance(body.velocity, SineVelocity):
-                sv = body.velocity
-                phase = 2 * np.pi * (xs[on, "xyz".index(sv.axis)] - sv.origin) / sv.wavelength
-                v[on] = np.sin(phase)[:, None] * np.array(sv.amplitude)[None, :]
-            elif isinstance(body.velocity, RotationVelocity):
-                rv = body.velocity
-                r = xs[on] - np.array(rv.center)
-                if dim == 2:
-                    v[on] = rv.angular_velocity * np.stack([-r[:, 1], r[:, 0]], axis=1)
-                else:
-                    v[on] = np.cross(np.array(rv.angular_velocity), r)
-                if rv.translation is not None:
-                    v[on] += np.array(rv.translation)
-            elif body.velocity is not None:
-                v[on] = np.array(body.velocity)
-        seeds.append(ParticleSeed(xs, v, vol[sel], mat, own.astype(np.int64)))
-    deformable, rigid = seeds
-    if len(deformable.x) == 0 and not any(b.discretization == "fem" for b in deck.bodies):
-        raise_at([(("bodies",), "no body made of a deformable material holds any particle")], loaded)
-    empty = [(("loads", i, "region"), "holds no particle centre of a deformable material")
-             for i, load in enumerate(deck.loads)
-             if not np.all((deformable.x >= load.region.min) & (deformable.x <= load.region.max), axis=1).any()]
-    if empty:
-        raise_at(empty, loaded)
-    return grid, deformable, rigid, 0.5 * spacing, notices
+    return keys, owners, mat_names, where, vols, n_rings
 
 
 def _clip_problem(body, r: float, axes: str, cuts: str, what: str) -> tuple[str | None, bool]:
@@ -330,8 +382,8 @@ def _clip_problem(body, r: float, axes: str, cuts: str, what: str) -> tuple[str 
     return None, through
 
 
-def _rings_problem(body, dim: int, h: np.ndarray) -> str | None:
-    """Why a `seeding: rings` body cannot be seeded so (None: it can)."""
+def _rings_problem(body, dim: int, h: np.ndarray, half_step: bool) -> str | None:
+    """Why a body cannot be seeded in rings (half_step: rings_half_step) (None: it can)."""
     if dim != 2:
         return "rings seed 2D circles and annuli only (not a 3D deck's extruded shape)"
     if h[0] != h[1]:
@@ -342,7 +394,7 @@ def _rings_problem(body, dim: int, h: np.ndarray) -> str | None:
                                          "through its centre or lines that miss it")
         if problem:
             return problem
-        if through and body.seeding != "rings_half_step":
+        if through and not half_step:
             return ("rings put particles on the axes through the centre, where the clip cuts: seed a half or "
                     "quarter body with seeding: rings_half_step")
     return None
@@ -360,17 +412,18 @@ def _shells_problem(body, dim: int, h: np.ndarray) -> str | None:
     return None
 
 
-def _rings_overlaps(deck, base, particle_bodies, where) -> list:
+def _rings_overlaps(particle_bodies, base, seedings, where) -> list:
     """A ring-seeded body takes no part in the lattice's overwriting: refuse any overlap with
     another particle body (a particle of either inside the other's shape)."""
     problems = []
     for (i, bi), pi in zip(particle_bodies, where):
-        if getattr(bi, "seeding", "lattice") not in SURFACE_SEEDINGS:
+        if seedings[i].how not in SURFACE_SEEDINGS:
             continue
         for (j, bj), pj in zip(particle_bodies, where):
             if j != i and (inside(bi, pj, base).any() or _inside_body(bj, pi, base).any()):
-                problems.append((("bodies", i, "seeding"), f"body '{body_name(bi, i)}' is seeded in {bi.seeding} and "
-                                 f"overlaps body '{body_name(bj, j)}': separate the shapes or use seeding: lattice"))
+                problems.append((("bodies", i, "seeding"), f"body '{body_name(bi, i)}' is seeded in "
+                                 f"{seedings[i].how} and overlaps body '{body_name(bj, j)}': separate the shapes or "
+                                 "use seeding: lattice"))
                 break
     return problems
 

@@ -161,26 +161,64 @@ def test_half_step_rings_clipped_through_the_centre_keep_whole_sectors(clip, sha
         assert np.isclose(r, radius).sum() % 4 == 0
 
 
+def contact_deck(*bodies) -> dict:
+    """deck(...) with a rigid contact material `wall` for a flat under the disk."""
+    d = deck(*bodies)
+    d["materials"]["wall"] = {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0]}
+    return d
+
+
+FLAT = {"name": "flat", "shape": "rectangle", "min": [-8, -5], "max": [8, -4], "material": "wall"}
+
+
+@pytest.mark.contact_default
+def test_round_bodies_in_grid_contact_follow_their_surface_by_default():
+    """`seeding: auto` (the default): a circle in contact is seeded as rings_half_step writes it
+    (the same particles), a half cylinder clipped at its symmetry line too; alone (no contact),
+    laid over another body, or clipped off its centre, on the lattice; each says why."""
+    def seeded(*bodies, make=contact_deck):
+        scene = build_scene(deck_from(make(*bodies)))
+        return scene, scene.seedings[0]
+
+    auto = {k: v for k, v in circle().items() if k != "seeding"}  # written plainly: no seeding key
+    scene, how = seeded(auto, FLAT)
+    assert (how.how, how.auto, how.why) == ("rings_half_step", True, "auto: grid contact acts on it")
+    explicit = build_scene(deck_from(contact_deck(circle("rings_half_step"), FLAT)))
+    assert np.array_equal(scene.deformable.x, explicit.deformable.x)
+    assert np.array_equal(scene.deformable.vol, explicit.deformable.vol)
+    half = dict(auto, clip={"min": [0.0, -10.0], "max": [10.0, 12.0]})  # clipped on x = centre
+    scene, how = seeded(half, FLAT)
+    assert how.how == "rings_half_step"
+    assert scene.deformable.vol.sum() == pytest.approx(math.pi * R**2 / 2 * scene.thickness, rel=1e-13)
+    assert seeded(auto, make=deck)[1].why == "auto: no grid contact in the scene"
+    off = dict(auto, clip={"min": [1.0, -10.0], "max": [10.0, 12.0]})  # a clip line off the centre
+    assert seeded(off, FLAT)[1].how == "lattice"
+    block = {"name": "block", "shape": "rectangle", "min": [-8, -8], "max": [8, -3], "material": "b"}
+    d = contact_deck(auto, block)
+    d["materials"]["b"] = d["materials"]["a"]
+    d["bodies"][0]["center"] = [0.0, 1.5]  # the disk's bottom inside the block: it overlaps
+    how = build_scene(deck_from(d)).seedings[0]
+    assert (how.how, how.why) == ("lattice", "auto: it overlaps body 'block'")
+
+
 def test_check_says_how_round_bodies_are_seeded(tmp_path):
-    """`mpmsim check` names the seeding of each round body; a lattice-seeded one in a scene with
-    contact gets the staircase's cost and the seeding that follows the surface (one line each)."""
+    """`mpmsim check` names the seeding of each round body and why; a lattice-seeded one in a
+    scene with contact gets the staircase's cost (one line each); nothing for a lone circle."""
     import yaml
     from typer.testing import CliRunner
 
     from mpmsim.cli import app
 
-    flat = {"name": "flat", "shape": "rectangle", "min": [-8, -5], "max": [8, -4], "material": "wall"}
-    for seeding, want in (("lattice", "body 'disk' (circle): seeded on the lattice, its surface a staircase"),
-                          ("rings_half_step", "body 'disk' (circle): seeded in rings_half_step that follow its surface")):
-        d = deck(circle(seeding), flat)
-        d["materials"]["wall"] = {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0]}
+    for seeding, want in (
+            ("lattice", "body 'disk' (circle): seeded on the lattice, its surface a staircase"),
+            ("auto", "body 'disk' (circle): seeded in rings_half_step that follow its surface (auto: grid contact"),
+            ("rings_half_step", "body 'disk' (circle): seeded in rings_half_step that follow its surface")):
         path = tmp_path / f"{seeding}.yaml"
-        path.write_text(yaml.safe_dump(d))
+        path.write_text(yaml.safe_dump(contact_deck(circle(seeding), FLAT)))
         result = CliRunner().invoke(app, ["check", str(path), "--no-probe"])
         assert result.exit_code == 0, result.output
         lines = [line for line in result.output.splitlines() if "(circle)" in line]
         assert len(lines) == 1 and lines[0].startswith(want), result.output
-        assert ("seeding: rings (rings_half_step" in lines[0]) == (seeding == "lattice")
     alone = tmp_path / "alone.yaml"  # no contact: nothing to say of a lattice circle
     alone.write_text(yaml.safe_dump(deck(circle("lattice"))))
     result = CliRunner().invoke(app, ["check", str(alone), "--no-probe"])

@@ -194,7 +194,7 @@ def test_coulomb_law_never_exceeds_its_bound(dp, n, mu, mu_static, dim, decided)
 # --------------------------------------------------------------- 3D: no energy gain
 def sphere_deck(h: float, oblique: bool) -> dict:
     """A steel sphere (R = 10 mm) on an aluminium block, half model (z >= 0, roller at z = 0),
-    its lowest particle domains on the block's top (they touch at t = 0), striking at
+    seeded on the lattice, its lowest particle domains on the block's top (they touch at t = 0), striking at
     (1, -1, 0) or (0, -1, 0) m/s."""
     data = example("oblique_impact")
     space = h / 2  # particle spacing (2 per cell direction)
@@ -209,6 +209,7 @@ def sphere_deck(h: float, oblique: bool) -> dict:
         "bodies": [
             {"name": "block", "shape": "box", "min": [-14.0, 0.0, 0.0], "max": [14.0, top, 12.0], "material": "alu"},
             {"name": "sphere", "shape": "sphere", "center": [x0, yc, 0.0], "radius": 10.0, "material": "steel",
+             "seeding": "lattice",  # (the touching start above is the lattice's)
              "velocity": [1.0 if oblique else 0.0, -1.0, 0.0],
              "clip": {"min": [-20.0, 0.0, 0.0], "max": [20.0, 40.0, 20.0]}},
         ],
