@@ -31,7 +31,9 @@ history adds them up and adds the run's accounts. Columns, in order:
   contact_impulse_<axis>_<a>_<b>, its impulse since t = 0 (contact.ContactTasks).
 Names taken from the deck have every character other than letters, digits and '_' replaced
 by '_'. In 2D, forces, energies and momenta are for the deck's thickness; in an axisymmetric
-run (x = r, y = z) they are per radian, as the sidecar's `measure` says (x 2 pi: the whole body).
+run (x = r, y = z) they are per radian, as the sidecar's `measure` says, and each energy and
+each axial (y) momentum, force and impulse is repeated for the whole body (x 2 pi) as
+<column>_whole, after all the others.
 """
 
 from __future__ import annotations
@@ -81,7 +83,8 @@ class History:
         run = scene.settings
         self.title = " ".join(str(run.title).split())  # one line
         self.measure = ("per radian: masses, momenta, forces, impulses, energies and work of the axisymmetric "
-                        "run (x = r, y = z); x 2 pi for the whole body" if run.axisymmetric else None)
+                        "run (x = r, y = z); the columns ending _whole are the whole body's (x 2 pi): energies "
+                        "and the axial (y) momenta, forces and impulses" if run.axisymmetric else None)
         u = unit_system(scene.settings.units)
         dim = state.dim
         axes = "xyz"[:dim]
@@ -148,6 +151,10 @@ class History:
         for kind, unit in (("f", u.force), ("impulse_", momentum)):
             for a, b in self._pairs:
                 self.columns += [(f"contact_{kind}{x}_{plain(groups[a])}_{plain(groups[b])}", unit) for x in axes]
+        # axisymmetric: each energy and each axial (y) momentum, force and impulse again for the whole
+        # body of revolution (x 2 pi), named <column>_whole
+        self._whole = [i for i, (n, unit) in enumerate(self.columns) if run.axisymmetric and whole_body(n, unit, u)]
+        self.columns += [(f"{self.columns[i][0]}_whole", self.columns[i][1]) for i in self._whole]
         check_unique(self.names, [info for _, info in massive], scene.loaded)
         self.rows: list[list[float]] = []
         self.started = wallclock.time()  # the run's start (a restart keeps the checkpoint's)
@@ -210,6 +217,7 @@ class History:
             for arr in (cs.pair_force, cs.pair_impulse):
                 for a, b in self._pairs:
                     row += [float(v) for v in arr[a, b, :dim]]
+        row += [2.0 * np.pi * row[i] for i in self._whole]
         self.rows.append(row)
         self.flush()
 
@@ -264,6 +272,16 @@ class History:
         meta = {"title": self.title, "columns": dict(self.columns), "deck": self.deck,
                 **({"measure": self.measure} if self.measure else {}), **versions()}
         write_text(sidecar_path(self.path), json.dumps(meta, indent=1) + "\n")
+
+
+AXIAL = re.compile(r"^(p|F_.+_|J_.+_|contact_f|contact_impulse_)y(_.+)?$")  # y (= z) components
+
+
+def whole_body(name: str, unit: str, u) -> bool:
+    """Whether an axisymmetric history column has a whole-body total (x 2 pi): energies and work,
+    and the axial components of momenta, forces and impulses (radial ones sum to zero around
+    the axis)."""
+    return unit == u.energy or bool(AXIAL.match(name))
 
 
 def check_unique(names: list[str], bodies, loaded) -> None:

@@ -235,6 +235,28 @@ def test_sphere_impact_follows_the_reference_codes_axisymmetric_run(law, name):
     assert np.abs(mine - v_ref[during]).max() < 0.005
 
 
+def test_whole_body_history_columns_are_the_body_of_revolutions_totals():
+    """Axisymmetric histories are per radian; each energy and each axial momentum, force and
+    impulse is repeated x 2 pi as <column>_whole (radial components are not: they sum to zero
+    around the axis). The sphere's whole mass from its axial momentum is rho 4/3 pi R^3 to the
+    lattice's staircase (measured +0.34%), its kinetic energy 1/2 M v^2, and the plate's
+    axial contact impulse the sphere's change of momentum."""
+    sim = sphere_impact("frictionless")
+    h = sim.history
+    deck = yaml.safe_load((REFERENCE / "sphere_impact_rz.yaml").read_text())
+    rho, R = deck["materials"]["steel"]["density"], 5.0
+    M = -h["py_sphere_whole"].iloc[0] / 2.0  # 2 m/s at the start
+    assert M == pytest.approx(rho * 4.0 / 3.0 * np.pi * R**3, rel=0.01)
+    assert h["ke_sphere_whole"].iloc[0] == pytest.approx(0.5 * M * 2.0**2, rel=1e-12)
+    assert np.array_equal(h["kinetic_energy_whole"].to_numpy(), 2.0 * np.pi * h["kinetic_energy"].to_numpy())
+    assert "px_sphere_whole" not in h and "F_ymin_x_whole" not in h  # radial: no total
+    dp = h["py_sphere_whole"].to_numpy() - h["py_sphere_whole"].iloc[0]
+    impulse = [c for c in h.columns if c.startswith("contact_impulse_y_") and c.endswith("_whole")]
+    assert len(impulse) == 2  # each side of the pair
+    on_sphere = impulse[0] if impulse[0].startswith("contact_impulse_y_steel") else impulse[1]
+    assert np.allclose(h[on_sphere].to_numpy(), dp, rtol=1e-9, atol=1e-9 * np.abs(dp).max())
+
+
 # ----------------------------------------------------------------------------- composite sphere
 @pytest.mark.parametrize("D, measured", [(1e4, 0.0030), (1e12, 0.0047)])
 def test_composite_sphere_bulk_modulus_is_hashins(D, measured):
