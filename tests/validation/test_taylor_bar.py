@@ -74,7 +74,9 @@ def test_axisymmetric_taylor_bar_matches_the_reference_codes_axisymmetric_run():
     against NairnMPM's axisymmetric run of the same scene (<Analysis>13</Analysis>, uGIMP-AS):
     length and foot radius within 0.5% (measured 21.466 mm, +0.13%, and 7.045 mm, +0.14%, of
     21.438 and 7.035 mm; the 3D quarter model above is +0.46% and +0.57% of the reference code's
-    3D run at 0.8 mm). The ledger closes to 0.1% of the impact energy (measured 0.02%)."""
+    3D run at 0.8 mm). The ledger closes to 0.1% of the impact energy (measured 0.02%); the
+    impact's energy is the final kinetic and elastic energy, plastic work and the anvil's loss to
+    0.5% (measured 0.26%: transfers +3.6%, force gap -3.4%)."""
     r, ref = taylor("taylor_bar_rz"), reference("taylor_axi_h0.4")
     assert r["n"] == ref["particles"]
     assert r["Lf"] == pytest.approx(ref["L_f_mm"], rel=0.005)
@@ -82,6 +84,15 @@ def test_axisymmetric_taylor_bar_matches_the_reference_codes_axisymmetric_run():
     hist = r["history"]
     E0 = hist["kinetic_energy"].iloc[0]
     assert np.abs(hist["energy_residual"].to_numpy()).max() < 1e-3 * E0
+    assert abs(unaccounted(hist)) < 0.005  # measured 0.26%
+
+
+def unaccounted(hist) -> float:
+    """The impact's kinetic energy less the final kinetic and stored elastic energy, the plastic
+    work and the anvil's loss (the anvil is the velocity condition z = 0: its loss is the
+    contact's), as a fraction of it: what the transfers and the force gap take net."""
+    e, E0 = hist.iloc[-1], hist["kinetic_energy"].iloc[0]
+    return float(1.0 - (e["kinetic_energy"] + e["strain_energy"] + e["plastic_work"] + e["condition_loss"]) / E0)
 
 
 # Johnson and Cook's OFHC copper cylinder test (L0 = 25.4 mm, D0 = 7.62 mm, 190 m/s): the
@@ -99,7 +110,8 @@ def test_johnson_cook_taylor_test_against_the_experiment():
     0.681) and nearly in the foot (1.908). The gap is the model's: without the rate term (C = 0)
     the length is the experiment's to 0.3% and the foot 16% wide (the bound sees that); a
     frictionless anvil widens the foot (mu = 0.2: 1.69). Both above the experiment, within 8%;
-    the foot heats to 521 K (no heating: 294 K); the ledger closes to 0.1%."""
+    the foot heats to 521 K (no heating: 294 K); the ledger closes to 0.1%; the impact's energy
+    is the final kinetic and elastic energy, plastic work and the anvil's loss to 0.5%."""
     r = taylor("taylor_ofhc_rz")
     length, foot = r["Lf"] / 25.4, 2.0 * r["Rf"] / 7.62
     assert 0.0 < length / OFHC_EXPERIMENT["LfL0"] - 1.0 < 0.08
@@ -109,3 +121,4 @@ def test_johnson_cook_taylor_test_against_the_experiment():
     E0 = hist["kinetic_energy"].iloc[0]
     assert np.abs(hist["energy_residual"].to_numpy()).max() < 1e-3 * E0
     assert hist["kinetic_energy"].iloc[-1] < 0.01 * E0  # at rest
+    assert abs(unaccounted(hist)) < 0.005  # measured 0.24%
