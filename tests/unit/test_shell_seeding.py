@@ -96,3 +96,25 @@ def test_what_shells_cannot_do_is_refused_in_one_line(extra, bodies, message):
 def test_shells_need_cubic_cells():
     with pytest.raises(DeckError, match=r"bodies\.0\.seeding.*same along x, y and z"):
         build_scene(deck_from(deck(sphere(), cell=[0.5, 0.5, 0.25])))
+
+
+@pytest.mark.contact_default
+def test_a_sphere_in_grid_contact_is_seeded_in_shells_by_default():
+    """`seeding: auto` (no seeding key) on a sphere over a rigid contact flat: shells, the same
+    particles as `seeding: shells`; a quarter sphere clipped on its symmetry planes too; alone,
+    on the lattice."""
+    def contact_deck(ball):
+        d = deck(ball, {"name": "flat", "shape": "box", "min": [-4, -1, -4], "max": [4, 0.0, 4], "material": "wall"})
+        d["materials"]["wall"] = {"type": "rigid", "mode": "contact", "velocity": [0.0, 0.0, 0.0]}
+        return d
+
+    plain = {k: v for k, v in sphere().items() if k != "seeding"}
+    auto = build_scene(deck_from(contact_deck(plain)))
+    assert (auto.seedings[0].how, auto.seedings[0].auto) == ("shells", True)
+    shells = build_scene(deck_from(contact_deck(sphere())))
+    assert np.array_equal(auto.deformable.x, shells.deformable.x)
+    quarter = dict(plain, clip={"min": [0.0, -1.0, 0.0], "max": [4.0, 7.0, 4.0]})  # the planes x = 0, z = 0
+    scene = build_scene(deck_from(contact_deck(quarter)))
+    assert scene.seedings[0].how == "shells"
+    assert scene.deformable.vol.sum() == pytest.approx(math.pi * R**3 / 3.0, rel=1e-12)
+    assert build_scene(deck_from(deck(plain))).seedings[0].how == "lattice"
