@@ -353,8 +353,8 @@ class Round(BodyBase):
 
 
 AUTO_SEEDING = (
-    "auto (the default): rings_half_step (shells for a sphere) when grid contact acts between the body's "
-    "material and another (an explicit deck with two or more velocity fields) and the body can be so seeded "
+    "auto (the default): rings_half_step (shells for a sphere) when the scene has grid contact (an explicit "
+    "deck with two or more velocity fields) and the body can be so seeded "
     "(a particle body, a square grid cell, no `overwrites`, a clip through its centre or missing it, no "
     "overlap with another particle body); lattice otherwise. `mpmsim check` says which it chose and why. ")
 SEEDING_DESCRIPTION = (
