@@ -182,14 +182,16 @@ def build_particles(loaded: LoadedDeck, mats: MaterialTable, particle_bodies: li
     while True:  # twice at most: auto-seeded bodies found overlapping others fall back to the lattice
         seeded = _seed_bodies(loaded, particle_bodies, boxes, seedings, grid, spacing, n_lat)
         keys, owners, mat_names, where, vols, n_rings = seeded
-        problems = _rings_overlaps(particle_bodies, base, seedings, where) if n_rings else []
-        auto = [p for p in problems if seedings[p[0][1]].auto]
-        if not auto:
+        overlaps = _rings_overlaps(particle_bodies, base, seedings, where) if n_rings else []
+        if not any(seedings[i].auto for i, _ in overlaps):
             break
-        for (_, i, _), why in auto:  # (why: "body 'a' is seeded in ... and overlaps body 'b': ...")
-            seedings[i] = Seeding("lattice", True, "auto: it " + why.split(" and ", 1)[1].split(":")[0])
-    if problems:
-        raise_at(problems, loaded)
+        for i, other in overlaps:
+            if seedings[i].auto:
+                seedings[i] = Seeding("lattice", True, f"auto: it overlaps body '{other}'")
+    if overlaps:
+        raise_at([(("bodies", i, "seeding"), f"body '{body_name(deck.bodies[i], i)}' is seeded in {seedings[i].how} "
+                   f"and overlaps body '{other}': separate the shapes or use seeding: lattice")
+                  for i, other in overlaps], loaded)
 
     keys = np.concatenate(keys)
     owners = np.concatenate(owners)
@@ -412,20 +414,19 @@ def _shells_problem(body, dim: int, h: np.ndarray) -> str | None:
     return None
 
 
-def _rings_overlaps(particle_bodies, base, seedings, where) -> list:
-    """A ring-seeded body takes no part in the lattice's overwriting: refuse any overlap with
-    another particle body (a particle of either inside the other's shape)."""
-    problems = []
+def _rings_overlaps(particle_bodies, base, seedings, where) -> list[tuple[int, str]]:
+    """A ring-seeded body takes no part in the lattice's overwriting: each one that overlaps
+    another particle body (a particle of either inside the other's shape), as (its deck index,
+    the first other body's name)."""
+    found = []
     for (i, bi), pi in zip(particle_bodies, where):
         if seedings[i].how not in SURFACE_SEEDINGS:
             continue
         for (j, bj), pj in zip(particle_bodies, where):
             if j != i and (inside(bi, pj, base).any() or _inside_body(bj, pi, base).any()):
-                problems.append((("bodies", i, "seeding"), f"body '{body_name(bi, i)}' is seeded in "
-                                 f"{seedings[i].how} and overlaps body '{body_name(bj, j)}': separate the shapes or "
-                                 "use seeding: lattice"))
+                found.append((i, body_name(bj, j)))
                 break
-    return problems
+    return found
 
 
 def overwritten(deck, keys: np.ndarray, owners: np.ndarray, keep: np.ndarray) -> list[str]:
