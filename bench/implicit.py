@@ -42,7 +42,6 @@ from mpmsim.solver import Simulation  # noqa: E402
 
 CLOCK = time.perf_counter  # --cpu: time.process_time
 PAPER_RINGS = (0.00866, 0.0153)  # grid cell and FEM element size of the paper-size rings (--paper-rings)
-PAPER_TOLERANCE = 1e-5  # their Newton tolerance (m/s)
 
 
 def timed_run(sim) -> tuple[float, list]:
@@ -80,7 +79,7 @@ def measure(name: str, d: dict, threads: int = 1) -> None:
           f"compiling included)")
     for part, sec in sim.integrator.timers.items():
         print(f"  {part:12s} {sec / steps * 1e3:8.2f} ms/step  {100 * sec / wall:5.1f}%")
-    print("  " + "; ".join(sim.integrator.report()[1:]) if len(sim.integrator.report()) > 1 else "  SuperLU (splu)")
+    print("  " + "\n  ".join(sim.integrator.report()))
 
 
 def column_deck(h: float, per_direction: int, steps: int = 12, E: float = 1e7, contact: str = "corners",
@@ -756,10 +755,7 @@ def main() -> None:
     name = "implicit rings (MPM ring against FEM ring)"
     if args.paper_rings:
         rings["grid"]["cell_size"], rings["bodies"][1]["element_size"] = PAPER_RINGS
-        # the deck's 1e-6 m/s stalls in steps 41-43 (release): Newton converges linearly there (0.93 per
-        # iteration), beyond 100 iterations; 1e-5 m/s (IPC's default scale, 1e-5 of the scene per second)
-        rings["implicit"]["newton_tolerance"] = PAPER_TOLERANCE
-        name = f"implicit rings at the paper's size (newton_tolerance {PAPER_TOLERANCE:g})"
+        name = f"implicit rings at the paper's size (newton_tolerance {rings['implicit']['newton_tolerance']:g})"
         args.no_blocks = True
     print(f"mpmsim from {sys.path[0]}")
     for threads in args.threads:

@@ -11,10 +11,13 @@ over the unknowns y (n, d) and knows each term only through the interface below;
     sweep(y, p)            the active set for positions y + alpha p, alpha in [0, 1] (contact
                            pairs from a swept broad phase); the next value/derivatives use it
     value(y)               Phi_term(y) (inf where y is infeasible: an inverted element, a touch)
-    derivatives(y, force)  after value(y): adds its nodal forces (minus a dense gradient) into
+    derivatives(y, force, exact=False)
+                           after value(y): adds its nodal forces (minus a dense gradient) into
                            `force` (n, d) and returns Derivatives: local gradients to scatter and
                            the PSD-projected Hessian as local blocks (Blocks) or triplets, both
-                           unscaled
+                           unscaled; with exact=True the term's own, unprojected Hessian (Newton's
+                           last iterations). A term without the `exact` argument is always asked
+                           for its one Hessian.
     step_bound(y, p)       the largest alpha in (0, 1] that keeps y + alpha p feasible
     relag(y)               lagged terms only (lagged = True): re-evaluate the lagged quantities
                            at y; returns whether the term is still active
@@ -109,7 +112,7 @@ class Potential:
     def value(self, y: np.ndarray) -> float:  # pragma: no cover - every term defines it
         raise NotImplementedError
 
-    def derivatives(self, y: np.ndarray, force: np.ndarray) -> Derivatives:  # pragma: no cover
+    def derivatives(self, y: np.ndarray, force: np.ndarray, exact: bool = False) -> Derivatives:  # pragma: no cover
         raise NotImplementedError
 
     def step_bound(self, y: np.ndarray, p: np.ndarray) -> float:

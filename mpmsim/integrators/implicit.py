@@ -25,7 +25,9 @@ degrees of freedom (held components move to their target and are eliminated; the
 Hessians are scattered by compiled kernels straight into the CSC values over the free unknowns,
 on a pattern kept while the bundles' node lists stay the same: assembly.py), solved by CHOLMOD's
 Cholesky factorisation or mpmsim's LDL^T (no BLAS: the same bits on every CPU), the analysis
-reused while the pattern holds, or by SuperLU (solvers.py; implicit.linear_solver). Line search:
+reused while the pattern holds, or by SuperLU (solvers.py; implicit.linear_solver). After a
+full step, the terms' exact (unprojected) Hessians while their matrix stays positive definite:
+the last iterations converge quadratically (_newton). Line search:
 alpha = the smallest of the terms' step bounds (additive CCD
 keeps every contact point at least 10% of its distance from every edge; the inversion bounds
 keep det F > 0 for triangles and particles), then halved until E decreases. Stop when the
@@ -42,6 +44,7 @@ grid.boundaries are held (implicit_mpm.walls). 2D (plane strain) and 3D.
 
 from __future__ import annotations
 
+import inspect
 import time as wallclock
 from types import SimpleNamespace
 
@@ -74,6 +77,8 @@ def empty_fem(dim: int) -> SimpleNamespace:
                            facets=np.zeros((0, dim), np.int64), boundary=np.zeros(0, np.int64),
                            node_body=np.zeros(0, np.int64), node_mat=np.zeros(0, np.int64), infos=[], n=0)
 
+
+ROUNDING = 1e-10  # a change of the incremental potential below this fraction of it is rounding
 
 
 class ImplicitStep(Integrator):
@@ -133,6 +138,10 @@ class ImplicitStep(Integrator):
         self.kappa_bounds = None  # adaptive kappa: (kappa_min, kappa_max, bounding-box diagonal)
         self.kappa_set = False  # the initial balance taken (at the first step that starts in contact)
         self.closest = np.inf  # smallest pair distance after the last Newton iteration
+        self.exact_steps = 0  # Newton steps on the exact Hessian (_newton)
+        self.exact_refused = 0  # exact Hessians not positive definite (or not descending): projected instead
+        self.exact_terms: list = []
+        self.newton_sizes: list[float] = []  # max |p| / dt per iteration of the last Newton solve
         self.motions = scene.fem.motions if scene.fem is not None else []  # (nodes, RigidMotion)
 
     def add_term(self, term) -> None:
@@ -173,6 +182,8 @@ class ImplicitStep(Integrator):
                 terms.append(friction(barrier, self.mu, b.friction_velocity))
         terms.append(Gravity(self.gravity))
         self.terms = terms + self.added
+        # the terms whose derivatives can give their exact Hessian (an added term may not take `exact`)
+        self.exact_terms = [t for t in self.terms if "exact" in inspect.signature(t.derivatives).parameters]
         f = terms[0].forces(fem.x)
         fem.a[:] = f / fem.mass[:, None] + self.gravity if fem.n else 0.0
         fem.a[fem.held] = 0.0
@@ -191,11 +202,12 @@ class ImplicitStep(Integrator):
         for term in self.terms:
             term.sweep(y, p)
 
-    def _energy(self, y, yt, want_derivatives):
+    def _energy(self, y, yt, want_derivatives, exact=False):
         """E(y) (inf if an element or particle inverted or a pair touched), and when asked its
-        gradient (n*d,) and PSD-projected Hessian: the terms' Hessian bundles (Blocks,
-        Triplets; to be scaled by c) and the diagonal (n*d,) added unscaled (assembly.Assembler).
-        The terms' sum is taken in their order."""
+        gradient (n*d,) and PSD-projected Hessian (with `exact`: the terms' own, unprojected,
+        where a term has both): the terms' Hessian bundles (Blocks, Triplets; to be scaled by
+        c) and the diagonal (n*d,) added unscaled (assembly.Assembler). The terms' sum is taken
+        in their order."""
         c, d = self.c, self.dim
         dx = (y - yt).ravel()
         total = 0.0
@@ -212,7 +224,8 @@ class ImplicitStep(Integrator):
         force = np.zeros_like(y)
         scatters, hessians = [], []
         for term in self.terms:
-            parts = term.derivatives(y, force)
+            parts = term.derivatives(y, force, exact=True) if exact and term in self.exact_terms else \
+                term.derivatives(y, force)
             scatters.extend(parts.local)
             hessians.extend(parts.hessian)
         g = self.M * dx + c * (-force).ravel()
@@ -243,28 +256,65 @@ class ImplicitStep(Integrator):
         return size
 
     # ----------------------------------------------------------------------------- the step
-    def _newton(self, state, y, yt, free, dt):
-        """Projected Newton from y on the free DOFs; returns (y, iterations, halvings, CCD-limited)."""
-        halvings = 0
-        ccd_limited = False
-        index = np.full(free.size, -1, np.int64)  # DOF -> free unknown (-1: eliminated)
-        index[free] = np.arange(int(free.sum()))
-        for it in range(1, self.max_iterations + 1):
+    def _direction(self, y, yt, free, index, exact):
+        """The Newton step at y: (E, g, p, exact). With `exact`, from the terms' own Hessians
+        when their matrix is positive definite and the step descends; otherwise (and then
+        returned exact = False) from the PSD-projected ones."""
+        while True:
             t0 = wallclock.perf_counter()
-            self._sweep(y)
-            if self.adaptive and it > 1:  # after the previous iteration, on this sweep's pairs
-                self._raise_kappa(y, it - 1)
-            E, g, (hessians, diag) = self._energy(y, yt, True)
+            E, g, (hessians, diag) = self._energy(y, yt, True, exact)
             t1 = wallclock.perf_counter()
             self.timers["derivatives"] += t1 - t0
             Hf = self.assembler.matrix(hessians, diag, self.c, index)
             self.timers["assemble"] += wallclock.perf_counter() - t1
             t0 = wallclock.perf_counter()
-            p = np.zeros(y.size)
-            p[free] = self.solver.solve(Hf, -g[free], self.assembler.version)
-            p = p.reshape(y.shape)
+            rhs = -g[free]
+            step = self.solver.solve(Hf, rhs, self.assembler.version, definite=exact)
             self.timers["solve"] += wallclock.perf_counter() - t0
-            if self._step_size(p) / dt < self.tolerance:
+            if not exact or (step is not None and float(linalg.dot(rhs, step)) > 0.0):
+                break
+            exact = False  # not positive definite (or no descent): projected from here on
+            self.exact_refused += 1
+        p = np.zeros(y.size)
+        p[free] = step
+        return E, g, p.reshape(y.shape), exact
+
+    def _newton(self, state, y, yt, free, dt):
+        """Projected Newton from y on the free DOFs, its last iterations on the exact Hessian
+        (below); returns (y, iterations, halvings, CCD-limited).
+
+        The PSD projection of the local Hessians (elements, particles, barrier pairs) keeps
+        every step a descent direction, but where a projection acts it leaves Newton linear:
+        near the solution the projected matrix is not the energy's second derivative. So once a
+        full step (alpha = 1, not limited by a collision bound) has been taken, the iterations
+        use the terms' own Hessians while their matrix stays positive definite, which makes
+        the last iterations quadratic; the first one that is not goes back to the projection
+        for the rest of the solve. So does a step that fails to halve after one whose energy
+        change was below E's rounding: there the gradient's rounding sets the steps, and a
+        near-singular exact matrix (a quasi-static column) would only amplify it."""
+        halvings = 0
+        ccd_limited = False
+        exact = False
+        index = np.full(free.size, -1, np.int64)  # DOF -> free unknown (-1: eliminated)
+        index[free] = np.arange(int(free.sum()))
+        refused = self.exact_refused
+        settled = False  # the last step's predicted decrease was below what E resolves
+        self.newton_sizes = sizes = []  # max |p| / dt of each iteration of this solve
+        for it in range(1, self.max_iterations + 1):
+            self._sweep(y)
+            if self.adaptive and it > 1:  # after the previous iteration, on this sweep's pairs
+                self._raise_kappa(y, it - 1)
+            E, g, p, exact = self._direction(y, yt, free, index, exact)
+            size = self._step_size(p) / dt
+            if exact and settled and size > 0.5 * sizes[-1]:
+                # after a step at the energy's rounding, one that does not shrink: the
+                # gradient's rounding rules here, not its curvature; the projection from here on
+                self.exact_refused += 1
+                E, g, p, exact = self._direction(y, yt, free, index, False)
+                size = self._step_size(p) / dt
+            self.exact_steps += exact
+            sizes.append(size)
+            if size < self.tolerance:
                 # converged: the last Newton step is below the tolerance; take it when it is
                 # feasible as a whole (it squares the residual: momentum to round-off)
                 self._sweep(y, p)
@@ -277,8 +327,13 @@ class ImplicitStep(Integrator):
             ccd_limited |= limited
             self.timers["ccd"] += wallclock.perf_counter() - t0
             t0 = wallclock.perf_counter()
+            # an exact Newton step whose predicted decrease, g.p / 2, is below what E resolves
+            # (1e-10 of it) is taken without the test: E's rounding would refuse it
+            settled = exact and -float(linalg.dot(g, p.ravel())) <= ROUNDING * abs(E)
             while True:
                 trial = y + alpha * p
+                if settled:
+                    break
                 E_trial, _, _ = self._energy(trial, yt, False)
                 if E_trial <= E or alpha < 1e-12:
                     break
@@ -286,6 +341,8 @@ class ImplicitStep(Integrator):
                 halvings += 1
             self.timers["line search"] += wallclock.perf_counter() - t0
             y = trial
+            if alpha == 1.0 and not limited and self.exact_refused == refused:
+                exact = True
         names = self._body_names(state)
         raise InstabilityError(
             f"stopped at step {state.step + 1}, t = {state.t + dt:.6g}: Newton did not converge in "
@@ -458,7 +515,8 @@ class ImplicitStep(Integrator):
         halv = sum(s[1] for s in self.stats)
         ccd = sum(s[2] for s in self.stats)
         line = (f"Newton: {len(its)} steps, {its.mean():.2f} iterations per step (max {its.max()}), "
-                f"{halv} line-search halvings, {ccd} CCD-limited steps")
+                f"{halv} line-search halvings, {ccd} CCD-limited steps, {self.exact_steps} iterations on the exact "
+                f"Hessian ({self.exact_refused} not positive definite)")
         lags = np.array([s[3] for s in self.stats])
         if self.friction_lags > 1:
             line += f", {lags.mean():.2f} friction lags per step (max {lags.max()})"

@@ -377,14 +377,14 @@ class GridUnknowns:
                               materials.props, f)
         return f
 
-    def hessians(self, u, materials) -> np.ndarray:
+    def hessians(self, u, materials, project: bool = True) -> np.ndarray:
         K, d = self.S.shape[1], u.shape[1]
         shape = (len(self.S), K * d, K * d)
         if self._hessians is None or self._hessians.shape != shape:  # kept: no fresh pages each iteration
             self._hessians = np.empty(shape)
         out = self._hessians  # every entry written; read by the assembly before the next call
         elements.point_hessians(u, self.nodes, self.G, self.F0, self.vol0, self.mat, materials.type_code,
-                                materials.props, True, out)
+                                materials.props, project, out)
         return out
 
     def positions(self, u) -> np.ndarray:

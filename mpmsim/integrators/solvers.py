@@ -96,8 +96,10 @@ class NewtonSolver:
             return "mpmsim LDL^T (simplicial, RCM ordering, no BLAS: the same bits on every CPU)"
         return "SuperLU (scipy splu)"
 
-    def solve(self, A: sp.csc_matrix, b: np.ndarray, version: int) -> np.ndarray:
-        """x with A x = b; A's pattern is the same while `version` is."""
+    def solve(self, A: sp.csc_matrix, b: np.ndarray, version: int, definite: bool = False) -> np.ndarray | None:
+        """x with A x = b; A's pattern is the same while `version` is. With `definite`, None
+        where the Cholesky solvers find A not positive definite (instead of SuperLU's answer);
+        SuperLU (`lu`) cannot tell and solves."""
         if not len(b):  # every unknown held
             return np.zeros(0)
         if self.method == "ldl":
@@ -109,6 +111,8 @@ class NewtonSolver:
             if self.factor.factor(A):
                 self.counts["ldl"] += 1
                 return self.factor.solve(b)
+            if definite:
+                return None
             self.counts["fallbacks"] += 1
             A = full_from_lower(A)
         elif self.method == "cholmod":
@@ -130,6 +134,8 @@ class NewtonSolver:
                     return self.factor(b)
             except CholmodError:
                 self.factor = None
+            if definite:
+                return None
             self.counts["fallbacks"] += 1
             A = full_from_lower(A)
         self.counts["splu"] += 1

@@ -36,13 +36,13 @@ class FemStrain(Potential):
         elements.internal_forces(*self._args(y), f)
         return f
 
-    def derivatives(self, y, force):
+    def derivatives(self, y, force, exact=False):
         force[:self.nf] += self.forces(y)
         if not len(self.fem.cells):
             return Derivatives((), ())
         d = y.shape[1]
         local = np.empty((len(self.fem.cells), (d + 1) * d, (d + 1) * d))  # every entry written
-        elements.element_hessians(*self._args(y), True, local)
+        elements.element_hessians(*self._args(y), not exact, local)
         return Derivatives((), (Blocks(self.fem.cells, local),))
 
     def step_bound(self, y, p):
@@ -67,11 +67,11 @@ class ParticleStrain(Potential):
     def value(self, y):
         return self.grid.energy(y[self.nf:] - self.grid.X, self.materials)
 
-    def derivatives(self, y, force):
+    def derivatives(self, y, force, exact=False):
         grid, nf = self.grid, self.nf
         u = y[nf:] - grid.X
         force[nf:] += grid.forces(u, self.materials)
-        return Derivatives((), (Blocks(self.rows, grid.hessians(u, self.materials)),))
+        return Derivatives((), (Blocks(self.rows, grid.hessians(u, self.materials, not exact)),))
 
     def step_bound(self, y, p):
         grid = self.grid
@@ -95,6 +95,6 @@ class Gravity(Potential):
     def value(self, y):
         return -float(np.sum(self.weight * y))
 
-    def derivatives(self, y, force):
+    def derivatives(self, y, force, exact=False):
         force += self.weight
         return Derivatives((), ())

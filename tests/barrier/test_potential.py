@@ -221,7 +221,7 @@ def _corrected(points, verts, edges):
     pn = np.array([[0, 1]])
     others, gn, Hn = np.zeros((1, 3), np.int64), np.zeros((1, 8)), np.zeros((1, 8, 8))
     e += point_node_barrier_pairs(points, verts, edges, vertex_edges(edges, 3), pn, DHAT, KAPPA, w, node_weight,
-                                  others, gn, Hn)
+                                  others, gn, Hn, True)
     g, H = np.zeros(8), np.zeros((8, 8))  # local points: p, v0, v1, v2 -> slots 0..3
     for k, (a, b) in enumerate(edges):
         idx = np.r_[0, 1, 2 + 2 * a, 3 + 2 * a, 2 + 2 * b, 3 + 2 * b]

@@ -190,6 +190,11 @@ class BarrierContact(Potential):
             else np.inf
 
     def value(self, y):
+        phi, self._local = self._pairs_at(y, True)
+        return phi
+
+    def _pairs_at(self, y, project):
+        """The barrier at y and each pair's gradient and Hessian (PSD-projected with `project`)."""
         fem, pts = self.fem, self.points
         yf = y[:fem.n]
         pe, pn = self.current
@@ -198,14 +203,15 @@ class BarrierContact(Potential):
         phi = 0.0
         if len(pe):
             z = pts.positions(y)
-            phi = point_edge_barrier_pairs(z, yf, fem.facets, pe, self.dhat, self.kappa, pts.weight, gb, Hb, True)
+            phi = point_edge_barrier_pairs(z, yf, fem.facets, pe, self.dhat, self.kappa, pts.weight, gb, Hb, project)
             if len(pn):
                 phi += point_node_barrier_pairs(z, yf, fem.facets, self.node_edges, pn, self.dhat, self.kappa,
-                                                pts.weight, self.node_weight, vn, gn, Hn)
-        self._local = ((pe, self.fem.facets[pe[:, 1]], gb, Hb), (pn, vn, gn, Hn))
-        return phi
+                                                pts.weight, self.node_weight, vn, gn, Hn, project)
+        return phi, ((pe, self.fem.facets[pe[:, 1]], gb, Hb), (pn, vn, gn, Hn))
 
-    def derivatives(self, y, force):
+    def derivatives(self, y, force, exact=False):
+        if exact:  # the unprojected Hessians (the value's are projected)
+            self._local = self._pairs_at(y, False)[1]
         scatters, hessians = [], []
         for prs, others, gl, Hl in self._local:
             if len(prs):
@@ -380,7 +386,7 @@ class LaggedFriction(Potential):
         self._local = (gf, Hf)
         return total
 
-    def derivatives(self, y, force):
+    def derivatives(self, y, force, exact=False):  # its Hessian is exact either way
         if self._local is None:
             return Derivatives((), ())
         s, h = self.contact.points.pair_terms(*self._stencils(), *self._local, y.shape[1])

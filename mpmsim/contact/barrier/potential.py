@@ -260,7 +260,7 @@ def point_edge_barrier_pairs(points, verts, edges, pairs, dhat, kappa, weights, 
 
 @njit(cache=True)
 def point_node_barrier_pairs(points, verts, edges, node_edges, pairs, dhat, kappa, weights, node_weight, others,
-                             grads, hessians):
+                             grads, hessians, project):
     """The boundary-node correction of BFEMP (Eq. 31): -sum w_p (deg_v - 1) b(|p - v|) over
     point-node pairs (k, 2) = (point index, vertex index); node_weight (n_verts,) = deg - 1,
     node_edges (n_verts, 2) the two boundary edges at each vertex (into edges). Returns the
@@ -273,7 +273,9 @@ def point_node_barrier_pairs(points, verts, edges, node_edges, pairs, dhat, kapp
     that of b(|p - v|): the three terms together contribute the projection of their sum. Where
     the point sees v as an end of an edge (a straight or convex boundary) the sum is already
     PSD and this is just -Hv, exact; where it sees both edges from their middles (a boundary
-    bent inwards) the projection keeps Newton's matrix PSD without losing the curvature."""
+    bent inwards) the projection keeps Newton's matrix PSD without losing the curvature.
+    Without `project` the Hessian is the correction's own, -(deg_v - 1) w_p Hv, unprojected as
+    the point-edge terms then are: the exact second derivative of the sum."""
     y4 = np.empty(4)
     y6 = np.empty(6)
     g4 = np.empty(4)
@@ -293,10 +295,16 @@ def point_node_barrier_pairs(points, verts, edges, node_edges, pairs, dhat, kapp
             others[k, 1 + c] = edges[j, 1] if edges[j, 0] == v else edges[j, 0]
         s = weights[i] * node_weight[v]
         y4[0], y4[1], y4[2], y4[3] = points[i, 0], points[i, 1], verts[v, 0], verts[v, 1]
-        total -= point_point_barrier(y4, dhat, kappa * s, g4, H4, True)
+        total -= point_point_barrier(y4, dhat, kappa * s, g4, H4, project)
         grads[k, :] = 0.0
         for a in range(4):
             grads[k, a] = -g4[a]
+        if not project:
+            hessians[k, :, :] = 0.0
+            for a in range(4):
+                for b in range(4):
+                    hessians[k, a, b] = -H4[a, b]
+            continue
         M[:, :] = 0.0
         S[:, :] = 0.0
         for a in range(4):

@@ -604,14 +604,7 @@ class SurfaceBarrier(BarrierContact):
         return min(d, min_edge_distance(y[:self.fem.n], self.surface.edges, ee)) if len(ee) else d
 
     def value(self, y):
-        grp = self.current
-        k, s = grp.nodes.shape
-        gl, Hl = np.zeros((k, 3 * (1 + s))), np.zeros((k, 3 * (1 + s), 3 * (1 + s)))
-        phi = 0.0
-        if k:
-            phi = surface_barrier_groups(self.points.positions(y), y[:self.fem.n], grp.point, grp.start, grp.simplex,
-                                         grp.coef, grp.nodes, self.dhat, self.kappa, self.points.weight, gl, Hl, True)
-        self._local = (gl, Hl)
+        phi, self._local = self._groups_at(y, True)
         eg = self.edge_current
         k, s = eg.nodes.shape
         ge, He = np.zeros((k, 3 * s)), np.zeros((k, 3 * s, 3 * s))
@@ -622,8 +615,23 @@ class SurfaceBarrier(BarrierContact):
         self._edge_local = (ge, He)
         return phi
 
-    def derivatives(self, y, force):
+    def _groups_at(self, y, project):
+        """The point-triangle groups' barrier at y, their gradients and Hessians (each group's
+        sum PSD-projected with `project`)."""
+        grp = self.current
+        k, s = grp.nodes.shape
+        gl, Hl = np.zeros((k, 3 * (1 + s))), np.zeros((k, 3 * (1 + s), 3 * (1 + s)))
+        phi = 0.0
+        if k:
+            phi = surface_barrier_groups(self.points.positions(y), y[:self.fem.n], grp.point, grp.start, grp.simplex,
+                                         grp.coef, grp.nodes, self.dhat, self.kappa, self.points.weight, gl, Hl,
+                                         project)
+        return phi, (gl, Hl)
+
+    def derivatives(self, y, force, exact=False):
         grp, eg = self.current, self.edge_current
+        if exact:  # the unprojected Hessians (the value's point groups are projected)
+            self._local = self._groups_at(y, False)[1]
         scatters, hessians = [], []
         if len(grp.point):
             s, h = self.points.pair_terms(grp.point, grp.nodes, *self._local, 3)
@@ -631,7 +639,8 @@ class SurfaceBarrier(BarrierContact):
             hessians.append(h)
         if len(eg.edge):
             ge, He = self._edge_local
-            project_all(He)
+            if not exact:
+                project_all(He)
             k, s = eg.nodes.shape
             scatters.append(Scatter(eg.nodes, ge.reshape(k, s, 3)))
             hessians.append(Blocks(eg.nodes, He))
