@@ -42,12 +42,16 @@ triangles' areas). In 2D the two directions of point-edge contact likewise sum t
 one-sided integral; an MPM particle's weight (one side only) stays its full area. Each group's
 Hessian is summed unprojected and projected to PSD once (in derivatives(): the line search asks
 only for values). Step bound: edge-edge additive CCD over the candidate pairs, with the
-point-triangle one. Friction acts on the node-triangle terms only.
+point-triangle one. Friction acts on both (below).
 
 Friction (SurfaceFriction): per point, lagged at the step's start on its nearest triangle: the
 normal force lambda = |dPhi_p/dp| (the whole group's force on the point, corrections included),
 the closest point's barycentric coordinates beta and a tangent basis T (3, 2) of the plane normal
 to p - c; slip u = T^T (dp - sum_j beta_j dt_j), D = mu lambda f0(|u|) (friction.lagged_friction).
+Per FEM boundary edge a likewise, on the nearest edge b of another FEM body: lambda = |the edge
+group's force on a| (mollifier and corrections included), the closest points' parameters s on a
+and t on b, T normal to the line between them; u = T^T ((1 - s) da0 + s da1 - (1 - t) db0 -
+t db1). Both directions of a pair carry half weights, as the barrier's edge terms do.
 """
 
 from __future__ import annotations
@@ -732,6 +736,58 @@ def surface_friction_pairs(x, x0, point_rows, point, tri, G, mu_lambda, eps, gra
     return total
 
 
+@njit(cache=True)
+def lag_edge_friction(verts, start, simplex, kind, grads, dhat, nodes, G, lam):
+    """Per edge group (an FEM boundary edge a, EdgeGroups): the nearest edge b of another body
+    within dhat, nodes (g, 4) = (a0, a1, b0, b1); the slip operator G (g, 12, 2) of the two
+    closest points' relative tangential motion, u = T^T (sum_j c_j dz_j) with c = (1 - s, s,
+    -(1 - t), -t) (read off the distance's gradient: its block j is c_j n); and lambda = |the
+    group's force on a| (grads over a0 and a1, its first six entries: mollifier and corrections
+    included), 0 where no pair is within dhat."""
+    y = np.empty(12)
+    g12 = np.empty(12)
+    H12 = np.empty((12, 12))
+    for grp in range(start.shape[0] - 1):
+        lam[grp] = 0.0
+        best, pick = dhat, -1
+        for term in range(start[grp], start[grp + 1]):
+            if kind[term] != EE_PAIR:
+                continue
+            for c in range(4):
+                for a in range(3):
+                    y[3 * c + a] = verts[simplex[term, c], a]
+            d = edge_edge_distance_hessian(y, g12, H12, -1)
+            if d < best:
+                best, pick = d, term
+        if pick < 0:
+            continue
+        for c in range(4):
+            nodes[grp, c] = simplex[pick, c]
+            for a in range(3):
+                y[3 * c + a] = verts[simplex[pick, c], a]
+        edge_edge_distance_hessian(y, g12, H12, -1)
+        n = g12[0:3] + g12[3:6]  # (1 - s) n + s n: the unit normal from b's closest point to a's
+        n /= np.sqrt(dot(n, n))
+        t1 = np.cross(n, np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
+        t1 /= np.sqrt(dot(t1, t1))
+        t2 = np.cross(n, t1)
+        for c in range(4):
+            coef = dot(g12[3 * c:3 * c + 3], n)
+            for a in range(3):
+                G[grp, 3 * c + a, 0] = coef * t1[a]
+                G[grp, 3 * c + a, 1] = coef * t2[a]
+        f = 0.0
+        for a in range(3):
+            f += (grads[grp, a] + grads[grp, 3 + a]) ** 2
+        lam[grp] = np.sqrt(f)
+
+
+class EdgeLag(NamedTuple):
+    nodes: np.ndarray  # (g, 4) an FEM boundary edge and the nearest edge of another body
+    G: np.ndarray  # (g, 12, 2) slip operators
+    mu_lambda: np.ndarray  # (g,)
+
+
 class SurfaceLag(NamedTuple):
     point: np.ndarray  # (g,) contact points
     tri: np.ndarray  # (g, 3) their nearest triangles' nodes
@@ -741,9 +797,42 @@ class SurfaceLag(NamedTuple):
 
 class SurfaceFriction(LaggedFriction):
     """Lagged, smoothed Coulomb friction on the 3D barrier's contacts (module docstring): the 2D
-    term's lag bookkeeping with per-point frames on the nearest triangle."""
+    term's lag bookkeeping with per-point frames on the nearest triangle, and per FEM boundary
+    edge on the nearest edge of another FEM body."""
+
+    edge_lag = None
+    _edge_local = None
+
+    @property
+    def active(self) -> bool:
+        return self.lag is not None or self.edge_lag is not None
 
     def relag(self, y):
+        self.edge_lag = self._lag_edges(y)
+        return self._lag_points(y) or self.edge_lag is not None
+
+    def _lag_edges(self, y):
+        """The edge-edge contacts' lag (EdgeLag) at y, None without any within dhat."""
+        c = self.contact
+        if not c.edge_contact:
+            return None
+        eg = c.edge_pairs(y, np.zeros_like(y))
+        k = len(eg.edge)
+        if not k:
+            return None
+        fem, s = c.fem, eg.nodes.shape[1]
+        ge, He = np.zeros((k, 3 * s)), np.zeros((k, 3 * s, 3 * s))
+        edge_barrier_groups(y[:fem.n], fem.X, eg.edge, eg.start, eg.simplex, eg.kind, eg.nodes, c.dhat, c.kappa,
+                            c.edge_weight, ge, He, False)
+        nodes, G, lam = np.zeros((k, 4), np.int64), np.zeros((k, 12, 2)), np.zeros(k)
+        lag_edge_friction(y[:fem.n], eg.start, eg.simplex, eg.kind, ge, c.dhat, nodes, G, lam)
+        mu_lambda = self.mu[fem.node_mat[nodes[:, 0]], fem.node_mat[nodes[:, 2]]] * lam
+        keep = mu_lambda > 0.0
+        if not keep.any():
+            return None
+        return EdgeLag(nodes[keep], G[keep], mu_lambda[keep])
+
+    def _lag_points(self, y) -> bool:
         c = self.contact
         grp = c.pairs(y, np.zeros_like(y))
         k = len(grp.point)
@@ -771,6 +860,27 @@ class SurfaceFriction(LaggedFriction):
 
     def _stencils(self):
         return self.lag.point, self.lag.tri
+
+    def value(self, y):
+        total = super().value(y)
+        lag, self._edge_local = self.edge_lag, None
+        if lag is not None:
+            k = len(lag.nodes)
+            ge, He = np.zeros((k, 12)), np.zeros((k, 12, 12))
+            # the edges' stencils (a0; a1, b0, b1) are FEM nodes: rows of ext as they are
+            total += surface_friction_pairs(self._extended(y)[0], self.start, np.arange(self.contact.fem.n),
+                                            lag.nodes[:, 0], lag.nodes[:, 1:], lag.G, lag.mu_lambda, self.eps, ge, He)
+            self._edge_local = (ge, He)
+        return total
+
+    def derivatives(self, y, force, exact=False):  # its Hessian is exact either way
+        parts = super().derivatives(y, force)
+        if self._edge_local is None:
+            return parts
+        ge, He = self._edge_local
+        nodes = self.edge_lag.nodes
+        return Derivatives(parts.local + (Scatter(nodes, ge.reshape(len(nodes), 4, 3)),),
+                           parts.hessian + (Blocks(nodes, He),))
 
 
 __all__ = ["SurfaceBarrier", "SurfaceFriction", "ContactPoints", "surface_topology", "group_terms", "group_bounds",
