@@ -784,6 +784,9 @@ def lag_edge_friction(verts, start, simplex, kind, grads, dhat, nodes, G, lam):
 
 class EdgeLag(NamedTuple):
     nodes: np.ndarray  # (g, 4) an FEM boundary edge and the nearest edge of another body
+    first: np.ndarray  # (g,) nodes[:, 0], and
+    rest: np.ndarray  # (g, 3) nodes[:, 1:], contiguous: the stencil as surface_friction_pairs reads it
+    rows: np.ndarray  # (nf,) the FEM nodes' rows in the friction's positions (themselves)
     G: np.ndarray  # (g, 12, 2) slip operators
     mu_lambda: np.ndarray  # (g,)
 
@@ -830,7 +833,9 @@ class SurfaceFriction(LaggedFriction):
         keep = mu_lambda > 0.0
         if not keep.any():
             return None
-        return EdgeLag(nodes[keep], G[keep], mu_lambda[keep])
+        nodes = nodes[keep]
+        return EdgeLag(nodes, nodes[:, 0].copy(), np.ascontiguousarray(nodes[:, 1:]), np.arange(fem.n), G[keep],
+                       mu_lambda[keep])
 
     def _lag_points(self, y) -> bool:
         c = self.contact
@@ -868,8 +873,8 @@ class SurfaceFriction(LaggedFriction):
             k = len(lag.nodes)
             ge, He = np.zeros((k, 12)), np.zeros((k, 12, 12))
             # the edges' stencils (a0; a1, b0, b1) are FEM nodes: rows of ext as they are
-            total += surface_friction_pairs(self._extended(y)[0], self.start, np.arange(self.contact.fem.n),
-                                            lag.nodes[:, 0], lag.nodes[:, 1:], lag.G, lag.mu_lambda, self.eps, ge, He)
+            total += surface_friction_pairs(self._extended(y)[0], self.start, lag.rows, lag.first, lag.rest, lag.G,
+                                            lag.mu_lambda, self.eps, ge, He)
             self._edge_local = (ge, He)
         return total
 
