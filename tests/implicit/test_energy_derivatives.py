@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mpmsim.integrators.assembly import Assembler
 from mpmsim.scene import build_scene
 from mpmsim.solver import Simulation
 from tests.conftest import ROOT, deck_from
@@ -74,27 +75,11 @@ def gradient(term, y, exact=True):
 
 
 def hessian_times(hessians, v: np.ndarray) -> np.ndarray:
-    """H v for the Hessian bundles (Blocks, weighted Blocks, Triplets) of energy.py."""
-    d = v.shape[1]
-    out = np.zeros_like(v)
-    for h in hessians:
-        if hasattr(h, "rows"):
-            np.add.at(out.ravel(), h.rows, h.vals * v.ravel()[h.cols])
-            continue
-        nodes, local, w, block = h
-        q, k = nodes.shape
-        if w is None:
-            r = np.einsum("qij,qj->qi", local, v[nodes].reshape(q, k * d)).reshape(q, k, d)
-            np.add.at(out, nodes, r)
-            continue
-        n = local.shape[1] // d
-        z = np.zeros((q, n, d))
-        for a in range(k):
-            z[:, block[a]] += w[:, a, None] * v[nodes[:, a]]
-        r = np.einsum("qij,qj->qi", local, z.reshape(q, n * d)).reshape(q, n, d)
-        for a in range(k):
-            np.add.at(out, nodes[:, a], w[:, a, None] * r[:, block[a]])
-    return out
+    """H v for the Hessian bundles (Blocks, weighted Blocks, Triplets), assembled as Newton's
+    matrix is (integrators/assembly.Assembler, every unknown free)."""
+    n = v.size
+    H = Assembler(v.shape[1]).matrix(list(hessians), np.zeros(n), 1.0, np.arange(n))
+    return (H @ v.ravel()).reshape(v.shape)
 
 
 def flip_one_block(hessians, d: int):
