@@ -662,18 +662,51 @@ def impact3d_study(fractions: list[float]) -> None:
         sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=1)
         st = sim.state
         P, fem = st.particles, st.fem
+        reaction = held_reaction(sim.integrator)
         bad = 0
         low = np.inf
+        off = 0.0  # largest |momentum change - reaction impulse| over the steps
         t0 = time.perf_counter()
         while st.t < sim.end * (1 - 1e-9):
+            before = momentum(st)
             sim.step()
-            bad += int(inside_tetrahedra(P.x, fem.x, fem.cells).any() or P.x[:, 1].min() < -thick)
+            off = max(off, float(np.abs(momentum(st) - before - st.dt * reaction[0]).max()))
+            bad += int(inside_tetrahedra(P.x, fem.x, fem.cells).any()
+                       or inside_tetrahedra(fem.x, fem.x, fem.cells).any() or P.x[:, 1].min() < -thick)
             low = min(low, float(P.x[:, 1].min()))
         stats = np.array(sim.integrator.stats)
+        scale = float(np.sum(P.mass) * speed)
         print(f"dt = {f:g} T: {len(stats)} steps, {time.perf_counter() - t0:.1f} s, Newton {stats[:, 0].mean():.2f} per "
-              f"step ({stats[:, 0].max()} at most), steps with a particle inside or through: {bad}, lowest particle "
-              f"{low * 1e3:.3f} mm, cube velocity {P.v[:, 1].mean():+.2f} m/s at 3T; "
+              f"step ({stats[:, 0].max()} at most), steps with a particle or node inside or through: {bad}, lowest "
+              f"particle {low * 1e3:.3f} mm, cube velocity {P.v[:, 1].mean():+.2f} m/s at 3T; momentum balance "
+              f"(change - held nodes' reaction impulse) worst step {off / scale:.1e} of the cube's m v0; "
               f"{sim.integrator.report()[0].split('; ')[-1]}", flush=True)
+
+
+def momentum(state) -> np.ndarray:
+    """Total momentum of the particles and the FEM nodes."""
+    P, fem = state.particles, state.fem
+    return (P.mass[:, None] * P.v).sum(0) + (fem.mass[:, None] * fem.v).sum(0)
+
+
+def held_reaction(integrator) -> list:
+    """The held nodes' reaction force at the end of each backward Euler step, summed: after
+    Newton, minus the gradient at the fixed unknowns over c (the inertia term vanishes there),
+    so that a step's momentum change must equal dt times it (the free unknowns' residual is
+    Newton's). Read by wrapping the integrator's solve; one list element, overwritten."""
+    out = [None]
+    solve = integrator._newton
+
+    def wrapped(state, y, yt, free, dt):
+        result = solve(state, y, yt, free, dt)
+        integrator._sweep(result[0])
+        _, g, _ = integrator._energy(result[0], yt, True)
+        fixed = ~free.reshape(y.shape)
+        out[0] = np.where(fixed, g.reshape(y.shape), 0.0).sum(0) / integrator.c
+        return result
+
+    integrator._newton = wrapped
+    return out
 
 
 def main() -> None:
