@@ -10,6 +10,7 @@
     python bench/implicit.py --quadrature   # 1D model: particle quadrature against B-spline knots
     python bench/implicit.py --contact3d    # 3D: an MPM cube dropped on an FEM slab, contact cost per iteration
     python bench/implicit.py --impact3d 1e-1 1e-2 1e-3   # 3D: a 20 m/s cube on a held slab at dt = f x T
+    python bench/implicit.py --impact3d 1e-4  # the same at T/10^4, 30,000 steps (make bench-impact3d-fine)
     python bench/implicit.py --impact2d 1e-4  # 2D: the tests' 20 m/s block on a held wall, whole impact
 
 inputs/implicit_blocks_2d.yaml (FEM on FEM) at element size h, and inputs/implicit_rings_2d.yaml
