@@ -4,6 +4,7 @@ by plane-strain finite elements with exact (Signorini) frictionless contact on a
     python bench/hertz_reference.py run [--levels 0 1 2 3] [--model linear|neo_hookean|svk|hencky|hypo_log]
                                         [--a 2.0] [--gap circle|parabola] [--direction normal|vertical]
     python bench/hertz_reference.py run --pair --direction vertical [--model hypo_log [--segment]] [--levels ...]
+    python bench/hertz_reference.py run --axisymmetric --a 1.0 [--direction vertical]   # the sphere (r-z)
     python bench/hertz_reference.py table     # results/bench_hertz_reference/*.json: table and p(x)/p0
 
 The body: a half-disk (R = 10 mm, E = 1000 MPa, nu = 0.3, plane strain, thickness 1 mm; the
@@ -45,6 +46,12 @@ over the nodal reactions and a_fit, Hertz's ellipse p^2 = p0^2 (1 - x^2/a^2) fit
 nodes above a tenth of the peak; the pressure p(x) from the reactions through the surface's
 consistent (P2 edge) mass matrix, M p = F, on the deformed surface; the centre pressure p(0);
 p(x)/p0 against Hertz. Richardson extrapolation over the last three levels.
+
+The sphere (--axisymmetric): the same half-disk is the r-z section of a sphere of radius R
+(x = r, the symmetry line its axis), linear small strain per radian (weight r, the hoop strain
+u_r / r), loaded by the whole sphere's weight P (Hertz's contact radius `a`); Hertz's sphere
+a = (3 P R / 4 E*)^(1/3), p0 = 3 P / (2 pi a^2); the pressure from the per-radian reactions
+through the surface's r-weighted P2 mass matrix; the moment radius from <r^2> = 2 a^2 / 5.
 
 Two cylinders (--pair; the MPM's pair scene of bench/hertz.py): the lower disk (centre (0, R))
 on the flat, the upper one (centre (0, 3R)) on it, both under one cylinder's weight P; the
@@ -89,14 +96,21 @@ except ImportError:  # pragma: no cover - depends on the environment
     _cholesky = None
 
 
-def hertz(P: float) -> tuple[float, float]:
-    """Hertz (a, p0) for a load P per unit thickness on the rigid flat."""
+def hertz(P: float, sphere: bool = False) -> tuple[float, float]:
+    """Hertz (a, p0) for a load P per unit thickness on the rigid flat (the cylinder), or for a
+    total load P (the sphere: contact radius and centre pressure)."""
+    if sphere:
+        a = (3.0 * P * R / (4.0 * E_STAR)) ** (1.0 / 3.0)
+        return a, 3.0 * P / (2.0 * math.pi * a * a)
     a = math.sqrt(4.0 * P * R / (math.pi * E_STAR))
     return a, 2.0 * P / (math.pi * a)
 
 
-def load_for(a: float) -> float:
-    """The load P per unit thickness whose Hertz half-width is a."""
+def load_for(a: float, sphere: bool = False) -> float:
+    """The load P per unit thickness (the cylinder) or total (the sphere) whose Hertz half-width
+    or contact radius is a."""
+    if sphere:
+        return 4.0 * E_STAR * a**3 / (3.0 * R)
     return math.pi * a**2 * E_STAR / (4.0 * R)
 
 
@@ -314,6 +328,46 @@ class Model:
         return fint, K, Jmin
 
 
+class AxisymmetricModel(Model):
+    """The same half-disk as the r-z section of the sphere (x = r, the symmetry line the axis),
+    linear small strain: every integral per radian (weight r), the hoop strain u_r / r, the body
+    force of the whole sphere's weight P spread over its volume (the discrete section's
+    integral of r, 2 pi of it the sphere's 4/3 pi R^3 to O(h^6))."""
+
+    def __init__(self, mesh: Mesh, P: float):
+        super().__init__(mesh, P)
+        N, _ = p2_shape(QP[:, 0], QP[:, 1])
+        self.N = N
+        self.r = np.einsum("qa,ma->mq", N, mesh.X[mesh.tri][..., 0])  # radius at the quadrature points
+        self.w = self.w * self.r  # per radian
+        self.volume = float(self.w.sum())  # of the sphere, per radian
+        b = P / (2.0 * math.pi * self.volume)
+        fe = -b * np.einsum("mq,qa->ma", self.w, N)
+        self.f = np.zeros(self.ndof)
+        np.add.at(self.f, 2 * mesh.tri + 1, fe)
+
+    def forces(self, u: np.ndarray, law: str, tangent: bool = True):
+        """Internal forces K u and the stiffness, linear only: strains (rr, zz, rz engineering,
+        theta-theta) from B (4 x 12) per quadrature point."""
+        if law != "linear":
+            raise ValueError("the axisymmetric reference is linear (small strain) only")
+        G, w, N, r = self.G, self.w, self.N, self.r
+        m, Q = w.shape
+        D = np.array([[LAM + 2 * MU, LAM, 0.0, LAM], [LAM, LAM + 2 * MU, 0.0, LAM],
+                      [0.0, 0.0, MU, 0.0], [LAM, LAM, 0.0, LAM + 2 * MU]])
+        Ke = np.zeros((m, 12, 12))
+        for q in range(Q):
+            B = np.zeros((m, 4, 12))
+            B[:, 0, 0::2] = G[:, q, :, 0]  # eps_rr = dN/dr u_r
+            B[:, 1, 1::2] = G[:, q, :, 1]  # eps_zz = dN/dz u_z
+            B[:, 2, 0::2] = G[:, q, :, 1]  # gamma_rz = dN/dz u_r + dN/dr u_z
+            B[:, 2, 1::2] = G[:, q, :, 0]
+            B[:, 3, 0::2] = N[q][None, :] / r[:, q, None]  # eps_tt = N u_r / r
+            Ke += np.swapaxes(B, 1, 2) @ (D[None] * w[:, q, None, None]) @ B
+        K = sp.csr_matrix((Ke.reshape(-1), (self.rows, self.cols)), shape=(self.ndof, self.ndof))
+        return K @ u, (K if tangent else None), 1.0
+
+
 def log_piola(F: np.ndarray, law: str) -> np.ndarray:
     """First Piola stress of the logarithmic-strain laws, plane strain (ln V33 = 0):
     s = lambda tr(ln V) I + 2 mu ln V, V the left stretch; hencky takes s as the Kirchhoff stress
@@ -362,7 +416,7 @@ def _block_diag(blk: np.ndarray) -> sp.csr_matrix:
 
 
 def solve_contact(mesh: Mesh, P: float, law: str = "linear", gap: str = "circle", direction: str = "normal",
-                  steps: int = 5, tol: float = 1e-10, verbose: bool = False) -> dict:
+                  steps: int = 5, tol: float = 1e-10, verbose: bool = False, axisymmetric: bool = False) -> dict:
     """Frictionless Signorini contact of the half-disk on the flat y = 0. Returns u, the
     candidates' reactions (the flat's push on each surface node along the contact direction,
     half model), the contact directions d and gaps g0, and the iteration counts.
@@ -373,8 +427,9 @@ def solve_contact(mesh: Mesh, P: float, law: str = "linear", gap: str = "circle"
     traction on the body's surface); direction vertical holds u_y >= -g and takes a vertical
     reaction on the reference surface, a tangential traction p x / R on it (the flat's push on a
     surface that the linear theory does not rotate): an O(a/R) departure from Hertz of its own.
-    Finite strain: y = Y + u_y >= 0 on the deformed position, the reaction vertical (exact)."""
-    model = Model(mesh, P)
+    Finite strain: y = Y + u_y >= 0 on the deformed position, the reaction vertical (exact).
+    axisymmetric: the sphere (AxisymmetricModel, P its whole weight, reactions per radian)."""
+    model = AxisymmetricModel(mesh, P) if axisymmetric else Model(mesh, P)
     X = mesh.X
     cand = mesh.surf
     ydof = 2 * cand + 1
@@ -400,7 +455,7 @@ def solve_contact(mesh: Mesh, P: float, law: str = "linear", gap: str = "circle"
     T = _block_diag(blk)
     fixed_x = 2 * mesh.sym
     u = np.zeros(model.ndof)
-    a_guess = hertz(P)[0]
+    a_guess = hertz(P, axisymmetric)[0]
     counts = {"active_set": 0, "newton": 0, "factorisations": 0}
     loads = [1.0] if law == "linear" else list(np.linspace(0, 1, steps + 1)[1:])
     active = X[cand, 0] <= 0.9 * a_guess * math.sqrt(loads[0])
@@ -440,7 +495,9 @@ def solve_contact(mesh: Mesh, P: float, law: str = "linear", gap: str = "circle"
         u = T @ u
     return {"law": law, "u": u, "cand": cand, "active": active, "react": react, "g0": g0, "gap": gap_final, "d": d,
             "counts": counts, "load_carried_half": float((react * d[:, 1]).sum()),
-            "load_half": P / 2, "residual_free": float(np.abs(r[free]).max()), "area": model.area}
+            "load_half": P / (2 * math.pi) if axisymmetric else P / 2, "residual_free": float(np.abs(r[free]).max()),
+            "area": model.area, "axisymmetric": axisymmetric,
+            "volume": 2 * math.pi * model.volume if axisymmetric else None}
 
 
 def _solve_finite(model: Model, mesh: Mesh, law: str, cand, g0, d, fixed_x, active, loads, tol, counts,
@@ -846,6 +903,8 @@ def recover_pressure(mesh: Mesh, sol: dict) -> tuple[np.ndarray, np.ndarray]:
     for e in se:
         xe = xdef[e]
         jac = np.linalg.norm(dN @ xe, axis=1)
+        if sol.get("axisymmetric"):  # reactions per radian: the surface's r ds
+            jac = jac * (N @ xe[:, 0])
         Me = np.einsum("q,qa,qb->ab", wq * jac, N, N)
         ii = [idx[n] for n in e]
         for a in range(3):
@@ -858,8 +917,10 @@ def recover_pressure(mesh: Mesh, sol: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def measure(mesh: Mesh, sol: dict, P: float) -> dict:
-    """Half-width (edge, moment, ellipse fit), centre pressure, profile against Hertz."""
-    aH, p0H = hertz(P)
+    """Half-width (edge, moment, ellipse fit), centre pressure, profile against Hertz (the
+    sphere's contact radius and centre pressure when the solution is axisymmetric)."""
+    sphere = bool(sol.get("axisymmetric"))
+    aH, p0H = hertz(P, sphere)
     cand, act, F = sol["cand"], sol["active"], sol["react"]
     xc = configuration(mesh, sol)[cand, 0]
     gap = sol["gap"]
@@ -868,8 +929,10 @@ def measure(mesh: Mesh, sol: dict, P: float) -> dict:
     g1, g2 = max(gap[last + 1], 0.0) ** (2 / 3), max(gap[last + 2], 0.0) ** (2 / 3)
     a_edge = x1 - g1 * (x2 - x1) / (g2 - g1) if g2 > g1 else x1
     a_edge = float(min(max(a_edge, xc[last]), x1))
-    load = 2.0 * sol["load_carried_half"]
-    a_moment = 2.0 * math.sqrt(float((xc**2 * F).sum() / F.sum()))
+    load = (2.0 * math.pi if sphere else 2.0) * sol["load_carried_half"]
+    # Hertz's p: <x^2> = a^2 / 4 over the strip's nodal forces; <r^2> = 2 a^2 / 5 over the
+    # sphere's per-radian nodal forces (p r dr)
+    a_moment = math.sqrt((2.5 if sphere else 4.0) * float((xc**2 * F).sum() / F.sum()))
     x, p = recover_pressure(mesh, sol)
     fit = p > 0.1 * p.max()
     c = np.linalg.lstsq(np.stack([np.ones(fit.sum()), x[fit] ** 2], 1), p[fit] ** 2, rcond=None)[0]
@@ -895,12 +958,13 @@ def measure(mesh: Mesh, sol: dict, P: float) -> dict:
 
 
 def run_one(a: float, level: int, law: str = "linear", gap: str = "circle", direction: str = "normal",
-            steps: int = 5, verbose: bool = False) -> dict:
-    """Mesh, solve and measure one case."""
+            steps: int = 5, verbose: bool = False, axisymmetric: bool = False) -> dict:
+    """Mesh, solve and measure one case (axisymmetric: the sphere, a its Hertz contact radius)."""
     t0 = time.perf_counter()
     mesh = Mesh(a, level)
-    P = load_for(a)
-    sol = solve_contact(mesh, P, law=law, gap=gap, direction=direction, steps=steps, verbose=verbose)
+    P = load_for(a, axisymmetric)
+    sol = solve_contact(mesh, P, law=law, gap=gap, direction=direction, steps=steps, verbose=verbose,
+                        axisymmetric=axisymmetric)
     out = measure(mesh, sol, P)
     if law == "linear":  # the same solution read at the deformed positions (as the FEM scenes read theirs)
         cur = measure(mesh, {**sol, "deformed": True}, P)
@@ -909,7 +973,8 @@ def run_one(a: float, level: int, law: str = "linear", gap: str = "circle", dire
                 "direction": direction if law == "linear" else "vertical (deformed)", "h0": mesh.h0, "nodes": len(mesh.X),
                 "elements": len(mesh.tri), "dofs": 2 * len(mesh.X), "min_angle_deg": mesh.min_angle,
                 "counts": sol["counts"], "residual_free": sol["residual_free"],
-                "area_error": sol["area"] / (0.5 * math.pi * R**2) - 1.0,
+                "area_error": sol["area"] / (0.5 * math.pi * R**2) - 1.0, "axisymmetric": axisymmetric,
+                "volume_error": sol["volume"] / (4.0 / 3.0 * math.pi * R**3) - 1.0 if axisymmetric else None,
                 "steps": steps if law != "linear" else 0, "wall_s": time.perf_counter() - t0,
                 "solver": "cholmod" if _cholesky is not None else "splu"})
     return out
@@ -928,9 +993,9 @@ def richardson(vals: list[float]) -> dict:
     return out
 
 
-def tag(a: float, law: str, gap: str, level: int, direction: str = "normal") -> str:
+def tag(a: float, law: str, gap: str, level: int, direction: str = "normal", axisymmetric: bool = False) -> str:
     vert = "_vertical" if law == "linear" and direction == "vertical" else ""
-    return f"{law}{vert}_{gap}_a{a:g}_L{level}"
+    return f"{'sphere_' if axisymmetric else ''}{law}{vert}_{gap}_a{a:g}_L{level}"
 
 
 KEYS = ["a_edge_error", "a_moment_error", "a_fit_error", "centre_error", "p0_fit_error", "profile_max_error"]
@@ -1005,6 +1070,8 @@ def main(argv=None) -> int:
     run.add_argument("--segment", action="store_true",
                      help="--pair at finite strain: the pairs' gaps corrected for their relative sliding "
                           "(the lower surface's height at the upper node's x), to a fixed point")
+    run.add_argument("--axisymmetric", action="store_true",
+                     help="the sphere in its r-z section (linear model only; --a its Hertz contact radius)")
     run.add_argument("--verbose", action="store_true")
     tb = sub.add_parser("table", help="the table of saved runs")
     tb.add_argument("--tags", nargs="*", help="result tags (default: all)")
@@ -1032,8 +1099,12 @@ def main(argv=None) -> int:
                          f"{100 * out['edge_ux_over_a']:+.2f}% of a" if "slide" in out else "")
                       + f"; {out['wall_s']:.1f} s", flush=True)
                 continue
-            out = run_one(args.a, level, args.model, args.gap, args.direction, args.steps, args.verbose)
-            name = tag(args.a, args.model, args.gap, level, args.direction)
+            if args.axisymmetric and (args.model != "linear" or args.pair):
+                print("--axisymmetric: the linear model, one body")
+                return 2
+            out = run_one(args.a, level, args.model, args.gap, args.direction, args.steps, args.verbose,
+                          args.axisymmetric)
+            name = tag(args.a, args.model, args.gap, level, args.direction, args.axisymmetric)
             (RESULTS / f"{name}.json").write_text(json.dumps(out, indent=1))
             print(f"{name}: nodes {out['nodes']}, load {out['load_error']:+.1e}, "
                   f"a_edge {100 * out['a_edge_error']:+.3f}%, a_moment {100 * out['a_moment_error']:+.3f}%, "
