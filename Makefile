@@ -117,8 +117,8 @@ bench-hertz-fem: $(STAMP)
 # the finite-element reference of the Hertz cylinder (the same half-disk and gravity load, exact frictionless
 # contact; docs/contact.md): small-strain (contact along the normal or vertical, circle or parabola gap) at four
 # levels, the finite-strain laws at three (four for hypo_log and neo_hookean), a/R = 0.2 and 0.05; the two stacked
-# cylinders (small strain at four levels, hypo_log at two); the sphere in r-z (small strain, a/R = 0.1, both contact
-# forms, four levels); about 33 minutes on one core
+# cylinders (small strain at four levels, hypo_log at two); the sphere in r-z (a/R = 0.1: small strain, both contact
+# forms, four levels; hypo_log at three); about 40 minutes on one core
 bench-hertz-reference: $(STAMP)
 	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 3 --a 2
 	$(BIN)/python bench/hertz_reference.py run --levels 0 1 2 3 --a 2 --direction vertical
@@ -132,6 +132,7 @@ bench-hertz-reference: $(STAMP)
 	$(BIN)/python bench/hertz_reference.py run --pair --direction vertical --a 2 --levels 0 1 2 3
 	$(BIN)/python bench/hertz_reference.py run --axisymmetric --a 1 --levels 0 1 2 3
 	$(BIN)/python bench/hertz_reference.py run --axisymmetric --a 1 --levels 0 1 2 3 --direction vertical
+	$(BIN)/python bench/hertz_reference.py run --axisymmetric --a 1 --levels 0 1 2 --model hypo_log
 	$(BIN)/python bench/hertz_reference.py run --pair --direction vertical --a 0.5 --levels 0 1 2
 	$(BIN)/python bench/hertz_reference.py run --pair --direction vertical --a 2 --levels 0 1 --model hypo_log
 	$(BIN)/python bench/hertz_reference.py run --pair --direction vertical --a 2 --levels 0 --model hypo_log --segment

@@ -347,11 +347,49 @@ class AxisymmetricModel(Model):
         np.add.at(self.f, 2 * mesh.tri + 1, fe)
 
     def forces(self, u: np.ndarray, law: str, tangent: bool = True):
-        """Internal forces K u and the stiffness, linear only: strains (rr, zz, rz engineering,
-        theta-theta) from B (4 x 12) per quadrature point."""
-        if law != "linear":
-            raise ValueError("the axisymmetric reference is linear (small strain) only")
+        """Internal forces and the stiffness. linear: K u, strains (rr, zz, rz engineering,
+        theta-theta) from B (4 x 12) per quadrature point. hencky, hypo_log: total Lagrangian per
+        radian, the in-plane F and the hoop stretch f = 1 + u_r / R (R the reference radius),
+        generalised strain (F_rr, F_rz, F_zr, F_zz, f) and stress (P_rr, P_rz, P_zr, P_zz,
+        P_tt); the tangent by central differences of P."""
         G, w, N, r = self.G, self.w, self.N, self.r
+        if law in ("hencky", "hypo_log"):
+            ue = u[self.dofs].reshape(-1, 6, 2)
+            F = np.eye(2) + np.einsum("mai,mqaj->mqij", ue, G, optimize=True)
+            f = 1.0 + np.einsum("qa,ma->mq", N, ue[..., 0]) / r
+            J = (F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]) * f
+            Jmin = float(J.min())
+            if Jmin <= 0 or f.min() <= 0:
+                return None, None, Jmin
+            Pv = log_piola_rz(F, f, law)  # (m, Q, 5)
+            m, Q = w.shape
+            B = np.zeros((m, Q, 5, 12))
+            B[..., 0, 0::2] = G[..., 0]  # F_rr = 1 + dN/dr u_r
+            B[..., 1, 0::2] = G[..., 1]  # F_rz = dN/dz u_r
+            B[..., 2, 1::2] = G[..., 0]  # F_zr = dN/dr u_z
+            B[..., 3, 1::2] = G[..., 1]  # F_zz = 1 + dN/dz u_z
+            B[..., 4, 0::2] = N[None] / r[..., None]  # f = 1 + N u_r / R
+            fe = np.einsum("mq,mqkc,mqk->mc", w, B, Pv, optimize=True)
+            fint = np.zeros(self.ndof)
+            np.add.at(fint, self.dofs.ravel(), fe.reshape(-1))
+            if not tangent:
+                return fint, None, Jmin
+            A = np.empty((m, Q, 5, 5))
+            eps = 1e-6
+            for k in range(5):
+                Fp, Fm, fp, fm = F.copy(), F.copy(), f.copy(), f.copy()
+                if k < 4:
+                    Fp[..., k // 2, k % 2] += eps
+                    Fm[..., k // 2, k % 2] -= eps
+                else:
+                    fp += eps
+                    fm -= eps
+                A[..., k] = (log_piola_rz(Fp, fp, law) - log_piola_rz(Fm, fm, law)) / (2 * eps)
+            Ke = np.einsum("mq,mqkc,mqkl,mqld->mcd", w, B, A, B, optimize=True)
+            K = sp.csr_matrix((Ke.reshape(-1), (self.rows, self.cols)), shape=(self.ndof, self.ndof))
+            return fint, K, Jmin
+        if law != "linear":
+            raise ValueError("the axisymmetric reference: linear, hencky or hypo_log")
         m, Q = w.shape
         D = np.array([[LAM + 2 * MU, LAM, 0.0, LAM], [LAM, LAM + 2 * MU, 0.0, LAM],
                       [0.0, 0.0, MU, 0.0], [LAM, LAM, 0.0, LAM + 2 * MU]])
@@ -393,6 +431,34 @@ def log_piola(F: np.ndarray, law: str) -> np.ndarray:
     FiT = np.stack([np.stack([F[..., 1, 1], -F[..., 1, 0]], -1),
                     np.stack([-F[..., 0, 1], F[..., 0, 0]], -1)], -2) / J[..., None, None]
     return np.einsum("...ik,...kJ->...iJ", s, FiT)
+
+
+def log_piola_rz(F: np.ndarray, f: np.ndarray, law: str) -> np.ndarray:
+    """log_piola's laws in r-z: the in-plane F (..., 2, 2) and the hoop stretch f, ln V block
+    diagonal (the in-plane block as in log_piola, ln f in the hoop), s = lambda tr(ln V) I +
+    2 mu ln V as Kirchhoff (hencky) or Cauchy (hypo_log) stress. Returns (P_rr, P_rz, P_zr,
+    P_zz, P_tt) with P = tau F^-T (P_tt = tau_tt / f)."""
+    b = np.einsum("...iK,...jK->...ij", F, F)
+    m = 0.5 * (b[..., 0, 0] + b[..., 1, 1])
+    r = np.sqrt((0.5 * (b[..., 0, 0] - b[..., 1, 1])) ** 2 + b[..., 0, 1] ** 2)
+    x = r / m
+    small = x < 1e-6
+    beta = np.where(small, (1 + x**2 / 3) / m, np.arctanh(np.where(small, 0.5, x)) / np.where(small, 1.0, r))
+    alpha = 0.5 * np.log(m * m - r * r)
+    I2 = np.eye(2)
+    lnV = 0.5 * (alpha[..., None, None] * I2 + beta[..., None, None] * (b - m[..., None, None] * I2))
+    lnf = np.log(f)
+    tr = lnV[..., 0, 0] + lnV[..., 1, 1] + lnf
+    s = LAM * tr[..., None, None] * I2 + 2 * MU * lnV
+    s_tt = LAM * tr + 2 * MU * lnf
+    J2 = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
+    if law == "hypo_log":
+        s = s * (J2 * f)[..., None, None]
+        s_tt = s_tt * J2 * f
+    FiT = np.stack([np.stack([F[..., 1, 1], -F[..., 1, 0]], -1),
+                    np.stack([-F[..., 0, 1], F[..., 0, 0]], -1)], -2) / J2[..., None, None]
+    P = np.einsum("...ik,...kJ->...iJ", s, FiT)
+    return np.stack([P[..., 0, 0], P[..., 0, 1], P[..., 1, 0], P[..., 1, 1], s_tt / f], -1)
 
 
 def solve_spd(K: sp.csr_matrix, b: np.ndarray, symmetric: bool = True) -> np.ndarray:
@@ -579,7 +645,9 @@ def _solve_finite(model: Model, mesh: Mesh, law: str, cand, g0, d, fixed_x, acti
     react = np.where(active, r[ydof], 0.0)
     return {"law": law, "u": u, "cand": cand, "active": active, "react": react, "g0": g0, "gap": g0 + u[ydof],
             "d": d, "counts": counts, "load_carried_half": float((react * d[:, 1]).sum()),
-            "residual_free": float(np.abs(r[free]).max()), "area": model.area}
+            "residual_free": float(np.abs(r[free]).max()), "area": model.area,
+            "axisymmetric": isinstance(model, AxisymmetricModel),
+            "volume": 2 * math.pi * model.volume if isinstance(model, AxisymmetricModel) else None}
 
 
 # ---------------------------------------------------------------- two cylinders
@@ -1071,7 +1139,7 @@ def main(argv=None) -> int:
                      help="--pair at finite strain: the pairs' gaps corrected for their relative sliding "
                           "(the lower surface's height at the upper node's x), to a fixed point")
     run.add_argument("--axisymmetric", action="store_true",
-                     help="the sphere in its r-z section (linear model only; --a its Hertz contact radius)")
+                     help="the sphere in its r-z section (linear, hencky or hypo_log; --a its Hertz contact radius)")
     run.add_argument("--verbose", action="store_true")
     tb = sub.add_parser("table", help="the table of saved runs")
     tb.add_argument("--tags", nargs="*", help="result tags (default: all)")
@@ -1099,8 +1167,8 @@ def main(argv=None) -> int:
                          f"{100 * out['edge_ux_over_a']:+.2f}% of a" if "slide" in out else "")
                       + f"; {out['wall_s']:.1f} s", flush=True)
                 continue
-            if args.axisymmetric and (args.model != "linear" or args.pair):
-                print("--axisymmetric: the linear model, one body")
+            if args.axisymmetric and (args.model not in ("linear", "hencky", "hypo_log") or args.pair):
+                print("--axisymmetric: the linear, hencky or hypo_log model, one body")
                 return 2
             out = run_one(args.a, level, args.model, args.gap, args.direction, args.steps, args.verbose,
                           args.axisymmetric)
