@@ -640,7 +640,8 @@ def impact3d_study(fractions: list[float]) -> None:
     """A 2 cm MPM cube (64 particles) at 20 m/s onto a held FEM slab (1 cm thick, 150
     tetrahedra), backward Euler, adaptive kappa, time step f x T (T: the time to cross the slab
     and the gap), over 3 T: the whole impact. Every step: no particle inside a tetrahedron or
-    below the slab; the run: Newton iterations per step, kappa, the rebound speed."""
+    below the slab, no FEM node inside another tetrahedron, the momentum change equal to the held
+    nodes' reaction impulse; the run: Newton iterations per step, kappa, the rebound speed."""
     speed, gap, thick = 20.0, 1e-3, 0.01
     T = (thick + gap) / speed
     for f in fractions:
@@ -692,8 +693,9 @@ def momentum(state) -> np.ndarray:
 
 def held_reaction(integrator) -> list:
     """The held nodes' reaction force at the end of each backward Euler step, summed: after
-    Newton, minus the gradient at the fixed unknowns over c (the inertia term vanishes there),
-    so that a step's momentum change must equal dt times it (the free unknowns' residual is
+    Newton, the energy's gradient at the fixed unknowns over c (there the inertia term vanishes
+    and the gradient is c times minus the elastic and contact force the reaction balances), so
+    that a step's momentum change must equal dt times it (the free unknowns' residual is
     Newton's). Read by wrapping the integrator's solve; one list element, overwritten."""
     out = [None]
     solve = integrator._newton
