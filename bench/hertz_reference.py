@@ -4,7 +4,7 @@ by plane-strain finite elements with exact (Signorini) frictionless contact on a
     python bench/hertz_reference.py run [--levels 0 1 2 3] [--model linear|neo_hookean|svk|hencky|hypo_log]
                                         [--a 2.0] [--gap circle|parabola] [--direction normal|vertical]
     python bench/hertz_reference.py run --pair --direction vertical [--model hypo_log [--segment]] [--levels ...]
-    python bench/hertz_reference.py run --axisymmetric --a 1.0 [--direction vertical]   # the sphere (r-z)
+    python bench/hertz_reference.py run --axisymmetric --a 1.0 [--direction vertical | --model hypo_log]  # sphere
     python bench/hertz_reference.py table     # results/bench_hertz_reference/*.json: table and p(x)/p0
 
 The body: a half-disk (R = 10 mm, E = 1000 MPa, nu = 0.3, plane strain, thickness 1 mm; the
@@ -48,8 +48,8 @@ consistent (P2 edge) mass matrix, M p = F, on the deformed surface; the centre p
 p(x)/p0 against Hertz. Richardson extrapolation over the last three levels.
 
 The sphere (--axisymmetric): the same half-disk is the r-z section of a sphere of radius R
-(x = r, the symmetry line its axis), linear small strain per radian (weight r, the hoop strain
-u_r / r), loaded by the whole sphere's weight P (Hertz's contact radius `a`); Hertz's sphere
+(x = r, the symmetry line its axis), per radian (weight r, the hoop strain u_r / r; at finite
+strain, hencky and hypo_log, the hoop stretch 1 + u_r / R), loaded by the whole sphere's weight P (Hertz's contact radius `a`); Hertz's sphere
 a = (3 P R / 4 E*)^(1/3), p0 = 3 P / (2 pi a^2); the pressure from the per-radian reactions
 through the surface's r-weighted P2 mass matrix; the moment radius from <r^2> = 2 a^2 / 5.
 
@@ -330,7 +330,7 @@ class Model:
 
 class AxisymmetricModel(Model):
     """The same half-disk as the r-z section of the sphere (x = r, the symmetry line the axis),
-    linear small strain: every integral per radian (weight r), the hoop strain u_r / r, the body
+    small strain or the logarithmic laws at finite strain (forces): every integral per radian (weight r), the hoop strain u_r / r, the body
     force of the whole sphere's weight P spread over its volume (the discrete section's
     integral of r, 2 pi of it the sphere's 4/3 pi R^3 to O(h^6))."""
 
