@@ -49,9 +49,10 @@ p(x)/p0 against Hertz. Richardson extrapolation over the last three levels.
 
 The sphere (--axisymmetric): the same half-disk is the r-z section of a sphere of radius R
 (x = r, the symmetry line its axis), per radian (weight r, the hoop strain u_r / r; at finite
-strain, hencky and hypo_log, the hoop stretch 1 + u_r / R), loaded by the whole sphere's weight P (Hertz's contact radius `a`); Hertz's sphere
-a = (3 P R / 4 E*)^(1/3), p0 = 3 P / (2 pi a^2); the pressure from the per-radian reactions
-through the surface's r-weighted P2 mass matrix; the moment radius from <r^2> = 2 a^2 / 5.
+strain, hencky and hypo_log, the hoop stretch 1 + u_r / R), loaded by the whole sphere's weight
+P (Hertz's contact radius `a`); Hertz's sphere a = (3 P R / 4 E*)^(1/3), p0 = 3 P / (2 pi a^2);
+the pressure from the per-radian reactions through the surface's r-weighted P2 mass matrix; the
+moment radius from <r^2> = 2 a^2 / 5.
 
 Two cylinders (--pair; the MPM's pair scene of bench/hertz.py): the lower disk (centre (0, R))
 on the flat, the upper one (centre (0, 3R)) on it, both under one cylinder's weight P; the
@@ -330,9 +331,10 @@ class Model:
 
 class AxisymmetricModel(Model):
     """The same half-disk as the r-z section of the sphere (x = r, the symmetry line the axis),
-    small strain or the logarithmic laws at finite strain (forces): every integral per radian (weight r), the hoop strain u_r / r, the body
-    force of the whole sphere's weight P spread over its volume (the discrete section's
-    integral of r, 2 pi of it the sphere's 4/3 pi R^3 to O(h^6))."""
+    small strain or the logarithmic laws at finite strain (forces): every integral per radian
+    (weight r), the hoop strain u_r / r, the body force of the whole sphere's weight P spread
+    over its volume (the discrete section's integral of r, 2 pi of it the sphere's 4/3 pi R^3
+    to O(h^6))."""
 
     def __init__(self, mesh: Mesh, P: float):
         super().__init__(mesh, P)
