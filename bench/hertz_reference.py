@@ -415,6 +415,20 @@ def log_piola(F: np.ndarray, law: str) -> np.ndarray:
     exact integral of the hypoelastic law sigma' = lambda tr(D) I + 2 mu D with the logarithmic
     rate (the MPM's linear_elastic integrates it with the Hughes-Winget rotation, a Jaumann-type
     rate; the two differ only where the principal axes turn). P = J sigma F^-T = tau F^-T."""
+    return log_stress(F, 1.0, law)[0]
+
+
+def log_piola_rz(F: np.ndarray, f: np.ndarray, law: str) -> np.ndarray:
+    """log_piola's laws in r-z: the in-plane F and the hoop stretch f. Returns (P_rr, P_rz,
+    P_zr, P_zz, P_tt)."""
+    P, P_tt = log_stress(F, f, law)
+    return np.stack([P[..., 0, 0], P[..., 0, 1], P[..., 1, 0], P[..., 1, 1], P_tt], -1)
+
+
+def log_stress(F: np.ndarray, f, law: str) -> tuple:
+    """The logarithmic laws with ln V block diagonal: the in-plane block of F (..., 2, 2) and the
+    out-of-plane stretch f (1 in plane strain, the hoop stretch in r-z). Returns the in-plane
+    P = tau F^-T and the out-of-plane P_33 = tau_33 / f."""
     b = np.einsum("...iK,...jK->...ij", F, F)
     m = 0.5 * (b[..., 0, 0] + b[..., 1, 1])
     r = np.sqrt((0.5 * (b[..., 0, 0] - b[..., 1, 1])) ** 2 + b[..., 0, 1] ** 2)
@@ -425,42 +439,17 @@ def log_piola(F: np.ndarray, law: str) -> np.ndarray:
     I2 = np.eye(2)
     lnb = alpha[..., None, None] * I2 + beta[..., None, None] * (b - m[..., None, None] * I2)
     lnV = 0.5 * lnb
-    tr = lnV[..., 0, 0] + lnV[..., 1, 1]
-    s = LAM * tr[..., None, None] * I2 + 2 * MU * lnV
-    J = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
-    if law == "hypo_log":
-        s = s * J[..., None, None]
-    FiT = np.stack([np.stack([F[..., 1, 1], -F[..., 1, 0]], -1),
-                    np.stack([-F[..., 0, 1], F[..., 0, 0]], -1)], -2) / J[..., None, None]
-    return np.einsum("...ik,...kJ->...iJ", s, FiT)
-
-
-def log_piola_rz(F: np.ndarray, f: np.ndarray, law: str) -> np.ndarray:
-    """log_piola's laws in r-z: the in-plane F (..., 2, 2) and the hoop stretch f, ln V block
-    diagonal (the in-plane block as in log_piola, ln f in the hoop), s = lambda tr(ln V) I +
-    2 mu ln V as Kirchhoff (hencky) or Cauchy (hypo_log) stress. Returns (P_rr, P_rz, P_zr,
-    P_zz, P_tt) with P = tau F^-T (P_tt = tau_tt / f)."""
-    b = np.einsum("...iK,...jK->...ij", F, F)
-    m = 0.5 * (b[..., 0, 0] + b[..., 1, 1])
-    r = np.sqrt((0.5 * (b[..., 0, 0] - b[..., 1, 1])) ** 2 + b[..., 0, 1] ** 2)
-    x = r / m
-    small = x < 1e-6
-    beta = np.where(small, (1 + x**2 / 3) / m, np.arctanh(np.where(small, 0.5, x)) / np.where(small, 1.0, r))
-    alpha = 0.5 * np.log(m * m - r * r)
-    I2 = np.eye(2)
-    lnV = 0.5 * (alpha[..., None, None] * I2 + beta[..., None, None] * (b - m[..., None, None] * I2))
     lnf = np.log(f)
     tr = lnV[..., 0, 0] + lnV[..., 1, 1] + lnf
     s = LAM * tr[..., None, None] * I2 + 2 * MU * lnV
-    s_tt = LAM * tr + 2 * MU * lnf
-    J2 = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
+    s_33 = LAM * tr + 2 * MU * lnf
+    J = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
     if law == "hypo_log":
-        s = s * (J2 * f)[..., None, None]
-        s_tt = s_tt * J2 * f
+        s = s * (J * f)[..., None, None]
+        s_33 = s_33 * J * f
     FiT = np.stack([np.stack([F[..., 1, 1], -F[..., 1, 0]], -1),
-                    np.stack([-F[..., 0, 1], F[..., 0, 0]], -1)], -2) / J2[..., None, None]
-    P = np.einsum("...ik,...kJ->...iJ", s, FiT)
-    return np.stack([P[..., 0, 0], P[..., 0, 1], P[..., 1, 0], P[..., 1, 1], s_tt / f], -1)
+                    np.stack([-F[..., 0, 1], F[..., 0, 0]], -1)], -2) / J[..., None, None]
+    return np.einsum("...ik,...kJ->...iJ", s, FiT), s_33 / f
 
 
 def solve_spd(K: sp.csr_matrix, b: np.ndarray, symmetric: bool = True) -> np.ndarray:
