@@ -127,6 +127,7 @@ def run(
         with _deck_errors():
             sim = Simulation(scene, out_dir=directory, threads=numba.get_num_threads(), max_steps=max_steps,
                              max_frames=max_frames, resume=restart is not None, device=device)
+            sim.compile_helper = True  # the first step's kernels compile in two processes (compile_ahead)
             if restart is not None:
                 sim.resume()
             log = RunLog(Path(directory) / f"{scene.loaded.stem}_run.log", _command_line(ctx), scene.loaded,
@@ -406,7 +407,7 @@ def compile(
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
         threads, _ = auto_threads(cores, len(scene.deformable.x))  # the kernels a default run uses
         with _deck_errors():
-            Simulation(scene, out_dir=None, threads=threads).step()
+            Simulation(scene, out_dir=None, threads=threads).first_step()  # a helper compiles part (compile_ahead)
         out.print(f"{path}: kernels ready ({time.perf_counter() - t0:.1f} s)", highlight=False)
 
 

@@ -24,6 +24,7 @@ binds one dispatcher); those stay plain `njit` functions.
 from __future__ import annotations
 
 import types
+import weakref
 
 from numba import njit
 
@@ -60,7 +61,10 @@ def threaded() -> bool:
 class ChunkKernel:
     """A chunked kernel in its serial and parallel forms (each compiled when first called)."""
 
+    made: "weakref.WeakSet[ChunkKernel]" = weakref.WeakSet()  # every chunk kernel (compile_ahead finds their forms)
+
     def __init__(self, fn):
+        ChunkKernel.made.add(self)
         self.py_func = fn
         self.__name__ = fn.__name__
         self.__qualname__ = fn.__qualname__

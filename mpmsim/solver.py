@@ -23,7 +23,7 @@ from typing import Callable
 from ._version import __version__
 import numpy as np
 
-from . import linalg
+from . import compile_ahead, linalg
 from .deck import LoadedDeck, as_loaded_deck
 from .deck.schema import wall_clock_seconds
 from .errors import InstabilityError
@@ -147,6 +147,7 @@ class Simulation:
         self.vtu = VtuSeries(self.out_dir, stem, clear=not resume) if self.out_dir is not None else None
         self.files: list[Path] = []
         self.first_step_seconds = 0.0  # wall time of the first step of run() (compiling)
+        self.compile_helper = False  # run()'s first step with a helper compiling kernels (mpmsim run sets it)
         self.schedule: Schedule | None = None  # set by the first run() (or a restored checkpoint)
         interval = run.output.checkpoint_interval
         self.checkpoint_every = interval if not isinstance(interval, str) else math.inf  # simulated time
@@ -224,6 +225,20 @@ class Simulation:
 
     def step(self) -> None:
         """One step of the integrator, then the stability check; advances the clock."""
+        self._begin_step()
+        self._finish_step()
+
+    def first_step(self, helper: bool = True) -> dict:
+        """step(), with a helper process compiling part of the kernels the cache lacks where it
+        can (mpmsim/compile_ahead.py; helper=False: this process alone). Returns its report."""
+        self._begin_step()
+        st = self.state
+        parts = [*self.integrator.dry_parts(st), lambda: self.check(st)]
+        on_cpu = getattr(self.integrator, "device", None) is None
+        return compile_ahead.first_step(self._finish_step, parts, enabled=helper and on_cpu)
+
+    def _begin_step(self) -> None:
+        """The step's time step and flags, the kernels' form."""
         st, end = self.state, self.end
         if st.t >= end * (1.0 - 1e-9):
             raise RuntimeError(f"the run has reached time.end = {end:g}; nothing left to step")
@@ -232,6 +247,10 @@ class Simulation:
         st.dt = min(rule, end - st.t)
         st.flags = StepFlags()
         use_threads(st.threads)  # this state's kernel form (another simulation may have switched it)
+
+    def _finish_step(self) -> None:
+        """The integrator's advance over the step's dt, the stability check, the clock."""
+        st = self.state
         taken = self.integrator.advance(st, st.dt)
         st.dt = taken
         t0 = wallclock.perf_counter()
@@ -336,7 +355,10 @@ class Simulation:
         saved_at = wallclock.perf_counter()
         try:
             while st.t < end - eps:
-                self.step()
+                if timed_from is None:
+                    self.first_step(helper=self.compile_helper)
+                else:
+                    self.step()
                 if timed_from is None:
                     self.first_step_seconds = wallclock.perf_counter() - start
                     self.reset_timers()

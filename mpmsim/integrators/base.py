@@ -17,6 +17,12 @@ class Integrator:
     def advance(self, state, dt: float) -> float:  # pragma: no cover
         raise NotImplementedError
 
+    def dry_parts(self, state) -> list:
+        """The step in parts, each a call (mpmsim/compile_ahead.py runs them dry in a helper
+        process to learn the kernels a first step compiles; one that stops ends only itself):
+        here the whole advance as one part."""
+        return [lambda: self.advance(state, state.dt)]
+
     def to_host(self, state) -> None:
         """Bring the host state up to date before it is read (an integrator that keeps the
         state on a device copies it back here; the CPU integrators have nothing to do)."""

@@ -9,6 +9,7 @@ the device version of the CPU task of that name, the state stays on the device, 
 
 from __future__ import annotations
 
+import functools
 import time as wallclock
 
 import numpy as np
@@ -63,6 +64,12 @@ class ExplicitMPM(Integrator):
                 timers[task.name] += wallclock.perf_counter() - t0
         state.impulse += state.reaction * dt  # the walls' and rigid materials' impulse since t = 0
         return dt
+
+    def dry_parts(self, state) -> list:
+        """One part per task (a task stopped by a dry kernel's missing result ends alone)."""
+        if self.device is not None:
+            return []
+        return [functools.partial(task.run, state) for task in self.tasks]
 
     def to_host(self, state) -> None:
         if self.device is not None:

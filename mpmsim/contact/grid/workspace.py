@@ -171,6 +171,9 @@ class ContactWorkspace:
                  np.zeros((n, K), dtype=np.int64), np.full((nr, K), -1, dtype=np.int64),
                  np.zeros((n_nodes, spec.n_groups, 4) if spec.warm_start else (1, 1, 4)))
         cs.cn_nodes = np.zeros(0, dtype=np.int64)
+        # empty clouds until material_fields builds them: the bundles have their types from the
+        # start (a helper compiling a first step's kernels from their types reads them before)
+        cs.cloud_ptr, cs.cloud_idx, cs.cloud_w = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
         G = spec.n_def_groups
         cs.pair_step, cs.pair_force, cs.pair_impulse = (np.zeros((G, G, dim)) for _ in range(3))
         cs.ensure(1, 1, dim)

@@ -1,0 +1,153 @@
+"""A first step compiled in two processes (mpmsim/compile_ahead.py): the step's results are
+those of one process, every kernel is compiled once by one of the two, a task the dry step
+stumbles in ends alone, and a scene's first step through Simulation.first_step equals step().
+
+How much faster the first step is, is a timing: bench/coldstart.py measures `mpmsim compile`
+with and without the helper (docs/performance.md, "Cold start")."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from mpmsim import compile_ahead
+from mpmsim.deck import load_deck
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+
+from ..conftest import ROOT
+
+pytestmark = [pytest.mark.speed,
+              pytest.mark.skipif(not compile_ahead.available(), reason="needs fork and two cores")]
+
+# Four kernels a toy step calls in three parts. Part one uses a kernel's result as an index
+# array (the dry step stumbles there: that part ends, the next goes on); part three calls two.
+KERNELS = '''
+import numpy as np
+from numba import njit
+
+@njit(cache=True)
+def nonzero_rows(a):
+    return np.nonzero(a > 0.5)[0]
+
+@njit(cache=True)
+def scale(a, s):
+    for i in range(a.size):
+        a[i] = a[i] * s + np.sin(a[i]) * np.cos(a[i] * s)
+
+@njit(cache=True)
+def total(a):
+    t = 0.0
+    for i in range(a.size):
+        t += np.exp(-a[i] * a[i]) + np.tanh(a[i])
+    return t
+
+@njit(cache=True)
+def smooth(a, b):
+    n = a.size
+    for i in range(1, n - 1):
+        b[i] = 0.25 * a[i - 1] + 0.5 * a[i] + 0.25 * a[i + 1]
+    return b.sum()
+'''
+
+STEP = '''
+import json, os, sys
+import numpy as np
+from numba.core import event
+sys.path.insert(0, sys.argv[1])
+import toykernels as k
+from mpmsim import compile_ahead
+
+a = np.linspace(0.0, 1.0, 101)
+b = np.zeros_like(a)
+out = {}
+
+def part_index():
+    rows = k.nonzero_rows(a)
+    b[rows.astype(np.int64)] = 1.0  # in the dry step `rows` is no array: this part ends here
+
+def part_scale():
+    k.scale(a, 1.5)
+
+def part_sums():
+    out["total"] = k.total(a)
+    out["smooth"] = k.smooth(a, b)
+
+def step():
+    for part in (part_index, part_scale, part_sums):
+        part()
+
+with event.install_recorder("numba:compile") as rec:
+    report = compile_ahead.first_step(step, [part_index, part_scale, part_sums], enabled=sys.argv[2] == "1")
+here = sorted({e.data["dispatcher"].py_func.__name__ for _, e in rec.buffer
+               if e.is_start and e.data["dispatcher"].py_func.__module__ == "toykernels"})
+print(json.dumps({"report": report, "here": here, "a": a.tolist(), "b": b.tolist(), **out}))
+'''
+
+
+def toy_step(tmp_path, helper: bool) -> dict:
+    """The toy step in a fresh process on an empty kernel cache."""
+    src = tmp_path / "src"
+    src.mkdir(exist_ok=True)
+    (src / "toykernels.py").write_text(KERNELS)
+    cache = tmp_path / f"cache-{int(helper)}"
+    log = tmp_path / f"helper-{int(helper)}.log"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(ROOT), "MPMSIM_COMPILE_HELPER": "1",
+           "MPMSIM_COMPILE_HELPER_LOG": str(log)}
+    run = subprocess.run([sys.executable, "-c", textwrap.dedent(STEP), str(src), "1" if helper else "0"],
+                         capture_output=True, text=True, timeout=600, env=env)
+    assert run.returncode == 0, run.stderr[-2000:]
+    result = json.loads(run.stdout.splitlines()[-1])
+    result["log"] = log.read_text() if log.exists() else ""
+    return result
+
+
+def test_two_processes_compile_each_kernel_once_and_give_one_process_results(tmp_path):
+    alone = toy_step(tmp_path, helper=False)
+    shared = toy_step(tmp_path, helper=True)
+    assert not alone["report"]["helper"] and shared["report"]["helper"]
+    for key in ("a", "b", "total", "smooth"):
+        assert shared[key] == alone[key], key  # the same numbers, to the last bit
+    kernels = {"nonzero_rows", "scale", "total", "smooth"}
+    assert set(alone["here"]) == kernels
+    # the helper's dry step recorded the three kernels after the stumbling part too (four in all)
+    assert "dry step: 4 kernels to compile" in shared["log"], shared["log"]
+    # each kernel compiled once, here or in the helper: what this process compiled and what the
+    # helper said it compiled are disjoint and together the four
+    by_helper = {line.split()[2].rstrip(":") for line in shared["log"].splitlines() if line.endswith(" s") and
+                 "compiled in" in line}
+    claimed = {line.split()[2].rstrip(":") for line in shared["log"].splitlines() if "claimed by the parent" in line}
+    assert by_helper | claimed == kernels and not by_helper & claimed, shared["log"]  # none failed in the helper
+    assert not by_helper & set(shared["here"]), (by_helper, shared["here"])
+    assert by_helper | set(shared["here"]) == kernels, (by_helper, shared["here"])
+    rep = shared["report"]
+    assert rep["compiled_here"] + rep["compiled_ahead"] + rep["waited"] >= len(set(shared["here"]))
+
+
+def test_dry_results_are_falsy_zeros_that_stop_an_unpacking_part():
+    unknown = compile_ahead._Unknown()
+    assert not unknown and int(unknown) == 0 and float(unknown) == 0.0
+    assert unknown + 1 is unknown and 2 * unknown is unknown and unknown.anything is unknown
+    with pytest.raises(TypeError):
+        n, m = unknown
+
+
+def test_a_scene_first_step_with_the_helper_equals_step():
+    """Simulation.first_step (the CLI's first step) against step(): the same state to the last
+    bit (the kernels are loaded from the suite's cache here; the helper still runs its dry step
+    and loads them)."""
+    deck = load_deck(ROOT / "inputs" / "two_blocks.yaml")
+    plain = Simulation(build_scene(deck), out_dir=None, threads=1)
+    plain.step()
+    helped = Simulation(build_scene(deck), out_dir=None, threads=1)
+    report = helped.first_step(helper=True)
+    assert report["helper"]
+    for name in ("x", "v", "F", "stress"):
+        np.testing.assert_array_equal(getattr(helped.state.particles, name), getattr(plain.state.particles, name))
+    assert helped.state.t == plain.state.t and helped.state.step == plain.state.step == 1
