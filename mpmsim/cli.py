@@ -166,6 +166,9 @@ def run(
     def compiled(seconds: float) -> None:
         if cold or seconds > 2.0:
             said = f"first step: {seconds:.1f} s (numba compiled the kernels the cache lacked; later runs load them)"
+            report = sim.compile_report
+            if report.get("helper") and report.get("waited"):
+                said += f"; a helper process compiled {report['waited']} of them alongside"
             log.note(said)
             if not quiet:
                 out.print(said, highlight=False)

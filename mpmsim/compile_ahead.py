@@ -33,6 +33,7 @@ CPU step; `MPMSIM_COMPILE_HELPER=0` turns it off. Measured in docs/performance.m
 
 from __future__ import annotations
 
+import ctypes
 import gc
 import hashlib
 import os
@@ -208,6 +209,12 @@ def _helper(parts: list[Callable[[], object]], locks: Path, parent: int) -> None
     last first."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:  # killed with the parent (Linux's parent-death signal), whatever kills it
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:  # the parent died before the signal was set
+        return
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
     os.dup2(devnull, 2)

@@ -148,6 +148,7 @@ class Simulation:
         self.files: list[Path] = []
         self.first_step_seconds = 0.0  # wall time of the first step of run() (compiling)
         self.compile_helper = False  # run()'s first step with a helper compiling kernels (mpmsim run sets it)
+        self.compile_report: dict = {}  # what compile_ahead.first_step said about it
         self.schedule: Schedule | None = None  # set by the first run() (or a restored checkpoint)
         interval = run.output.checkpoint_interval
         self.checkpoint_every = interval if not isinstance(interval, str) else math.inf  # simulated time
@@ -356,7 +357,7 @@ class Simulation:
         try:
             while st.t < end - eps:
                 if timed_from is None:
-                    self.first_step(helper=self.compile_helper)
+                    self.compile_report = self.first_step(helper=self.compile_helper)
                 else:
                     self.step()
                 if timed_from is None:
