@@ -204,28 +204,13 @@ def _dispatcher_calls(call):
         CPUDispatcher.__call__ = original
 
 
-def _helper(parts: list[Callable[[], object]], locks: Path, parent: int) -> None:
-    """The forked helper: the dry step (each part alone), then the recorded kernels compiled
-    last first."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    try:  # killed with the parent (Linux's parent-death signal), whatever kills it
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() != parent:  # the parent died before the signal was set
-        return
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
+def dry_run(parts: list[Callable[[], object]]) -> dict:
+    """Run `parts` dry (each alone; module text): {key: (dispatcher, argument types)} of the
+    kernels they call from Python that this process has not compiled for those types, in the
+    order of their first call. Only in a process whose state may be spoiled (the helper):
+    the parts' Python code runs on placeholders."""
     recorded: dict[str, tuple] = {}
     start = time.perf_counter()
-    where = os.environ.get("MPMSIM_COMPILE_HELPER_LOG")
-
-    def log(line: str) -> None:
-        if where:
-            with open(where, "a") as f:
-                print(f"{time.perf_counter() - start:7.2f} s  {line}", file=f)
 
     def dry(dispatcher, args, original):
         if len(recorded) > DRY_CALL_LIMIT or time.perf_counter() - start > DRY_SECONDS:
@@ -243,6 +228,32 @@ def _helper(parts: list[Callable[[], object]], locks: Path, parent: int) -> None
                 break
             except BaseException:  # noqa: BLE001 (a part ends wherever a dummy result stops it)
                 continue
+    return recorded
+
+
+def _helper(parts: list[Callable[[], object]], locks: Path, parent: int) -> None:
+    """The forked helper: the dry step (each part alone), then the recorded kernels compiled
+    largest first, each claimed first (the parent may have)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:  # killed with the parent (Linux's parent-death signal), whatever kills it
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:  # the parent died before the signal was set
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    start = time.perf_counter()
+    where = os.environ.get("MPMSIM_COMPILE_HELPER_LOG")
+
+    def log(line: str) -> None:
+        if where:
+            with open(where, "a") as f:
+                print(f"{time.perf_counter() - start:7.2f} s  {line}", file=f)
+
+    recorded = dry_run(parts)
     log(f"dry step: {len(recorded)} kernels to compile")
     _write_plan(locks, recorded)
     compiled = 0

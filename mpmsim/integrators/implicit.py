@@ -155,9 +155,39 @@ class ImplicitStep(Integrator):
     def stable_dt(self, state) -> float:
         return self.dt
 
+    def dry_parts(self, state) -> list:
+        """Each energy term's calls apart (value, derivatives, sweep, step bound; the FEM
+        forces of a^0), for the helper that compiles a first step's kernels
+        (mpmsim/compile_ahead.py). Before the first step the terms are made here, in this
+        process (their construction compiles little); a^0 and the step stay in advance()."""
+        if self.started:
+            return [lambda: self.advance(state, state.dt)]
+        if not self.terms:
+            self._make_terms(state)
+        fem, grid = self.fem, self.grid
+
+        def y():
+            return np.concatenate([fem.x, grid.X]) if grid is not None else fem.x.copy()
+
+        parts = [lambda: grid.begin(state)] if grid is not None else []
+        parts.append(lambda: self.terms[0].forces(fem.x))
+        for term in self.terms:
+            parts += [lambda t=term: t.value(y()), lambda t=term: t.derivatives(y(), np.zeros_like(y())),
+                      lambda t=term: t.sweep(y(), np.zeros_like(y())),
+                      lambda t=term: t.step_bound(y(), np.zeros_like(y()))]
+            if term in self.exact_terms:
+                parts.append(lambda t=term: t.derivatives(y(), np.zeros_like(y()), exact=True))
+        return parts
+
     def _setup(self, state) -> None:
-        """The energy terms of the scene's bodies, and a^0 (the mechanical acceleration at the
-        initial state)."""
+        """The energy terms of the scene's bodies (unless dry_parts made them), and a^0 (the
+        mechanical acceleration at the initial state)."""
+        if not self.terms:
+            self._make_terms(state)
+        self._initial_acceleration(state)
+
+    def _make_terms(self, state) -> None:
+        """The energy terms of the scene's bodies."""
         dim = state.dim
         self.dim = dim
         self.assembler = Assembler(dim, lower=self.solver.lower)
@@ -184,7 +214,11 @@ class ImplicitStep(Integrator):
         self.terms = terms + self.added
         # the terms whose derivatives can give their exact Hessian (an added term may not take `exact`)
         self.exact_terms = [t for t in self.terms if "exact" in inspect.signature(t.derivatives).parameters]
-        f = terms[0].forces(fem.x)
+
+    def _initial_acceleration(self, state) -> None:
+        """a^0, the mechanical acceleration at the initial state; the integrator has started."""
+        fem, m = self.fem, state.materials
+        f = self.terms[0].forces(fem.x)
         fem.a[:] = f / fem.mass[:, None] + self.gravity if fem.n else 0.0
         fem.a[fem.held] = 0.0
         if self.grid is not None:

@@ -138,16 +138,51 @@ def test_dry_results_are_falsy_zeros_that_stop_an_unpacking_part():
         n, m = unknown
 
 
-def test_a_scene_first_step_with_the_helper_equals_step():
+DRY = """
+import json, sys
+from mpmsim import compile_ahead
+from mpmsim.deck import load_deck
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+sim = Simulation(build_scene(load_deck(sys.argv[1])), out_dir=None, threads=1)
+sim._begin_step()
+recorded = compile_ahead.dry_run(sim.integrator.dry_parts(sim.state))
+print(json.dumps(sorted({d.py_func.__name__ for d, _ in recorded.values()})))
+"""
+
+
+@pytest.mark.parametrize("deck, largest", [
+    ("two_blocks", {"geometry_kernel", "pass_2_kernel", "exchange_pass", "tensor_shape_functions"}),
+    ("implicit_blocks_2d", {"element_hessians", "internal_forces", "element_energies"})])
+def test_the_dry_step_records_a_scene_s_largest_kernels(deck, largest):
+    """What the helper learns from the dry step (a fresh process, where no kernel is loaded
+    yet): the explicit step's tasks and the implicit step's energy terms each alone, so a task
+    that stumbles does not hide the kernels of the next. The kernels named are the largest
+    compiles of these scenes (docs/performance.md)."""
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
+    run = subprocess.run([sys.executable, "-c", DRY, str(ROOT / "inputs" / f"{deck}.yaml")], capture_output=True,
+                         text=True, timeout=600, env=env)
+    assert run.returncode == 0, run.stderr[-2000:]
+    recorded = set(json.loads(run.stdout.splitlines()[-1]))
+    assert largest <= recorded, (largest - recorded, recorded)
+
+
+@pytest.mark.parametrize("deck", ["two_blocks", "implicit_blocks_2d"])
+def test_a_scene_first_step_with_the_helper_equals_step(deck):
     """Simulation.first_step (the CLI's first step) against step(): the same state to the last
     bit (the kernels are loaded from the suite's cache here; the helper still runs its dry step
-    and loads them)."""
-    deck = load_deck(ROOT / "inputs" / "two_blocks.yaml")
-    plain = Simulation(build_scene(deck), out_dir=None, threads=1)
+    and loads them). The implicit step's terms are made before the fork (dry_parts) and its
+    a^0 in the step, as step() does them."""
+    loaded = load_deck(ROOT / "inputs" / f"{deck}.yaml")
+    plain = Simulation(build_scene(loaded), out_dir=None, threads=1)
     plain.step()
-    helped = Simulation(build_scene(deck), out_dir=None, threads=1)
+    helped = Simulation(build_scene(loaded), out_dir=None, threads=1)
     report = helped.first_step(helper=True)
     assert report["helper"]
-    for name in ("x", "v", "F", "stress"):
-        np.testing.assert_array_equal(getattr(helped.state.particles, name), getattr(plain.state.particles, name))
+    pairs = [(helped.state.particles, plain.state.particles, ("x", "v", "F", "stress"))]
+    if plain.state.fem is not None:
+        pairs.append((helped.state.fem, plain.state.fem, ("x", "v", "a")))
+    for a, b, names in pairs:
+        for name in names:
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     assert helped.state.t == plain.state.t and helped.state.step == plain.state.step == 1
