@@ -318,11 +318,12 @@ def first_step(step: Callable[[], None], parts: list[Callable[[], object]], enab
     def compile_ahead_of(waiting: str) -> bool:
         """While the helper compiles `waiting`: claim and compile the first kernel of its plan
         (the step's order) that neither process has claimed. Whether one was compiled."""
-        if not plan:
+        if not named:  # the helper's plan, read once (with this process's kernels by name)
             if not (locks / "plan").exists():
                 return False
             plan.extend(pickle.loads((locks / "plan").read_bytes()))
             named.update(_dispatchers())
+            named[None] = None  # (read: an empty plan is not read again)
         for key, name, sig in plan:
             dispatcher = named.get(name)
             if key == waiting or dispatcher is None or sig in dispatcher.overloads or not _claim(locks, key):
