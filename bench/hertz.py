@@ -359,9 +359,8 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
     Hertz's distribution), and from Hertz's ellipsoid fitted to the lines above a tenth of the
     peak; the load carried (4 x the quarter's) against the applied m g. rz: the axisymmetric
     sphere; forces and areas per radian (x 2 pi), a line per node column r_i; the axis column has
-    no area (r_i = 0), so the centre pressure is the fitted ellipsoid's p(0) = sqrt(c_0)."""
-    import meshio
-
+    no area (r_i = 0), so the centre pressure is the fitted ellipsoid's p(0) = sqrt(c_0).
+    The same read from the final frame alone: the final_* keys."""
     from mpmsim.deck import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
@@ -376,11 +375,36 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
     wall = time.perf_counter() - t0
     end_t = data["time"]["end"]
     pvd = out / "hertz_contact.pvd"
-    frames = [f for t, f in re.findall(r'timestep="([^"]+)"[^>]*file="([^"]+)"', pvd.read_text())
-              if 0.65 * end_t <= float(t) < end_t * (1 - 1e-9)]
+    stamped = [(float(t), f) for t, f in re.findall(r'timestep="([^"]+)"[^>]*file="([^"]+)"', pvd.read_text())]
+    P = sim.state.particles
+    P_applied = whole * float(P.mass.sum()) * -data["gravity"][1]
+    # the frames of the last third, and the final frame alone (the run's steps are of one length,
+    # so its last step is a step like the others; the load still creeps up by a few percent over
+    # the last third while the damping brings the sphere to rest)
+    last_third = sphere_reading(out, [f for t, f in stamped if t >= 0.65 * end_t], rz, whole, P_applied)
+    final = sphere_reading(out, [stamped[-1][1]], rz, whole, P_applied)
+    hist = sim.history
+    result = {**last_third["result"], **{f"final_{k}": v for k, v in final["result"].items()},
+              "rh": rh, "h": R / rh, "analysis": "axisymmetric" if rz else "3d",
+              "reaction_y": whole * float(hist["F_flat_y"].iloc[-1]),
+              "n_particles": int(P.n), "steps": int(hist["step"].iloc[-1]), "wall_s": wall, "seeding": seeding}
+    r, F, A, p = (last_third["profile"][k] for k in "rFAp")
+    (out / "hertz_result.json").write_text(json.dumps({"result": result, "profile": {
+        "r": r.tolist(), "F": F.tolist(), "A": A.tolist(), "p": p.tolist()}}, indent=1))
+    return {"result": result, "profile": {"r": r, "F": F, "A": A, "p": p}, "final_profile": final["profile"]}
+
+
+def sphere_reading(out: Path, files: list[str], rz: bool, whole: float, P_applied: float) -> dict:
+    """run_sphere's measurement over the contact frames `files` (averaged): the pressure per
+    node column (3D: per normal line), the load carried, the contact radius by the second
+    moment and by Hertz's ellipsoid fitted above a tenth of the peak, the centre pressure
+    (r-z: the fitted ellipsoid's, the axis column having no area), each against Hertz for the
+    applied load."""
+    import meshio
+
     lines: dict[tuple, list] = {}
     node_p_max = 0.0
-    for f in frames:
+    for f in files:
         pd = meshio.read(out / f)
         fn = -np.sum(np.asarray(pd.point_data["contact_force"]) * np.asarray(pd.point_data["normal"]), axis=1)
         area = np.asarray(pd.point_data["contact_area"])
@@ -389,15 +413,13 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
         for key in np.unique(xz, axis=0):
             on = np.all(xz == key, axis=1)
             acc = lines.setdefault(tuple(key), [0.0, 0.0])
-            acc[0] += fn[on].sum() / len(frames)
-            acc[1] += area[on].sum() / len(frames)
+            acc[0] += fn[on].sum() / len(files)
+            acc[1] += area[on].sum() / len(files)
     keys = np.array(sorted(lines))
     F = np.array([lines[tuple(k)][0] for k in keys])
     A = np.array([lines[tuple(k)][1] for k in keys])
     r = np.hypot(keys[:, 0], keys[:, 1])
     p = np.divide(F, A, out=np.zeros_like(F), where=A > 0)
-    P = sim.state.particles
-    P_applied = whole * float(P.mass.sum()) * -data["gravity"][1]
     a = (3.0 * P_applied * R / (4.0 * E_STAR)) ** (1 / 3)
     p0 = 3.0 * P_applied / (2.0 * math.pi * a**2)
     load = whole * float(F.sum())
@@ -407,18 +429,13 @@ def run_sphere(rh: float, out: Path | None = None, end: float | None = None, thr
     a_fit = math.sqrt(-c[0] / c[1]) if c[0] > 0 > c[1] else float("nan")
     inner = r < 0.8 * a
     ph = p0 * np.sqrt(np.clip(1 - (r / a) ** 2, 0, None))
-    hist = sim.history
     centre = math.sqrt(c[0]) if rz and c[0] > 0 else (float(p[r == 0].max()) if np.any(r == 0) else float("nan"))
-    result = {"rh": rh, "h": R / rh, "a_hertz": a, "p0_hertz": p0, "load_applied": P_applied, "load_carried": load,
-              "load_error": load / P_applied - 1, "reaction_y": whole * float(hist["F_flat_y"].iloc[-1]),
-              "a_moment_error": a_m / a - 1, "a_fit_error": a_fit / a - 1,
-              "centre_error": centre / p0 - 1, "analysis": "axisymmetric" if rz else "3d",
-              "p_max_over_p0": float(p.max() / p0), "node_p_max_over_p0": node_p_max / p0,
-              "profile_max_error": float(np.abs(p[inner] - ph[inner]).max() / p0),
-              "n_particles": int(P.n), "steps": int(hist["step"].iloc[-1]), "wall_s": wall, "seeding": seeding}
-    (out / "hertz_result.json").write_text(json.dumps({"result": result, "profile": {
-        "r": r.tolist(), "F": F.tolist(), "A": A.tolist(), "p": p.tolist()}}, indent=1))
-    return {"result": result, "profile": {"r": r, "F": F, "A": A, "p": p}}
+    return {"result": {"a_hertz": a, "p0_hertz": p0, "load_applied": P_applied, "load_carried": load,
+                       "load_error": load / P_applied - 1, "a_moment_error": a_m / a - 1, "a_fit_error": a_fit / a - 1,
+                       "centre_error": centre / p0 - 1, "p_max_over_p0": float(p.max() / p0),
+                       "node_p_max_over_p0": node_p_max / p0,
+                       "profile_max_error": float(np.abs(p[inner] - ph[inner]).max() / p0), "frames": len(files)},
+            "profile": {"r": r, "F": F, "A": A, "p": p}}
 
 
 E_FLAT = 10.0 * E  # the FEM flat of the augury and barrier scenes: ten times stiffer than the cylinder

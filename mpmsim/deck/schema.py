@@ -567,7 +567,9 @@ class Damping(Strict):
 class Time(Strict):
     """Simulated time and the time step rule."""
 
-    end: float = Field(gt=0, description="End time (time unit).")
+    end: float = Field(gt=0, description="End time (time unit). The run lands on it in steps of one length: "
+                       "each the longest no longer than the rule's (cfl or dt) that splits the time left into "
+                       "equal steps (docs/timestep.md).")
     cfl: float | None = Field(
         default=None, gt=0, le=1.0,
         description="Time step = cfl × min cell size / max(wave speed + |velocity|), recomputed "
