@@ -74,7 +74,8 @@ def pytest_sessionfinish(session, exitstatus):
 # instead of leaving one worker busy at the end while the other idles.
 SLOW_FIRST = [
     "tests/validation/test_interfaces.py", "tests/validation/test_contact_oblique.py",
-    "tests/validation/test_contact.py", "tests/validation/test_compaction.py", "tests/stability/test_suite.py",
+    "tests/validation/test_contact.py", "tests/validation/test_compaction.py", "tests/validation/test_taylor_bar.py",
+    "tests/stability/test_suite.py",
     "tests/fem/test_augury_contact.py", "tests/implicit/test_twist.py", "tests/implicit/test_implicit_3d.py",
     "tests/reliability/test_restart.py", "tests/architecture/test_bit_identical.py",
     "tests/architecture/test_plugins.py", "tests/validation/test_updates_and_shapes.py",
