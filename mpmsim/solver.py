@@ -84,13 +84,17 @@ def step_length(rule: float, remaining: float) -> float:
     one length. Cutting only the last step short would end a resting contact on a sliver
     step whose contact decision (the separation advanced over the step) differs from the
     others': a sphere at rest on a flat then shows 24% less contact force in its final frame
-    (docs/timestep.md, "The step length"). A rule that divides the remaining time (to 1e-9)
-    is taken as it is."""
-    if not (0.0 < rule < math.inf) or remaining <= rule * (1.0 + 1e-9):
+    (docs/timestep.md, "The step length"). A rule that divides the remaining time to within
+    1e-6 of a step is taken as it is (the clock's rounding over a long run is far below that,
+    and would otherwise split the last step in two)."""
+    tol = 1e-6
+    if not (0.0 < rule < math.inf):
         return min(rule, remaining)
-    steps = math.ceil(remaining / rule - 1e-9)
-    dt = remaining / steps
-    return rule if rule - dt <= 1e-9 * rule else dt
+    if remaining <= rule * (1.0 + tol):
+        return remaining
+    steps = remaining / rule
+    whole = math.ceil(steps - tol)
+    return rule if steps >= whole - tol else remaining / whole
 
 
 @dataclass
