@@ -56,6 +56,8 @@ def unsupported(scene) -> list[tuple[tuple, str]]:
         out.append((("artificial_viscosity",), f"artificial viscosity {later}"))
     if deck.loads:
         out.append((("loads",), f"traction loads {later}"))
+    if deck.gravity_ramp > 0.0:
+        out.append((("gravity_ramp",), f"a gravity ramp {later}"))
     if deck.output.energy_ledger:
         out.append((("output", "energy_ledger"), f"the energy ledger {later}"))
     return out

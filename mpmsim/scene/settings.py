@@ -30,6 +30,7 @@ class RunSettings:
     loads: list  # the deck's traction loads
     artificial_viscosity: bool
     axisymmetric: bool = False  # x = r, y = z: masses, volumes and forces per radian (docs/axisymmetric.md)
+    gravity_ramp: float = 0.0  # time over which gravity grows from zero (0: whole from the start)
 
     @property
     def has_gravity(self) -> bool:
@@ -48,4 +49,4 @@ def run_settings(deck) -> RunSettings:
                        deck.output, deck.stability, implicit,
                        deck.grid.boundaries if deck.grid is not None else None, g,
                        deck.damping.grid if deck.damping is not None else 0.0, list(deck.loads),
-                       deck.artificial_viscosity is not None, deck.analysis == "axisymmetric")
+                       deck.artificial_viscosity is not None, deck.analysis == "axisymmetric", deck.gravity_ramp)

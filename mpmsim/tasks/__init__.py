@@ -16,7 +16,7 @@ from .forces import forces
 from .grid_update import grid_update
 from .ledger import EnergyLedger
 from .particle_update import move_rigid, particle_update
-from .setup import compute_shape_functions, prescribed_motion
+from .setup import compute_shape_functions, gravity_ramp, prescribed_motion
 from .stress import stress_kernels, update_stress_first, update_stress_last
 from .xpic import xpic
 from ..contact.augury import AuguryContact
@@ -36,6 +36,10 @@ def plan_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     tasks = [Task("time step", prescribed_motion(scene.materials.motions),
                   f"fixed dt = {dt:g}" if dt else "CFL rule on current wave speeds, every step")]
     skipped: list[tuple[str, str]] = []
+    ramp = scene.settings.gravity_ramp
+    if ramp > 0.0:
+        tasks.append(Task("gravity ramp", gravity_ramp(scene.settings.gravity, ramp),
+                          f"gravity grows linearly to its full value over {ramp:g}"))
     augury = AuguryContact(scene) if scene.contact.augury is not None else None
     if scene.has_particles:
         if augury is not None:

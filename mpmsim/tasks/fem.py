@@ -83,10 +83,17 @@ def first_accelerations(state, fem, gravity) -> None:
 def fem_tasks(scene, augury=None):
     """[(name, function, why)] of the FEM part of the explicit step; `augury`: the scene's
     AuguryContact task (None: no augury contact)."""
+    full, ramp = scene.settings.gravity, scene.settings.gravity_ramp
+
+    def gravity_at(state, t: float):
+        """Gravity at time t: velocity Verlet takes its accelerations at the step's ends (the
+        particles' step takes the ramp's value at its middle, state.gravity)."""
+        return state.gravity if ramp <= 0.0 else full * min(t / ramp, 1.0)
+
     def kick_drift(state) -> None:
         fem = state.fem
         if not fem.started:
-            first_accelerations(state, fem, state.gravity)
+            first_accelerations(state, fem, gravity_at(state, state.t))
         half = 0.5 * state.dt
         kick(fem.v, fem.a, fem.a_contact, fem.mass, fem.held, fem.held_velocity, fem.node_body, half, fem.contact_work)
         kick_affine(fem.B, fem.Bdot, fem.Dinv, fem.mass, fem.boundary, fem.node_body, half, fem.contact_work)
@@ -96,7 +103,7 @@ def fem_tasks(scene, augury=None):
         fem, m = state.fem, state.materials
         fem.bad_element = int(elements.internal_forces(fem.x, fem.cells, fem.Dm_inv, fem.vol0, fem.cell_mat,
                                                        m.type_code, m.props, fem.force))
-        accelerations(fem.force, fem.mass, state.gravity, fem.held, fem.a)
+        accelerations(fem.force, fem.mass, gravity_at(state, state.t + state.dt), fem.held, fem.a)
         fem.a_contact[:] = 0.0
 
     def final_kick(state) -> None:

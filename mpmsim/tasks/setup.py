@@ -34,6 +34,18 @@ def prescribed_motion(motions: list):
     return time_step
 
 
+def gravity_ramp(gravity: np.ndarray, ramp: float):
+    """Task "gravity ramp": the step's gravity, the deck's times min((t + dt/2) / ramp, 1). Taken
+    at the step's middle, the velocity it gives a free body is the integral of the ramp exactly
+    (g t^2 / (2 ramp) while it grows)."""
+    full = np.array(gravity, dtype=np.float64)
+
+    def ramp_gravity(state) -> None:
+        state.gravity[:] = full * min((state.t + 0.5 * state.dt) / ramp, 1.0)
+
+    return ramp_gravity
+
+
 def compute_shape_functions(state) -> None:
     """Weights of deformable particles (CPDI uses their F) and rigid ones; flags a support
     leaving the grid (the step then stops in the stability check)."""

@@ -13,7 +13,9 @@ docs/fem-contact.md.
   node inside the other block at any sampled time, and they rebound.
 - mu = 0.7 (above tan 30): with the deck's stiffness (wave speed 100 m/s) the suddenly loaded
   elastic block rings, and while the normal force dips it slips (7% of the frictionless slide
-  by 0.1 s, the paper's method alike); at 100 x the stiffness it holds within 1%.
+  by 0.1 s, the paper's method alike); at 100 x the stiffness it holds within 1%. Loaded slowly
+  (gravity_ramp over three periods of the block's slowest mode) its slip at the interface stays
+  below 1% of the frictionless slide with either method.
 """
 
 from __future__ import annotations
@@ -174,3 +176,50 @@ def test_field_contact_blocks_keep_momentum_stay_apart_and_rebound():
     assert inside == 0
     v_rel = col["py_upper"] - col["py_lower"]
     assert v_rel[0] < 0.0 < v_rel[-1]  # the upper block came down on the lower one, and went back up
+
+
+def interface_slip(st) -> float:
+    """The block's slip down the ramp at the interface: the mean displacement along the ramp of
+    the block's bottom nodes less the ramp's top-face displacement under them (interpolated
+    between its nodes in the reference frame). Unlike the centre's travel it leaves out the two
+    bodies' elastic deformation (a bonded block's centre moves 2.5% of the frictionless slide
+    by 0.1 s under the deck's sudden gravity)."""
+    t, n = np.array([np.cos(TH), -np.sin(TH)]), np.array([np.sin(TH), np.cos(TH)])
+    f = st.fem
+    u = f.x - f.X
+    block, ramp_ = np.where(f.node_body == 1)[0], np.where(f.node_body == 0)[0]
+    hb, hr = f.X[block] @ n, f.X[ramp_] @ n
+    bottom, top = block[hb < hb.min() + 1e-9], ramp_[hr > hr.max() - 1e-9]
+    s = f.X[top] @ t
+    order = np.argsort(s)
+    under = np.interp(f.X[bottom] @ t, s[order], (u[top] @ t)[order])
+    return float(np.mean(u[bottom] @ t - under))
+
+
+@functools.lru_cache(maxsize=None)
+def slow_ramp_slip(method: str, gravity_ramp: float, end: float) -> float:
+    d = yaml.safe_load((ROOT / "inputs" / "fem_ramp_2d.yaml").read_text())
+    for b in d["bodies"]:
+        b["element_size"] = 0.5
+    d["contact"]["augury"].update(cell_size=0.25, transfer="apic", method=method)
+    d["contact"]["default"] = {"law": "coulomb", "friction": 0.7}
+    if gravity_ramp > 0.0:
+        d["gravity_ramp"] = gravity_ramp
+    d["time"] = {"end": end, "dt": 2.5e-5 * 0.5}
+    d["output"] = {"history_interval": end / 10}
+    sim = Simulation(build_scene(deck_from(d)), out_dir=None, threads=1)
+    sim.run()
+    return interface_slip(sim.state)
+
+
+@pytest.mark.parametrize("method", ["field", "augury"])
+def test_ramp_loaded_slowly_holds_above_the_friction_angle(method):
+    """mu = 0.7, h = 0.5, the deck's stiffness. Gravity all at once (the deck): the ringing block
+    slips at the interface by 0.1 s 4.7% (field) and 2.5% (augury) of the frictionless slide.
+    Gravity ramped over 0.2 s (three periods of the block's slowest, shearing mode, 4 H / c_s =
+    0.065 s) and held to 0.4 s: 0.05% (field) and 0.56% (augury), below the 1% the issue asks;
+    at h = 0.25, 0.59% and 0.84% (docs/fem-contact.md). A ramp over 0.05 s (less than a period)
+    leaves 1.7% at h = 0.25: the loading must be slow against the block's own period."""
+    frictionless = ramp_analytic(0.0, 0.1)
+    assert abs(slow_ramp_slip(method, 0.2, 0.4)) < 0.01 * frictionless
+    assert slow_ramp_slip(method, 0.0, 0.1) > 0.015 * frictionless
