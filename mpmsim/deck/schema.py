@@ -575,7 +575,9 @@ class Time(Strict):
         description="Time step = cfl × min cell size / max(wave speed + |velocity|), recomputed "
         "every step from the current state. Default 0.5. Give either cfl or dt.",
     )
-    dt: float | None = Field(default=None, gt=0, description="Fixed time step instead of the CFL rule.")
+    dt: float | None = Field(default=None, gt=0, description="Fixed time step instead of the CFL rule (the "
+                             "longest step: when time.end is not a whole number of them, the steps are shortened "
+                             "evenly to land on it).")
 
 
 class Implicit(Strict):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -135,7 +136,9 @@ def wave_speed(lam: float) -> float:
 def fixed_step_cfl() -> Measured:
     """Effective CFL, dt c(lam) / h at the bar's mean stretch (from the grip's displacement),
     when the fixed-step run was stopped (the exact wave speed: the failing state's is garbage)."""
-    sim, stopped = run("stretch", **STRETCH_3, time={"end": STRETCH_3["time.end"], "dt": 0.8 * 1.0 / C0})
+    dt = 0.8 * 1.0 / C0  # the end a whole number of steps, so the run's steps are this dt exactly
+    end = math.ceil(STRETCH_3["time.end"] / dt) * dt
+    sim, stopped = run("stretch", **{**STRETCH_3, "time.end": end}, time={"end": end, "dt": dt})
     st = sim.state
     return Measured(st.dt * wave_speed(grip_stretch(sim)) / float(st.grid.h.min()), stopped)
 
