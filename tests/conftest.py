@@ -73,7 +73,8 @@ def pytest_sessionfinish(session, exitstatus):
 # its shared runs (module fixtures, cached runs) are made once, and the long ones start first
 # instead of leaving one worker busy at the end while the other idles.
 SLOW_FIRST = [
-    "tests/validation/test_interfaces.py", "tests/validation/test_contact_oblique.py",
+    "tests/validation/test_interfaces.py", "tests/implicit/test_energy_derivatives.py",
+    "tests/validation/test_contact_oblique.py",
     "tests/validation/test_contact.py", "tests/validation/test_compaction.py", "tests/validation/test_taylor_bar.py",
     "tests/stability/test_suite.py",
     "tests/fem/test_augury_contact.py", "tests/implicit/test_twist.py", "tests/implicit/test_implicit_3d.py",
