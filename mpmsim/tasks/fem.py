@@ -19,6 +19,7 @@ from numba import njit
 
 from ..fem import elements
 from ..fem.explicit import accelerations
+from .setup import ramped_gravity
 from .task import Task
 
 
@@ -88,7 +89,7 @@ def fem_tasks(scene, augury=None):
     def gravity_at(state, t: float):
         """Gravity at time t: velocity Verlet takes its accelerations at the step's ends (the
         particles' step takes the ramp's value at its middle, state.gravity)."""
-        return state.gravity if ramp <= 0.0 else full * min(t / ramp, 1.0)
+        return state.gravity if ramp <= 0.0 else ramped_gravity(full, ramp, t)
 
     def kick_drift(state) -> None:
         fem = state.fem

@@ -34,14 +34,19 @@ def prescribed_motion(motions: list):
     return time_step
 
 
+def ramped_gravity(full: np.ndarray, ramp: float, t: float) -> np.ndarray:
+    """The deck's gravity at time t under `gravity_ramp`: full x min(t / ramp, 1)."""
+    return full * min(t / ramp, 1.0)
+
+
 def gravity_ramp(gravity: np.ndarray, ramp: float):
-    """Task "gravity ramp": the step's gravity, the deck's times min((t + dt/2) / ramp, 1). Taken
-    at the step's middle, the velocity it gives a free body is the integral of the ramp exactly
-    (g t^2 / (2 ramp) while it grows)."""
+    """Task "gravity ramp": the step's gravity, the ramp's value at the step's middle. Taken
+    there, the velocity it gives a free body is the integral of the ramp exactly (g t^2 /
+    (2 ramp) while it grows)."""
     full = np.array(gravity, dtype=np.float64)
 
     def ramp_gravity(state) -> None:
-        state.gravity[:] = full * min((state.t + 0.5 * state.dt) / ramp, 1.0)
+        state.gravity[:] = ramped_gravity(full, ramp, state.t + 0.5 * state.dt)
 
     return ramp_gravity
 
