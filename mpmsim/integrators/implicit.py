@@ -8,7 +8,11 @@ the formulas and what is measured in docs/bfemp.md):
 then a^{n+1} = (y - y~) / c and v^{n+1} = v^n + dt [(1 - gamma) a^n + gamma a^{n+1}]. Presets
 (zeta, beta, gamma): backward Euler (1, 1/2, 1) and midpoint Newmark (1/2, 1/4, 1/2).
 
-The unknowns y are the FEM vertices followed by the active grid nodes of the particle bodies
+Newton's unknowns are the displacements u = y - y^n over the step (y = y^n + u for the terms):
+the inertia term M (u - u~) and a^{n+1} = (u - u~) / c with u~ = y~ - y^n = dt v^n + ... are then
+free of the positions' rounding, which at small dt would set the velocities' last bits (a
+position's ulp / dt) and with them the momentum's. The positions y are the FEM vertices followed
+by the active grid nodes of the particle bodies
 (implicit_mpm.GridUnknowns: the particles' weights frozen at the step's start, their masses,
 velocities and accelerations transferred to the grid, and back after the solve). The step
 composes energy terms (mpmsim/energy.py: value, gradient, PSD Hessian, step bound), in this
@@ -132,6 +136,7 @@ class ImplicitStep(Integrator):
         self.terms = []
         self.added: list = []  # terms given by add_term, after the built-in ones
         self.spring = None  # (moving components, their targets, stiffness) during a step
+        self.yn = None  # the positions at the step's start (the unknowns are displacements from them)
         self.assembler = None  # the Newton matrix's assembly (its pattern kept), once the dimension is known
         self.barrier_term = None
         self.adaptive = self.contact and barrier.kappa is None
@@ -236,14 +241,16 @@ class ImplicitStep(Integrator):
         for term in self.terms:
             term.sweep(y, p)
 
-    def _energy(self, y, yt, want_derivatives, exact=False):
-        """E(y) (inf if an element or particle inverted or a pair touched), and when asked its
-        gradient (n*d,) and PSD-projected Hessian (with `exact`: the terms' own, unprojected,
-        where a term has both): the terms' Hessian bundles (Blocks, Triplets; to be scaled by
-        c) and the diagonal (n*d,) added unscaled (assembly.Assembler). The terms' sum is taken
-        in their order."""
+    def _energy(self, u, ut, want_derivatives, exact=False):
+        """E at the displacement u from the step's start (inf if an element or particle
+        inverted or a pair touched; the terms see the positions y^n + u, the inertia u - u~),
+        and when asked its gradient (n*d,) and PSD-projected Hessian (with `exact`: the terms'
+        own, unprojected, where a term has both): the terms' Hessian bundles (Blocks, Triplets;
+        to be scaled by c) and the diagonal (n*d,) added unscaled (assembly.Assembler). The
+        terms' sum is taken in their order."""
         c, d = self.c, self.dim
-        dx = (y - yt).ravel()
+        y = self.yn + u
+        dx = (u - ut).ravel()
         total = 0.0
         for term in self.terms:
             total += term.value(y)
@@ -290,13 +297,13 @@ class ImplicitStep(Integrator):
         return size
 
     # ----------------------------------------------------------------------------- the step
-    def _direction(self, y, yt, free, index, exact):
-        """The Newton step at y: (E, g, p, exact). With `exact`, from the terms' own Hessians
+    def _direction(self, u, ut, free, index, exact):
+        """The Newton step at displacement u: (E, g, p, exact). With `exact`, from the terms' own Hessians
         when their matrix is positive definite and the step descends; otherwise (and then
         returned exact = False) from the PSD-projected ones."""
         while True:
             t0 = wallclock.perf_counter()
-            E, g, (hessians, diag) = self._energy(y, yt, True, exact)
+            E, g, (hessians, diag) = self._energy(u, ut, True, exact)
             t1 = wallclock.perf_counter()
             self.timers["derivatives"] += t1 - t0
             Hf = self.assembler.matrix(hessians, diag, self.c, index)
@@ -309,13 +316,13 @@ class ImplicitStep(Integrator):
                 break
             exact = False  # not positive definite (or no descent): projected from here on
             self.exact_refused += 1
-        p = np.zeros(y.size)
+        p = np.zeros(u.size)
         p[free] = step
-        return E, g, p.reshape(y.shape), exact
+        return E, g, p.reshape(u.shape), exact
 
-    def _newton(self, state, y, yt, free, dt):
-        """Projected Newton from y on the free DOFs, its last iterations on the exact Hessian
-        (below); returns (y, iterations, halvings, CCD-limited).
+    def _newton(self, state, u, ut, free, dt):
+        """Projected Newton from the displacement u on the free DOFs, its last iterations on the
+        exact Hessian (below); returns (u, iterations, halvings, CCD-limited).
 
         The PSD projection of the local Hessians (elements, particles, barrier pairs) keeps
         every step a descent direction, but where a projection acts it leaves Newton linear:
@@ -335,16 +342,17 @@ class ImplicitStep(Integrator):
         settled = False  # the last step's predicted decrease was below what E resolves
         self.newton_sizes = sizes = []  # max |p| / dt of each iteration of this solve
         for it in range(1, self.max_iterations + 1):
+            y = self.yn + u
             self._sweep(y)
             if self.adaptive and it > 1:  # after the previous iteration, on this sweep's pairs
                 self._raise_kappa(y, it - 1)
-            E, g, p, exact = self._direction(y, yt, free, index, exact)
+            E, g, p, exact = self._direction(u, ut, free, index, exact)
             size = self._step_size(p) / dt
             if exact and settled and size > 0.5 * sizes[-1]:
                 # after a step at the energy's rounding, one that does not shrink: the
                 # gradient's rounding rules here, not its curvature; the projection from here on
                 self.exact_refused += 1
-                E, g, p, exact = self._direction(y, yt, free, index, False)
+                E, g, p, exact = self._direction(u, ut, free, index, False)
                 size = self._step_size(p) / dt
             self.exact_steps += exact
             sizes.append(size)
@@ -353,8 +361,8 @@ class ImplicitStep(Integrator):
                 # feasible as a whole (it squares the residual: momentum to round-off)
                 self._sweep(y, p)
                 if self._step_bound(y, p)[0] >= 1.0:
-                    y = y + p
-                return y, it, halvings, ccd_limited
+                    u = u + p
+                return u, it, halvings, ccd_limited
             t0 = wallclock.perf_counter()
             self._sweep(y, p)
             alpha, limited = self._step_bound(y, p)
@@ -365,16 +373,16 @@ class ImplicitStep(Integrator):
             # (1e-10 of it) is taken without the test: E's rounding would refuse it
             settled = exact and -float(linalg.dot(g, p.ravel())) <= ROUNDING * abs(E)
             while True:
-                trial = y + alpha * p
+                trial = u + alpha * p
                 if settled:
                     break
-                E_trial, _, _ = self._energy(trial, yt, False)
+                E_trial, _, _ = self._energy(trial, ut, False)
                 if E_trial <= E or alpha < 1e-12:
                     break
                 alpha *= 0.5
                 halvings += 1
             self.timers["line search"] += wallclock.perf_counter() - t0
-            y = trial
+            u = trial
             if alpha == 1.0 and not limited and self.exact_refused == refused:
                 exact = True
         names = self._body_names(state)
@@ -383,10 +391,12 @@ class ImplicitStep(Integrator):
             f"{self.max_iterations} iterations (bodies {names}; last max|p|/dt = {self._step_size(p) / dt:.3g}); "
             "try a smaller time.dt or a larger implicit.newton_tolerance", state.t, state.step)
 
-    def _initial_kappa(self, y, yt, free, mass, lagged) -> None:
+    def _initial_kappa(self, ut, free, mass, lagged) -> None:
         """Adaptive kappa (contact/barrier/stiffness.py): its bounds at the first step, the
-        gradient balance at the first step that starts with pairs within dhat."""
+        gradient balance at the first step that starts with pairs within dhat (at the step's
+        start: u = 0)."""
         barrier = self.barrier_term
+        y, u = self.yn, np.zeros_like(ut)
         if self.kappa_bounds is None:
             diagonal = linalg.norm(y.max(axis=0) - y.min(axis=0))
             kmin, kmax = stiffness_bounds(float(mass[mass > 0].mean()), diagonal, self.c,
@@ -399,9 +409,9 @@ class ImplicitStep(Integrator):
             return
         kmin, kmax, _ = self.kappa_bounds
         barrier.kappa = 0.0
-        g_rest = self._energy(y, yt, True)[1]
+        g_rest = self._energy(u, ut, True)[1]
         barrier.kappa = 1.0
-        g_barrier = (self._energy(y, yt, True)[1] - g_rest)[free]
+        g_barrier = (self._energy(u, ut, True)[1] - g_rest)[free]
         if not g_barrier.any():  # candidates, but none within dhat yet
             barrier.kappa = kmin
             return
@@ -456,7 +466,8 @@ class ImplicitStep(Integrator):
             yn, vn, an = fem.x.copy(), fem.v.copy(), fem.a.copy()
             mass, held, held_velocity = fem.mass, fem.held, fem.held_velocity
         self.M = np.repeat(mass, d)
-        yt = yn + dt * vn + h2 * an
+        self.yn = yn
+        ut = dt * vn + h2 * an  # y~ - y^n
         moving = held & (held_velocity != 0.0)
         target = yn + dt * held_velocity
         for nodes, motion in self.motions:
@@ -469,8 +480,8 @@ class ImplicitStep(Integrator):
             term.begin(start)
         lagged = [term for term in self.terms if term.lagged]
         if self.adaptive and not self.kappa_set:
-            self._initial_kappa(yn, yt, free, mass, lagged)
-        y = yn.copy()
+            self._initial_kappa(ut, free, mass, lagged)
+        u = np.zeros_like(yn)
         its = halvings = 0
         ccd_limited = False
         k = SPRING_START
@@ -479,7 +490,8 @@ class ImplicitStep(Integrator):
         lags = 0
         while True:
             self.spring = (moving, target, k) if moving.any() else None
-            y, n_it, n_half, limited = self._newton(state, y, yt, free, dt)
+            u, n_it, n_half, limited = self._newton(state, u, ut, free, dt)
+            y = yn + u
             its, halvings, ccd_limited = its + n_it, halvings + n_half, ccd_limited or limited
             if any(t.active for t in lagged) and lags + 1 < self.friction_lags and not (lags and n_it == 1):
                 # the outer loop of the lagged terms: their lagged quantities again at the new
@@ -499,27 +511,27 @@ class ImplicitStep(Integrator):
         self.spring = None
         if moving.any():  # work of the prescribed motion: the constraint force (gradient / c) times the move
             self._sweep(y)
-            _, g, _ = self._energy(y, yt, True)
+            _, g, _ = self._energy(u, ut, True)
             force = g.reshape(y.shape) / self.c
-            state.work_in += float(np.sum(np.where(moving, force * (y - yn), 0.0)))
+            state.work_in += float(np.sum(np.where(moving, force * u, 0.0)))
         if self.contact:
-            self._contact_work(y, yn)
-        a_new = (y - yt) / self.c
+            self._contact_work(y, u)
+        a_new = (u - ut) / self.c
         a_new[held] = 0.0
         v_new = vn + dt * ((1.0 - self.gamma) * an + self.gamma * a_new)
         v_new[held] = held_velocity[held]
         # gravity's work on the FEM nodes and the particles
-        state.work_in += float(np.sum(fem.mass[:, None] * self.gravity[None, :] * (y[:nf] - yn[:nf])))
+        state.work_in += float(np.sum(fem.mass[:, None] * self.gravity[None, :] * u[:nf]))
         fem.v[:], fem.a[:], fem.x[:] = v_new[:nf], a_new[:nf], y[:nf]
         if grid is not None:
             P = state.particles
             x_before = P.x.copy()
-            grid.finish(state, y[nf:] - grid.X, v_new[nf:], a_new[nf:])
+            grid.finish(state, u[nf:], v_new[nf:], a_new[nf:])
             state.work_in += float(np.sum(P.mass[:, None] * self.gravity[None, :] * (P.x - x_before)))
         self.stats.append((its, halvings, int(ccd_limited), lags + 1))
         return dt
 
-    def _contact_work(self, y, yn) -> None:
+    def _contact_work(self, y, u) -> None:
         """The contact terms' work over the step (their forces at the step's end, as the
         implicit step applies them, times the move): per FEM body into fem.contact_work, on
         the particles' grid unknowns into fem.particle_contact_work (the history's
@@ -535,7 +547,7 @@ class ImplicitStep(Integrator):
             parts = term.derivatives(y, force)
             for s in parts.local:  # gradients of the pair stencils: minus their force
                 np.add.at(force, s.nodes, -s.G)
-        work = np.einsum("nc,nc->n", force, y - yn)
+        work = np.einsum("nc,nc->n", force, u)
         fem, nf = self.fem, self.fem.n
         fem.contact_work += np.bincount(fem.node_body, work[:nf], minlength=len(fem.contact_work))
         fem.particle_contact_work += float(work[nf:].sum())

@@ -47,11 +47,12 @@ def newton_start(deck: dict, ready=None, step: int | None = None) -> tuple:
     integ = sim.integrator
     solve = integ._newton
 
-    def watch(state, y, yt, free, dt):
+    def watch(state, u, ut, free, dt):
+        y = integ.yn + u  # Newton's unknowns are the displacements from the step's start
         integ._sweep(y)
         if (state.step + 1 == step) if step is not None else ready(integ, y):
             raise Caught(y.copy())
-        return solve(state, y, yt, free, dt)
+        return solve(state, u, ut, free, dt)
 
     integ._newton = watch
     while sim.state.t < sim.end * (1 - 1e-12):
