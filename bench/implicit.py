@@ -11,6 +11,7 @@
     python bench/implicit.py --contact3d    # 3D: an MPM cube dropped on an FEM slab, contact cost per iteration
     python bench/implicit.py --impact3d 1e-1 1e-2 1e-3   # 3D: a 20 m/s cube on a held slab at dt = f x T
     python bench/implicit.py --impact3d 1e-4  # the same at T/10^4, 30,000 steps (make bench-impact3d-fine)
+    python bench/implicit.py --impact3d-window 400  # T/10^4 through the first contact, held and free: momentum
     python bench/implicit.py --impact2d 1e-4  # 2D: the tests' 20 m/s block on a held wall, whole impact
 
 inputs/implicit_blocks_2d.yaml (FEM on FEM) at element size h, and inputs/implicit_rings_2d.yaml
@@ -636,31 +637,42 @@ def inside_tetrahedra(points: np.ndarray, x: np.ndarray, cells: np.ndarray) -> n
     return inside
 
 
+IMPACT3D_SPEED, IMPACT3D_GAP, IMPACT3D_THICK = 20.0, 1e-3, 0.01
+IMPACT3D_T = (IMPACT3D_THICK + IMPACT3D_GAP) / IMPACT3D_SPEED  # the time to cross the slab and the gap
+
+
+def impact3d_deck(f: float, end: float, held: bool = True, lowered: float = 0.0) -> dict:
+    """A 2 cm MPM cube (512 particles, the grid's lattice sites, the lowest 3.75 mm above the
+    slab) at 20 m/s onto a 1 cm FEM slab (150 tetrahedra) held at its bottom (or free), backward
+    Euler, adaptive kappa, dhat = 0.25 mm, dt = f x T, until `end`. `lowered`: the cube and the
+    grid's lattice lowered by that much (the grid's origin moves, its nodes stay 5 mm apart)."""
+    speed, gap, thick, T = IMPACT3D_SPEED, IMPACT3D_GAP, IMPACT3D_THICK, IMPACT3D_T
+    slab = {"name": "slab", "shape": "box", "min": [-0.025, -thick, -0.025], "max": [0.025, 0.0, 0.025],
+            "material": "m", "discretization": "fem", "element_size": 0.01}
+    if held:
+        slab["constraints"] = [{"region": {"min": [-1.0, -thick - 0.001, -1.0], "max": [1.0, -thick + 0.001, 1.0]}}]
+    return {
+        "title": "3D impact", "units": "SI", "analysis": "3d",
+        "grid": {"cell_size": 0.005, "domain": {"min": [-0.03, -0.02 - lowered, -0.03], "max": [0.03, 0.04, 0.03]}},
+        "shape_function": "bspline2", "update": {"scheme": "apic"},
+        "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
+        "bodies": [slab,
+                   {"name": "cube", "shape": "box", "min": [-0.01, gap + 0.00125 - lowered, -0.01],
+                    "max": [0.01, gap + 0.02125 - lowered, 0.01], "material": "m", "velocity": [0.0, -speed, 0.0]}],
+        "integrator": "implicit",
+        "implicit": {"scheme": "backward_euler", "dhat": 2.5e-4, "newton_tolerance": 1e-6},
+        "time": {"end": end, "dt": f * T},
+        "output": {"history_interval": end},
+    }
+
+
 def impact3d_study(fractions: list[float]) -> None:
-    """A 2 cm MPM cube (512 particles) at 20 m/s onto a held FEM slab (1 cm thick, 150
-    tetrahedra), backward Euler, adaptive kappa, time step f x T (T: the time to cross the slab
-    and the gap), over 3 T: the whole impact. Every step: no particle inside a tetrahedron or
+    """impact3d_deck over 3 T: the whole impact. Every step: no particle inside a tetrahedron or
     below the slab, no FEM node inside another tetrahedron, the momentum change equal to the held
     nodes' reaction impulse; the run: Newton iterations per step, kappa, the rebound speed."""
-    speed, gap, thick = 20.0, 1e-3, 0.01
-    T = (thick + gap) / speed
+    speed, thick, T = IMPACT3D_SPEED, IMPACT3D_THICK, IMPACT3D_T
     for f in fractions:
-        d = {
-            "title": "3D impact", "units": "SI", "analysis": "3d",
-            "grid": {"cell_size": 0.005, "domain": {"min": [-0.03, -0.02, -0.03], "max": [0.03, 0.04, 0.03]}},
-            "shape_function": "bspline2", "update": {"scheme": "apic"},
-            "materials": {"m": {"type": "compressible_neo_hookean", "E": 1e6, "nu": 0.3, "density": 1000.0}},
-            "bodies": [
-                {"name": "slab", "shape": "box", "min": [-0.025, -thick, -0.025], "max": [0.025, 0.0, 0.025],
-                 "material": "m", "discretization": "fem", "element_size": 0.01,
-                 "constraints": [{"region": {"min": [-1.0, -thick - 0.001, -1.0], "max": [1.0, -thick + 0.001, 1.0]}}]},
-                {"name": "cube", "shape": "box", "min": [-0.01, gap + 0.00125, -0.01], "max": [0.01, gap + 0.02125, 0.01],
-                 "material": "m", "velocity": [0.0, -speed, 0.0]}],
-            "integrator": "implicit",
-            "implicit": {"scheme": "backward_euler", "dhat": 2.5e-4, "newton_tolerance": 1e-6},
-            "time": {"end": 3.0 * T, "dt": f * T},
-            "output": {"history_interval": 3.0 * T},
-        }
+        d = impact3d_deck(f, 3.0 * T)
         sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=1)
         st = sim.state
         P, fem = st.particles, st.fem
@@ -683,6 +695,36 @@ def impact3d_study(fractions: list[float]) -> None:
               f"particle {low * 1e3:.3f} mm, cube velocity {P.v[:, 1].mean():+.2f} m/s at 3T; momentum balance "
               f"(change - held nodes' reaction impulse) worst step {off / scale:.1e} of the cube's m v0; "
               f"{sim.integrator.report()[0].split('; ')[-1]}", flush=True)
+
+
+def impact3d_window(steps: int) -> None:
+    """impact3d_deck at T/10^4 for `steps` steps from 91 steps before the first contact (the cube
+    and the lattice lowered 3.4 mm), held and free slab: the worst step's momentum balance (held:
+    change minus the reaction impulse; free: the change) and the free run's drift, in units of
+    the cube's m v0, and the cube's velocity after them."""
+    speed, T = IMPACT3D_SPEED, IMPACT3D_T
+    for held in (True, False):
+        d = impact3d_deck(1e-4, steps * 1e-4 * T, held=held, lowered=0.0034)
+        sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(d), ROOT / "inputs" / "bench.yaml")), threads=1)
+        st = sim.state
+        P = st.particles
+        reaction = held_reaction(sim.integrator)
+        scale = float(np.sum(P.mass) * speed)
+        p0 = momentum(st)
+        worst = drift = 0.0
+        first = None
+        t0 = time.perf_counter()
+        while st.t < sim.end * (1 - 1e-9):
+            before = momentum(st)
+            sim.step()
+            change = momentum(st) - before - (st.dt * reaction[0] if held else 0.0)
+            worst = max(worst, float(np.abs(change).max()) / scale)
+            drift = max(drift, float(np.abs(momentum(st) - p0).max()) / scale)
+            if first is None and sim.integrator.barrier_term.in_contact:
+                first = st.step
+        print(f"T/10^4, slab {'held' if held else 'free'}: {st.step} steps ({time.perf_counter() - t0:.1f} s), "
+              f"first contact at step {first}; worst step's momentum balance {worst:.2e} of the cube's m v0"
+              + ("" if held else f", drift {drift:.2e}") + f"; cube velocity {P.v[:, 1].mean():+.4f} m/s", flush=True)
 
 
 def momentum(state) -> np.ndarray:
@@ -737,6 +779,9 @@ def main() -> None:
                     help="the tests' 20 m/s block on a held wall in 2D at dt = F x the crossing time, whole impact")
     ap.add_argument("--impact3d", type=float, nargs="+", metavar="F",
                     help="a 20 m/s cube on a held slab in 3D at dt = F x the crossing time, over the whole impact")
+    ap.add_argument("--impact3d-window", type=int, metavar="STEPS",
+                    help="the 3D impact at T/10^4 over STEPS steps from 91 before the first contact, slab held "
+                         "and free: the momentum balance per step")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default 1 2)")
     ap.add_argument("--cpu", action="store_true",
                     help="time by this process's CPU time, not the wall clock (a shared, busy machine)")
@@ -772,6 +817,9 @@ def main() -> None:
         return
     if args.impact3d:
         impact3d_study(args.impact3d)
+        return
+    if args.impact3d_window:
+        impact3d_window(args.impact3d_window)
         return
     if args.contact3d:
         for threads in args.threads:

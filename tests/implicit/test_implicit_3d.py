@@ -174,10 +174,11 @@ def test_momentum_through_a_contact_at_a_ten_thousandth_of_the_crossing_time():
     slab of 150 tetrahedra, dhat = 0.25 mm) at dt = T/10^4 (T = 0.55 ms, the time to cross the
     slab and the gap), the slab free so that the total momentum is the measure: 120 steps from
     10 steps before the first contact. Every step conserves it to 1e-13 of the cube's m v0
-    and the run to 1e-12 (measured 4.9e-15 per step, 2.5e-14 over 400 steps). Newton's unknowns
-    are the displacements over the step; with positions as unknowns the velocities' last bits
-    were a position's ulp / dt (1.7e-18 m / 5.5e-8 s) and the same steps drifted by 5.4e-13 per
-    step, 4.8e-12 over 400. No particle or FEM node enters a tetrahedron."""
+    and the run to 1e-12 (`python bench/implicit.py --impact3d-window 400`: 4.5e-15 per step,
+    2.8e-14 over 400 steps). Newton's unknowns are the displacements over the step; with the
+    positions as unknowns the velocities' last bits were a position's ulp / dt (1.7e-18 m /
+    5.5e-8 s): 5.2e-13 in a step of this test, 6.4e-13 per step and 5.8e-12 over the bench's
+    400. No particle or FEM node enters a tetrahedron."""
     speed, thick, gap = 20.0, 0.01, 1e-3
     T = (thick + gap) / speed
     slab = {"name": "slab", "shape": "box", "min": [-0.025, -thick, -0.025], "max": [0.025, 0.0, 0.025],
