@@ -48,10 +48,11 @@ def newton_start(deck: dict, ready=None, step: int | None = None) -> tuple:
     solve = integ._newton
 
     def watch(state, u, ut, free, dt):
-        y = integ.yn + u  # Newton's unknowns are the displacements from the step's start
-        integ._sweep(y)
-        if (state.step + 1 == step) if step is not None else ready(integ, y):
-            raise Caught(y.copy())
+        if step is None or state.step + 1 == step:  # (a sweep only where it is looked at)
+            y = integ.yn + u  # Newton's unknowns are the displacements from the step's start
+            integ._sweep(y)
+            if step is not None or ready(integ, y):
+                raise Caught(y.copy())
         return solve(state, u, ut, free, dt)
 
     integ._newton = watch
