@@ -22,6 +22,11 @@ from numba import njit
 from . import linalg
 
 
+def ramped_gravity(full: np.ndarray, ramp: float, t: float) -> np.ndarray:
+    """The deck's gravity at time t under `gravity_ramp` (ramp > 0): full x min(t / ramp, 1)."""
+    return full * min(t / ramp, 1.0)
+
+
 FACE_AXIS = {"xmin": (0, -1), "xmax": (0, 1), "ymin": (1, -1), "ymax": (1, 1), "zmin": (2, -1), "zmax": (2, 1)}
 
 

@@ -800,7 +800,7 @@ class Deck(Strict):
     gravity: Vector | None = Field(default=None, description="Body acceleration vector.")
     gravity_ramp: float = Field(
         default=0.0, ge=0.0, description="Time over which gravity grows linearly from zero, then is held "
-        "(explicit step; 0: all at once). Loading slower than a few wave transits keeps a body resting on another "
+        "(0: all at once). Loading slower than a few wave transits keeps a body resting on another "
         "from ringing under its own weight (docs/timestep.md).")
     loads: list[TractionLoad] = Field(default_factory=list, description="Traction loads on particle edges.")
     damping: Damping | None = Field(default=None, description="Grid damping (static problems).")

@@ -87,9 +87,6 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             add(["implicit", "dhat"], "bodies meet through the barrier: give implicit.dhat")
         if deck.contact.augury is not None:
             add(["contact", "augury"], "augury contact is explicit; implicit integration uses the barrier")
-        if deck.gravity_ramp > 0.0:
-            add(["gravity_ramp"], "a gravity ramp is an explicit-step load; the implicit integrator takes gravity "
-                                  "whole (give gravity_ramp: 0)")
     elif deck.implicit is not None:
         add(["implicit"], "settings for integrator: implicit, but the deck's integrator is explicit")
     if deck.gravity_ramp > 0.0 and not any(deck.gravity or []):

@@ -61,6 +61,7 @@ from ..contact.barrier.stiffness import STALL, initial_stiffness, raised_stiffne
 from ..contact.barrier.surface import SurfaceBarrier, SurfaceFriction
 from ..energy import StepStart
 from ..errors import InstabilityError
+from ..loads import ramped_gravity
 from .base import Integrator
 from .assembly import Assembler
 from .implicit_mpm import GridUnknowns
@@ -104,7 +105,11 @@ class ImplicitStep(Integrator):
         self.mu = scene.contact.friction  # Coulomb friction between materials
         self.dt = run.time.dt
         self.thickness = float(scene.thickness) if scene.dim == 2 else 1.0
-        self.gravity = run.gravity.copy()
+        self.full_gravity, self.gravity_ramp = run.gravity.copy(), run.gravity_ramp
+        # the gravity of the step (the Gravity term holds this array): under a ramp, its value at
+        # the step's end, where the incremental potential takes the forces (at t = 0 for a^0)
+        self.gravity = ramped_gravity(self.full_gravity, self.gravity_ramp, 0.0) if self.gravity_ramp > 0.0 \
+            else self.full_gravity.copy()
         self.timers = {p: 0.0 for p in PARTS}
         self.stats: list[tuple[int, int, int, int]] = []  # per step: Newton iterations, halvings, CCD-limited, lags
         n_fem = len(scene.fem.infos) if scene.fem is not None else 0
@@ -452,6 +457,8 @@ class ImplicitStep(Integrator):
         t_next = state.t + dt
         for nodes, motion in self.motions:  # the rigid motion's velocity at t^{n+1} (its target below)
             fem.held_velocity[nodes] = motion.velocities(fem.X[nodes], t_next)
+        if self.gravity_ramp > 0.0:
+            self.gravity[:] = ramped_gravity(self.full_gravity, self.gravity_ramp, t_next)
         self.c = 2.0 * self.zeta * self.beta * dt * dt
         h2 = self.zeta * (1.0 - 2.0 * self.beta) * dt * dt
         # the unknowns: FEM nodes, then the particles' active grid nodes

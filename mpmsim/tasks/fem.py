@@ -19,7 +19,7 @@ from numba import njit
 
 from ..fem import elements
 from ..fem.explicit import accelerations
-from .setup import ramped_gravity
+from ..loads import ramped_gravity
 from .task import Task
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..loads import ramped_gravity
+
 
 def cfl_rule(fixed_dt: float | None, cfl: float, h_min: float):
     """The explicit step's stable dt: the deck's fixed dt, or cfl h_min / max(c + |v|) on the
@@ -32,11 +34,6 @@ def prescribed_motion(motions: list):
             R.v_end[:] = [m.velocity(state.t + state.dt) for m in motions]
 
     return time_step
-
-
-def ramped_gravity(full: np.ndarray, ramp: float, t: float) -> np.ndarray:
-    """The deck's gravity at time t under `gravity_ramp`: full x min(t / ramp, 1)."""
-    return full * min(t / ramp, 1.0)
 
 
 def gravity_ramp(gravity: np.ndarray, ramp: float):

@@ -1,7 +1,9 @@
 """`gravity_ramp`: gravity grows linearly from zero over the ramp time, then is held (the
-explicit step's task "gravity ramp"). A free body's velocity is the ramp's integral exactly,
-g t^2 / (2 T) while it grows and g (t - T/2) after, for particles (the step takes the ramp's
-value at its middle) and FEM nodes (velocity Verlet takes it at the step's ends)."""
+explicit step's task "gravity ramp"; the implicit step's gravity term). A free body's velocity
+is the ramp's integral exactly, g t^2 / (2 T) while it grows and g (t - T/2) after, for
+particles (the step takes the ramp's value at its middle), FEM nodes (velocity Verlet takes it
+at the step's ends) and the implicit midpoint Newmark (the trapezoid of the step's ends); the
+implicit backward Euler step takes the step-end value, v = sum dt g(t_k)."""
 
 from __future__ import annotations
 
@@ -46,12 +48,33 @@ def test_a_free_body_follows_the_ramps_integral(kind):
     assert worst < 1e-12
 
 
+@pytest.mark.parametrize("scheme", ["backward_euler", "newmark"])
+def test_an_implicit_free_body_takes_the_ramp_at_the_step_end(scheme):
+    """An FEM block, implicit, no contact: every node at every step to 1e-12 of backward Euler's
+    sum dt g(t_k) over the steps k = 1..n (the gravity term at the step's end) or, with midpoint
+    Newmark, of the ramp's integral (measured 9.6e-14 and 4.7e-13). Gravity taken whole from
+    the start would miss both by 0.09 m/s at 0.01 s."""
+    deck = free_fall("fem")
+    deck.update(integrator="implicit", implicit={"scheme": scheme})
+    sim = Simulation.from_deck(deck)
+    st = sim.state
+    worst = 0.0
+    total = 0.0  # backward Euler: sum of dt g(t_k)
+    while st.t < 0.1 * (1 - 1e-9):
+        sim.step()
+        t = st.t
+        total += -10.0 * 1e-3 * min(t / RAMP, 1.0)
+        exact = total if scheme == "backward_euler" else \
+            -10.0 * (t * t / (2 * RAMP) if t <= RAMP * (1 + 1e-12) else t - RAMP / 2)
+        worst = max(worst, float(np.abs(st.fem.v[:, 1] - exact).max()))
+    assert st.step == 100
+    assert worst < 1e-12
+
+
 @pytest.mark.parametrize("edit,words", [
     ({"gravity_ramp": -1.0}, "gravity_ramp: input should be greater than or equal to 0"),
     ({"gravity": None}, "gravity_ramp: a gravity ramp needs gravity"),
-    ({"integrator": "implicit", "time": {"end": 0.1, "dt": 1e-3}},
-     "gravity_ramp: a gravity ramp is an explicit-step load"),
-], ids=["negative", "no gravity", "implicit"])
+], ids=["negative", "no gravity"])
 def test_a_bad_ramp_is_one_line_naming_the_key(tmp_path, edit, words):
     import yaml
 
