@@ -177,19 +177,15 @@ def test_momentum_through_a_contact_at_a_ten_thousandth_of_the_crossing_time():
     and the run to 1e-12 (`python bench/implicit.py --impact3d-window 400`: 4.5e-15 per step,
     2.8e-14 over 400 steps). Newton's unknowns are the displacements over the step; with the
     positions as unknowns the velocities' last bits were a position's ulp / dt (1.7e-18 m /
-    5.5e-8 s): 5.2e-13 in a step of this test, 6.4e-13 per step and 5.8e-12 over the bench's
+    5.5e-8 s): 5.3e-13 in a step of this test, 6.4e-13 per step and 5.8e-12 over the bench's
     400. No particle or FEM node enters a tetrahedron."""
-    speed, thick, gap = 20.0, 0.01, 1e-3
-    T = (thick + gap) / speed
-    slab = {"name": "slab", "shape": "box", "min": [-0.025, -thick, -0.025], "max": [0.025, 0.0, 0.025],
-            "material": "m", "discretization": "fem", "element_size": 0.01}
-    # the cube's lowest particles (a lattice site of the grid) 0.261 mm above the slab: 10 steps
-    # of 1.1 um to dhat
-    cube = {"name": "cube", "shape": "box", "min": [-0.01, -0.00115, -0.01], "max": [0.01, 0.01885, 0.01],
-            "material": "m", "velocity": [0.0, -speed, 0.0]}
-    d = impact_deck("3D impact", [slab, cube], ([-0.03, -0.020989, -0.03], [0.03, 0.04, 0.03]), 0.005,
-                    1e-4 * T, 120 * 1e-4 * T)
-    d["implicit"]["dhat"] = 2.5e-4
+    from tests.implicit.test_implicit_mpm import bench_implicit
+
+    bench = bench_implicit()
+    speed, T = bench.IMPACT3D_SPEED, bench.IMPACT3D_T
+    # the bench's deck, the cube and the grid lowered so that its lowest particles (3.75 mm up in
+    # the deck) start 0.261 mm above the slab: 10 steps of 1.1 um to dhat
+    d = bench.impact3d_deck(1e-4, 120 * 1e-4 * T, held=False, lowered=0.003489)
     sim = simulation(d)
     st = sim.state
     P, f = st.particles, st.fem
