@@ -33,7 +33,7 @@ from numba import cuda, float64, uint64
 
 from ..contact.grid import fields as cf
 from ..contact.grid.geometry import Regression
-from ..contact.grid.passes import (MAX_SLOTS, PASS_1, PASS_3, PASS_3_RECHECK, NodeScratch, Pass2Settings,
+from ..contact.grid.passes import (MAX_SLOTS, PASS_1, NodeScratch, Pass2Settings, advance_rule, pass_3_mode,
                                    exchange_node as _exchange_node, pair_changes as _pair_changes,
                                    pass_2_node_of, settle_pairs as _settle_pairs)
 from ..contact.grid.plan import GeometryInputs, node_planner
@@ -224,14 +224,14 @@ def exchange_kernel(groups: int):
     device function that returns them.)"""
 
     @cuda.jit
-    def kernel(mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, dp1):
+    def kernel(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, dp1):
         c = cuda.grid(1)
         if c >= nodes.n_cn:
             return
         w = NodeScratch(cuda.local.array((groups, 3), float64), cuda.local.array((groups, 3), float64),
-                        cuda.local.array(groups, np.bool_), cuda.local.array(3, float64),
+                        cuda.local.array(groups, float64), cuda.local.array(3, float64),
                         cuda.local.array(3, float64), cuda.local.array(3, float64), cuda.local.array(3, float64))
-        exchange_node(c, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, w, dp1)
+        exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, dp1)
 
     return kernel
 
@@ -248,7 +248,7 @@ def pass_2_kernel(groups: int):
         if c >= nodes.n_cn:
             return
         w = NodeScratch(cuda.local.array((groups, 3), float64), cuda.local.array((groups, 3), float64),
-                        cuda.local.array(groups, np.bool_), cuda.local.array(3, float64),
+                        cuda.local.array(groups, float64), cuda.local.array(3, float64),
                         cuda.local.array(3, float64), cuda.local.array(3, float64), cuda.local.array(3, float64))
         node_pass(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, w, reaction, 0)
 
@@ -296,7 +296,8 @@ class DeviceContact:
         self.touch = float(self.method.touch)
         self.sep_velocity = spec.separation == SEP_VELOCITY
         self.recheck = bool(spec.recheck)
-        self.advance = not (spec.recheck and int(self.method.separation) == SEP_LR)
+        self.advance = advance_rule(spec, int(self.method.separation) == SEP_LR)
+        self.pass_3_mode = pass_3_mode(spec)
         upd = scene.settings.update
         self.pass_1_counts = upd.scheme in ("pic", "apic")  # (xpic and fmpm are not on the GPU)
         self.plan_kernel = geometry_kernel(int(self.method.normal), int(self.method.separation))
@@ -313,6 +314,7 @@ class DeviceContact:
         d["group"] = to(np.ascontiguousarray(cs.group))
         d["mask"] = cuda.device_array(nn, dtype=np.uint64)
         d["node_cn"] = to(np.full(nn, -1, dtype=np.int64))
+        d["contact_step"] = to(np.ascontiguousarray(cs.contact_step))
         d["fidx"] = to(np.ascontiguousarray(cs.fidx))
         d["all_nodes"] = to(np.arange(nn, dtype=np.int64))
         n_chunks = (nn + CHUNK - 1) // CHUNK
@@ -378,7 +380,8 @@ class DeviceContact:
 
     def decisions(self) -> Decisions:
         d = self.d
-        return Decisions(*(d[k] for k in ("stick2", "applied2", "delta2", "contact2", "stick_total", "applied_total")))
+        return Decisions(*(d[k] for k in ("stick2", "applied2", "delta2", "contact2", "stick_total", "applied_total",
+                                          "contact_step")))
 
     def sums(self) -> SlotSums:
         d = self.d
@@ -458,8 +461,8 @@ class DeviceContact:
     def _exchange(self, mode: int) -> None:
         d, sd = self.d, self.step.d
         if self.n_cn:
-            self.exchange_kernel[blocks(self.n_cn)](mode, self.nodes(), sd["gmass"], sd["gmom"], self.targets(), d["contact2"],
-                                             self.sep_velocity, self.touch, d["dp1"])
+            self.exchange_kernel[blocks(self.n_cn)](mode, self.nodes(), sd["gmass"], sd["gmom"], self.targets(),
+                                                    self.decisions(), self.sep_velocity, self.touch, d["dp1"])
 
     def pass_1(self, state) -> None:
         d, sd = self.d, self.step.d
@@ -476,7 +479,7 @@ class DeviceContact:
             copy_rows[blocks(ns)](vnew_slots, d["before"], ns)
             held = RigidHold(sd["grigid_vol"], sd["constrain"], sd["rv_end"])
             settings = Pass2Settings(self.sep_velocity, self.advance, int(self.spec.interface_integration), self.touch,
-                                     float(state.dt))
+                                     float(state.dt), int(state.step))
             self.pass_2_kernel[blocks(self.n_cn)](self.nodes(), step.grid_view, held, d["rigid_of_group"], sd["gmass"],
                                            sd["gvnew"], sd["gacc"], self.targets(), self.decisions(), settings,
                                            d["reaction"])
@@ -487,7 +490,7 @@ class DeviceContact:
     def pass_3(self, state) -> None:
         if self.recheck:
             self.geometry(state)
-        self._exchange(PASS_3_RECHECK if self.recheck else PASS_3)
+        self._exchange(self.pass_3_mode)
         self.step.sync()
 
     def finish(self, state) -> None:

@@ -208,9 +208,9 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
         centre[: len(c.normal_center)] = c.normal_center
     return ContactSpec(n_groups, n_def, np.array(groups, dtype=np.int64), rigid_group, rigid_of_group, law, mu, mus,
                        stiff, NORMAL_CODES[c.normal], SEPARATION_CODES[sep], nv, c.rigid_bias, c.cutoff,
-                       c.touch_tolerance, c.fit_exponent, c.passes, c.pass_3 == "recheck", c.xpic_contact_term,
+                       c.touch_tolerance, c.fit_exponent, c.passes, c.pass_3 != "keep", c.xpic_contact_term,
                        c.warm_start, c.cloud_weights == "shape_function", names, centre, c.normal_center is not None,
                        INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
                        c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface",
                        sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)),
-                       deck.output.contact_traction)
+                       deck.output.contact_traction, c.pass_3 == "persist")

@@ -132,8 +132,9 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     if upd.stress in ("usl", "usavg") and upd.reextrapolate:
         tasks.append(Task("re-extrapolate", reextrapolate, "momenta from the updated particles (usl+/usavg+)"))
         if contact is not None:
-            how = ("geometry recomputed from the moved particles, contact re-tested" if ct.recheck
-                   else "pass 2's decisions kept")
+            how = ("pass 2's decisions kept" if not ct.recheck
+                   else "geometry recomputed, pass 2's contacts kept unless separating, new ones tested"
+                   if ct.spec.persist else "geometry recomputed from the moved particles, contact re-tested")
             tasks.append(Task("contact pass 3", ct.pass_3, f"contact laws on the re-extrapolated momenta ({how})"))
     if upd.stress in ("usl", "usavg"):
         source = "re-extrapolated momenta" if upd.reextrapolate else "updated grid velocities"

@@ -39,6 +39,7 @@ VARIANTS = [
     ("two_blocks/once", "two_blocks", {"contact.passes": 1}),
     ("two_blocks/shape-weights", "two_blocks", {"contact.cloud_weights": "shape_function"}),
     ("two_blocks/recheck", "two_blocks", {"contact.pass_3": "recheck"}),
+    ("two_blocks/keep", "two_blocks", {"contact.pass_3": "keep"}),
     ("two_blocks/stick", "two_blocks", {"contact.default": {"law": "stick"}}),
     ("two_blocks/frictionless", "two_blocks", {"contact.default": {"law": "frictionless"}}),
     ("two_blocks/xpic3", "two_blocks", {"update": {"scheme": "xpic", "order": 3, "stress": "usavg"}}),

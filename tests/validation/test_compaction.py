@@ -179,7 +179,8 @@ def test_ellipse_box_volumes_stay_within_the_box_and_energy_balances():
     stops it at 71% of the stroke, with the piston a rigid contact material 1.09: docs/contact.md).
     Energy: piston work = kinetic + strain energy + transfer, contact, condition and force-gap
     losses within 2% at every history time (measured: residual at most 0.20% of the work;
-    without the losses 7.9% is missing at the end). Contact removes 22% of the work; the
+    without the losses 4.4% is missing at the end, more than twice the 2%: with `pass_3: keep`
+    7.9%). Contact removes 22% of the work; the
     internal forces drive grid velocity that the re-extrapolated stress update does not see
     (force gap -158%), which the transfers take out again (+144%): docs/validation.md,
     "Energy ledger"."""
@@ -189,7 +190,7 @@ def test_ellipse_box_volumes_stay_within_the_box_and_energy_balances():
     assert ratios[-1] > 0.95, ratios[-1]
     end = assert_energy_balances(history)
     unbalanced = end["external_work"] - end["kinetic_energy"] - end["strain_energy"]
-    assert unbalanced > 0.05, unbalanced  # the losses are needed: without them 7% is missing
+    assert unbalanced > 0.04, unbalanced  # the losses are needed: without them 4.4% is missing
     assert 0.1 < end["contact_loss"] < 0.4, end["contact_loss"]
     assert end["transfer_loss"] > 1.0 and end["force_gap_loss"] < -1.0, end
     assert abs(end["condition_loss"]) < 0.02, end["condition_loss"]

@@ -16,7 +16,7 @@ from ...views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras, touch_contact_nodes)
-from .passes import (NO_BEFORE, PASS_1, PASS_3, PASS_3_RECHECK, Pass2Settings, Pass2Sums, contact_pass_2,
+from .passes import (NO_BEFORE, PASS_1, Pass2Settings, Pass2Sums, advance_rule, contact_pass_2, pass_3_mode,
                      law_kernels, pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
 from .spec import SEP_LR, SEP_VELOCITY
@@ -123,9 +123,8 @@ class ContactTasks:
         self.touch = self.method.touch
         self.sep_velocity = spec.separation == SEP_VELOCITY
         self.recheck = spec.recheck
-        # pass 2 advances separations to the end of the step, except point-cloud ones under
-        # recheck (the reference code's passes)
-        self.advance = not (spec.recheck and int(self.method.separation) == SEP_LR)
+        self.advance = advance_rule(spec, int(self.method.separation) == SEP_LR)
+        self.pass_3_mode = pass_3_mode(spec)
         self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
         self.pass_2_kernel = contact_pass_2(bool(spec.has_interface), spec.plugin_laws)
 
@@ -143,7 +142,7 @@ class ContactTasks:
         """The laws on the extrapolated momenta (part of the extrapolation)."""
         cs, f, nn = state.contact, state.fields, state.grid.n_nodes
         exchange = law_kernels(self.spec.plugin_laws).exchange_pass
-        exchange(PASS_1, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.contact2, self.sep_velocity, self.touch,
+        exchange(PASS_1, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.decisions(), self.sep_velocity, self.touch,
                  state.nchunk, cs.dp1)
         if cs.n_con:
             ns = cs.n_slots
@@ -162,7 +161,7 @@ class ContactTasks:
         nn, ns = g.n_nodes, cs.n_slots
         before = f.vnew[nn:nn + ns].copy()
         settings = Pass2Settings(self.sep_velocity, self.advance, self.spec.interface_integration, self.touch,
-                                 state.dt)
+                                 state.dt, state.step)
         self.pass_2_kernel(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
                            cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
@@ -179,11 +178,13 @@ class ContactTasks:
 
     def pass_3(self, state) -> None:
         """Pass 2's decisions enforced on the re-extrapolated momenta (keep), or the laws where
-        the moved particles' surfaces touch and approach (recheck: the geometry recomputed)."""
+        the moved particles' surfaces touch and approach (recheck: the geometry recomputed), or
+        pass 2's contacts kept unless they separate and new ones where the surfaces touch and
+        approach (persist: the geometry recomputed)."""
         cs, f, nn = state.contact, state.fields, state.grid.n_nodes
         if self.recheck:
             self.geometry(state)
         exchange = law_kernels(self.spec.plugin_laws).exchange_pass
-        exchange(PASS_3_RECHECK if self.recheck else PASS_3, cs.nodes(nn), f.mass, f.mom, cs.targets(),
-                 cs.contact2, self.sep_velocity, self.touch, state.nchunk, cs.dp1)
+        exchange(self.pass_3_mode, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.decisions(), self.sep_velocity,
+                 self.touch, state.nchunk, cs.dp1)
         point_bond(cs.bonds(), nn, f.mass, f.mom, True, _NO_ACC, 0.0, cs.normal, state.dim)

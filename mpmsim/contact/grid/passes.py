@@ -50,7 +50,33 @@ from .spec import INTERFACE
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
 NO_BEFORE = np.zeros((0, 3))  # pair_changes: the change itself is given
-PASS_1, PASS_3, PASS_3_RECHECK = 1, 3, 4
+PASS_1, PASS_3, PASS_3_RECHECK, PASS_3_PERSIST = 1, 3, 4, 5
+# pass 2's separation advanced to the end of the step: nowhere, everywhere, or at grid nodes where
+# pass 2 made contact in the previous step (`pass_3: persist`)
+ADVANCE_NONE, ADVANCE_ALL, ADVANCE_HELD = 0, 1, 2
+# `pass_3: persist` releases a pass-2 contact in pass 3 where the re-extrapolated momenta
+# separate the surfaces by more than this fraction of pass 2's normal impulse there: above a
+# compressed interface's ringing (99% below 2.4e-4, 99.9% below 0.011 on the XPIC(5) column);
+# held at 0.3 or more, ellipses compressed in a box overlap (sum J V0 1.008 of the box); released
+# from 0.03, a sphere striking a block obliquely gains energy (+0.68% at R/h = 5; 0.1: +0.33%).
+# docs/contact.md, "One default for impacts and compression".
+RELEASE = 0.1
+
+
+def advance_rule(spec, lr_separation: bool) -> int:
+    """Where pass 2 advances separations to the end of the step: everywhere, except point-cloud
+    ones under recheck (the reference code's passes: nowhere) and persist (where contact persists)."""
+    if not (spec.recheck and lr_separation):
+        return ADVANCE_ALL
+    return ADVANCE_HELD if spec.persist else ADVANCE_NONE
+
+
+def pass_3_mode(spec) -> int:
+    """exchange_pass's mode for `contact.pass_3`."""
+    if not spec.recheck:
+        return PASS_3
+    return PASS_3_PERSIST if spec.persist else PASS_3_RECHECK
+
 
 # The kernels take bundles (contact.workspace, views); their parallel loops work on arrays
 # bound to locals, and the small helpers called per slot take arrays (docs/architecture.md,
@@ -136,10 +162,11 @@ def share_change(a, b, rigid_b, value, d, dpb, s0):
 
 @njit(cache=True, inline="always")
 def exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu, slot_mus,
-                     bonded, touching, need_approach, dim, pbuf, dpb, imp, out, n):
+                     bonded, limit, dim, pbuf, dpb, imp, out, n):
     """The laws at one contact node on the momenta `mom`; the change of each slot in dpb.
-    touching[a - s0]: target a's surfaces touch. A touching target is in contact if it
-    approaches (need_approach) or whatever its normal velocity (a decision already made)."""
+    Target a is in contact where its stick impulse's normal part is below limit[a - s0]: 0 where
+    the surfaces touch and contact needs them to approach, -inf where they do not touch, +inf
+    for a decision already made (whatever the normal velocity)."""
     for s in range(s0, s1):
         for d in range(dim):
             pbuf[s - s0, d] = mom[nn + s, d]
@@ -149,7 +176,7 @@ def exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, ge
             continue
         b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp)
         dotn = _dot(imp, n, dim)
-        in_contact = touching[a - s0] and (dotn < 0.0 or not need_approach)
+        in_contact = dotn < limit[a - s0]
         if apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, in_contact, dim, out):
             for d in range(dim):
                 share_change(a, b, rigid_b, out[d], d, dpb, s0)
@@ -160,7 +187,7 @@ class NodeScratch(NamedTuple):
 
     pbuf: np.ndarray  # (MAX_SLOTS, 3) the slots' momenta
     dpb: np.ndarray  # (MAX_SLOTS, 3) their changes
-    touching: np.ndarray  # (MAX_SLOTS,) bool
+    limit: np.ndarray  # (MAX_SLOTS,) contact below this normal stick impulse (exchange_momenta)
     imp: np.ndarray  # (3,) stick impulse
     out: np.ndarray  # (3,) applied impulse
     n: np.ndarray  # (3,) normal
@@ -169,43 +196,50 @@ class NodeScratch(NamedTuple):
 
 @njit(cache=True)
 def node_scratch():
-    return NodeScratch(np.zeros((MAX_SLOTS, 3)), np.zeros((MAX_SLOTS, 3)), np.zeros(MAX_SLOTS, dtype=np.bool_),
+    return NodeScratch(np.zeros((MAX_SLOTS, 3)), np.zeros((MAX_SLOTS, 3)), np.zeros(MAX_SLOTS),
                        np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
 
 
 @chunk_kernel
-def exchange_pass(mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, nchunk, dp1):
+def exchange_pass(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, nchunk, dp1):
     """Pass 1 (mode PASS_1): the laws on the extrapolated momenta where the surfaces touch
     (separation below `touch`, a length; always for velocity-only detection) and approach;
     the change is kept in dp1. Pass 3 (mode PASS_3): where pass 2 made contact (contact2),
     whatever the normal velocity. Pass 3 rechecked (PASS_3_RECHECK, after the geometry was
     recomputed from the moved particles): where the surfaces touch and approach, as pass 1.
-    Only deformable slots change."""
+    Pass 3 persisting (PASS_3_PERSIST, geometry recomputed): where pass 2 made contact unless
+    the surfaces separate by more than RELEASE of pass 2's normal impulse (dec.applied2), and
+    elsewhere where they touch and approach. Only deformable slots change."""
     n_cn = nodes.n_cn
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
         w = node_scratch()
         for c in range(start, stop):
-            exchange_node(c, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, w, dp1)
+            exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, dp1)
 
 
 @njit(cache=True, error_model="numpy")
-def exchange_node(c, mode, nodes, mass, mom, geo, contact2, sep_velocity, touch, w, dp1):
+def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, dp1):
     """exchange_pass at contact node c (w: NodeScratch). Also the GPU step's, a thread per
     contact node. (A function call, not inlined, as pass_2_node: inlined into a parallel loop,
     writes into arrays of a bundle passed into the loop can be lost.)"""
     dim = mom.shape[1]
     cn_ptr, slot_group, n_def, nn = nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
-    touching, dpb = w.touching, w.dpb
+    limit, dpb, contact2 = w.limit, w.dpb, dec.contact2
     s0 = cn_ptr[c]
     s1 = cn_ptr[c + 1]
     for a in range(s0, s1):
         if mode == PASS_3:
-            touching[a - s0] = contact2[a] != 0
+            limit[a - s0] = np.inf if contact2[a] != 0 else -np.inf  # pass 2's decision
+        elif mode == PASS_3_PERSIST and contact2[a] != 0:
+            n2 = 0.0  # pass 2's normal impulse, along the recomputed normal
+            for d in range(dim):
+                n2 += dec.applied2[a, d] * geo.normal[a, d]
+            limit[a - s0] = RELEASE * abs(n2)
         else:
-            touching[a - s0] = sep_velocity or geo.delta[a] < touch
+            limit[a - s0] = 0.0 if sep_velocity or geo.delta[a] < touch else -np.inf  # touching and approaching
     exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, geo.role, geo.partner, geo.normal, geo.law, geo.mu,
-                     geo.mus, geo.bonded, touching, mode != PASS_3, dim, w.pbuf, dpb, w.imp, w.out, w.n)
+                     geo.mus, geo.bonded, limit, dim, w.pbuf, dpb, w.imp, w.out, w.n)
     for s in range(s0, s1):
         if slot_group[s] >= n_def:
             continue
@@ -226,10 +260,11 @@ class Pass2Sums(NamedTuple):
 
 class Pass2Settings(NamedTuple):
     sep_velocity: bool  # velocity-only detection
-    advance: bool  # advance the separation to the end of the step
+    advance: int  # where the separation is advanced to the end of the step (ADVANCE_*)
     integration: int  # interface integrator code
     touch: float  # touching length
     dt: float
+    step: int  # the step's number (dec.contact_step: where contact persists)
 
 
 HAS_INTERFACE = True  # a constant of pass_2_node, bound by pass_2_node_of (never compiled with this value)
@@ -239,7 +274,8 @@ PASS_2_NODE = None  # pass_2_kernel's per-node function, bound by contact_pass_2
 def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, w, reaction, row):
     """Contact on the updated momenta p+ = m v+ at contact node c; the change goes into v+
     and a = f/m. Each target's stick impulse, applied impulse and end-of-step separation are
-    kept for XPIC. Interfaces add their force here (and only here, notes §4.2). held: the
+    kept for XPIC, and the node stamped with the step where contact acts (dec.contact_step).
+    Interfaces add their force here (and only here, notes §4.2). held: the
     velocity conditions at the step's end (rigid contact slots move at that velocity). The
     force on rigid contact materials is added to reaction[row]; returns (their work on the
     material, interfacial energy at the end of the step). w: NodeScratch. Also the GPU
@@ -248,7 +284,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
     cn_nodes, cn_ptr, slot_group, n_def, nn = nodes.cn_nodes, nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
     shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
     rigid_vol, constrain, rig_vel = held
-    sep_velocity, advance, integration, touch, dt = settings
+    sep_velocity, advance, integration, touch, dt, step = settings
     pbuf, dpb, imp, out, n, df = w.pbuf, w.dpb, w.imp, w.out, w.n, w.df
     work = 0.0
     energy = 0.0
@@ -256,6 +292,8 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
     s1 = cn_ptr[c + 1]
     node = cn_nodes[c]
     i, j, k = node_ijk(node, shape)
+    advance_here = advance == ADVANCE_ALL or (advance == ADVANCE_HELD and dec.contact_step[node] == step - 1)
+    touched = False
     for s in range(s0, s1):
         g = slot_group[s]
         for d in range(dim):
@@ -265,6 +303,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
             dpb[s - s0, d] = 0.0
     for a in range(s0, s1):
         if geo.role[a] == 0:
+            dec.contact2[a] = 0  # (a recheck may make it a target in pass 3)
             continue
         b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, geo.partner, geo.normal, pbuf, dim, n,
                                         imp)
@@ -281,7 +320,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
             # the step must count as contact, or the free update drives the surfaces through
             # each other, docs/contact.md), and it drives the interface force.
             relative_force(a, b, rigid_b, s0, s1, slot_group, n_def, nn, mass, acc, dim, df)
-            if advance:
+            if advance_here:
                 dfn = 0.0
                 for d in range(dim):
                     dfn += df[d] * n[d]
@@ -304,6 +343,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
                 dec.applied2[a, d] = df[d]
         dec.contact2[a] = 1 if applied else 0
         if applied:
+            touched = True
             for d in range(dim):
                 owner, vbc = node_bc(node, i, j, k, d, dim, face_type, wall_index, rigid_vol, constrain, rig_vel)
                 if owner != NO_BC:
@@ -313,6 +353,8 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
                     r = rigid_of_group[slot_group[b]]
                     reaction[row, r, d] += out[d] / dt
                     work += out[d] * rig_vel[r, d]  # the rigid body's work on the material
+    if touched:
+        dec.contact_step[node] = step
     add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
                      rig_vel, mass, dpb, vnew, acc, dt, dim)
     return work, energy
@@ -390,7 +432,7 @@ def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, to
     shape, _, _, face_type, wall_index = grid
     rigid_vol, constrain, rig_vel = held
     role, partner, geo_n, _, _, _, bonded, slot_law, slot_mu, slot_mus, _, _ = geo
-    _, _, delta2, _, stick_total, applied_total = dec
+    delta2, stick_total, applied_total = dec.delta2, dec.stick_total, dec.applied_total
     nn = shape[0] * shape[1] * shape[2]
     pbuf = np.zeros((MAX_SLOTS, 3))
     dpb = np.zeros((MAX_SLOTS, 3))

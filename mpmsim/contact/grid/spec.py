@@ -91,7 +91,7 @@ class ContactSpec:
     touch: float  # touching tolerance, cells
     fit_exponent: float
     passes: int
-    recheck: bool  # pass 3 recomputes the geometry and re-tests contact (the reference code's passes)
+    recheck: bool  # pass 3 recomputes the geometry and re-tests contact (recheck and persist)
     xpic_term: bool
     warm_start: bool
     shape_weights: bool  # point-cloud regression weights: shape function at the node (else 1)
@@ -107,6 +107,8 @@ class ContactSpec:
     separation_name: str  # the separation method's deck name
     plugin_laws: tuple = ()  # codes of laws registered outside mpmsim that the law table uses
     traction: bool = False  # record each slot's contact force for the traction output (output.contact_traction)
+    persist: bool = False  # pass_3: persist (pass 2 advances where contact persists; pass 3 keeps its contacts
+    # unless they separate)
 
     @property
     def normal_name(self) -> str:

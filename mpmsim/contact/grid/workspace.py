@@ -10,6 +10,8 @@ import numpy as np
 
 from .spec import ContactSpec
 
+NEVER = -2  # contact_step of a node where pass 2 has not made contact (steps count from 0)
+
 
 class ContactNodes(NamedTuple):
     """This step's contact nodes: node c has slots cn_ptr[c]:cn_ptr[c+1], one per group there
@@ -83,7 +85,9 @@ class Targets(NamedTuple):
 
 class Decisions(NamedTuple):
     """Pass 2's outcome per target, for the XPIC increments: stick and applied impulses,
-    end-of-step separation, contact flag; and the running totals of the increments."""
+    end-of-step separation, contact flag; and the running totals of the increments. Per grid
+    node: the last step pass 2 made contact there (`pass_3: persist` advances the separation
+    only where contact persists)."""
 
     stick2: np.ndarray
     applied2: np.ndarray
@@ -91,6 +95,7 @@ class Decisions(NamedTuple):
     contact2: np.ndarray
     stick_total: np.ndarray
     applied_total: np.ndarray
+    contact_step: np.ndarray
 
 
 class Bonds(NamedTuple):
@@ -127,6 +132,7 @@ class ContactWorkspace:
     pair_force: np.ndarray = None
     pair_impulse: np.ndarray = None
     slot_force: np.ndarray = None  # (cap, dim) the step's contact force on each slot (spec.traction only)
+    contact_step: np.ndarray = None  # (n_nodes,) the last step pass 2 made contact at each grid node
 
     def ensure(self, n_cn: int, n_slots: int, dim: int) -> None:
         """Grow the per-contact-node and per-slot arrays (doubling) to hold this step."""
@@ -176,6 +182,7 @@ class ContactWorkspace:
         cs.cloud_ptr, cs.cloud_idx, cs.cloud_w = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
         G = spec.n_def_groups
         cs.pair_step, cs.pair_force, cs.pair_impulse = (np.zeros((G, G, dim)) for _ in range(3))
+        cs.contact_step = np.full(n_nodes, NEVER, dtype=np.int64)
         cs.ensure(1, 1, dim)
         return cs
 
@@ -197,7 +204,8 @@ class ContactWorkspace:
                        self.mu, self.mus, self.stiff, self.level)
 
     def decisions(self) -> Decisions:
-        return Decisions(self.stick2, self.applied2, self.delta2, self.contact2, self.stick_total, self.applied_total)
+        return Decisions(self.stick2, self.applied2, self.delta2, self.contact2, self.stick_total, self.applied_total,
+                         self.contact_step)
 
     def bonds(self) -> Bonds:
         return Bonds(self.n_con, self.con_ptr, self.ent_a, self.ent_b, self.ent_w)
@@ -217,6 +225,6 @@ def no_contact(dim: int) -> NoContact:
     i1, f1, f2, f3 = np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros((1, dim)), np.zeros((1, 3))
     nodes = ContactNodes(0, i1, i1, i1, 0, 0)
     geo = Targets(i1, i1, f2, f1, f1, f2, i1, i1, f1, f1, f3, f1)
-    dec = Decisions(f2, f2, f1, i1, f2, f2)
+    dec = Decisions(f2, f2, f1, i1, f2, f2, i1)
     return NoContact(nodes, geo, dec, Bonds(0, i1, i1, i1, f1), SlotMap(np.full(1, -1, dtype=np.int64), i1, i1,
                                                                          np.zeros(1, dtype=np.uint64), 0))
