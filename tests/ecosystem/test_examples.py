@@ -31,9 +31,10 @@ def test_parameter_loop(tmp_path):
     assert (table.disk_particles == 314).all()
     assert table.steps[1] / table.steps[0] == pytest.approx(2**0.5, rel=0.01)
     assert table.steps[2] / table.steps[1] == pytest.approx(2.0, rel=0.01)
-    # measured: 0.936, 0.903, 0.841 (the 1e7 block is the tutorial's: 0.90; on the lattice, 316
-    # particles: 0.914, 0.898, 0.821)
+    # measured: 0.924, 0.896, 0.838 with the contact defaults (the 1e7 block is the tutorial's:
+    # 0.90; with `pass_3: keep` 0.936, 0.903, 0.841; on the lattice, 316 particles and keep:
+    # 0.914, 0.898, 0.821)
     assert table.restitution.is_monotonic_decreasing
-    assert table.restitution[1] == pytest.approx(0.903, abs=0.005)
+    assert table.restitution[1] == pytest.approx(0.896, abs=0.005)
     assert ((table.restitution > 0.75) & (table.restitution < 0.95)).all()
     assert (tmp_path / "restitution.png").stat().st_size > 10_000

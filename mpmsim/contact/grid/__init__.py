@@ -170,6 +170,8 @@ class ContactTasks:
             counted = self.pass_1_counts and self.spec.passes == 2
             record_slot_forces(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, cs.dp1, counted, state.dt,
                                cs.slot_force)
+            cs.traction_targets = (cs.role[:ns].copy(), cs.partner[:ns].copy(), cs.normal[:ns].copy(),
+                                   cs.area[:ns].copy())
         settle_pairs(cs.pair_step, cs.pair_force, cs.pair_impulse, state.dt)
         state.interface_energy = float(sums.energy.sum())  # instantaneous total at the end of the step
         if state.n_rigid_materials:

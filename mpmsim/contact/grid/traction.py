@@ -115,11 +115,13 @@ def node_tractions(cs, shape: np.ndarray | None = None) -> NodeTractions:
     targets of the same pair along the grid axis nearest the normal, summed, over their areas
     summed (`normal_lines`); without it, its own f / A_c."""
     ns = cs.n_slots
-    slots = np.flatnonzero(cs.role[:ns] != 0)
+    role, partner, normal, area = cs.traction_targets or (cs.role[:ns], cs.partner[:ns], cs.normal[:ns],
+                                                          cs.area[:ns])  # pass 2's targets
+    slots = np.flatnonzero(role != 0)
     force = cs.slot_force[slots]
-    normal = cs.normal[slots]
-    area = cs.area[slots]
-    partner = cs.partner[slots]
+    normal = normal[slots]
+    area = area[slots]
+    partner = partner[slots]
     pgroup = np.where(partner >= 0, cs.slot_group[np.maximum(partner, 0)], -1)
     group = cs.slot_group[slots]
     node = cs.slot_node[slots]
@@ -152,7 +154,7 @@ def slot_shares(cs, nt: NodeTractions) -> tuple[np.ndarray, np.ndarray, np.ndarr
     f[nt.slot] = nt.force
     fn[nt.slot] = -np.sum(nt.force * nt.normal, axis=1)
     area[nt.slot] = nt.area
-    partner = cs.partner[nt.slot]
+    partner = cs.traction_targets[1][nt.slot] if cs.traction_targets else cs.partner[nt.slot]
     two = (partner >= 0) & (cs.slot_group[np.maximum(partner, 0)] < cs.spec.n_def_groups)
     other = partner[two]
     f[other] = cs.slot_force[other]

@@ -133,6 +133,9 @@ class ContactWorkspace:
     pair_impulse: np.ndarray = None
     slot_force: np.ndarray = None  # (cap, dim) the step's contact force on each slot (spec.traction only)
     contact_step: np.ndarray = None  # (n_nodes,) the last step pass 2 made contact at each grid node
+    # the targets pass 2 acted on (role, partner, normal, area of its slots; spec.traction only): a
+    # pass 3 that recomputes the geometry (recheck, persist) must not change what the output reads
+    traction_targets: tuple = None
 
     def ensure(self, n_cn: int, n_slots: int, dim: int) -> None:
         """Grow the per-contact-node and per-slot arrays (doubling) to hold this step."""
