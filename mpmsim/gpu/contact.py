@@ -493,6 +493,11 @@ class DeviceContact:
         self._exchange(self.pass_3_mode)
         self.step.sync()
 
+    def to_host(self, state) -> None:
+        """The contact state a later step reads (each node's last contact step: `persist`) to the
+        host, so a checkpoint holds it."""
+        self.d["contact_step"].copy_to_host(state.contact.contact_step)
+
     def finish(self, state) -> None:
         """The pair forces and impulses to the host (history columns, checkpoints)."""
         cs, d = state.contact, self.d

@@ -172,6 +172,8 @@ class DeviceStep:
             d[name].copy_to_host(getattr(P, name))
         if P.affine:  # the positions the APIC affine terms refer to: the step's start
             d["xref"].copy_to_host(P.xref)
+        if self.contact is not None:
+            self.contact.to_host(state)
         self.host_stale = False
 
     # ------------------------------------------------------------------ the tasks

@@ -168,6 +168,8 @@ def compare(d: dict, steps: int = STEPS, scatter: str = "atomic") -> dict:
         cs = cpu.state.contact
         out["contact_nodes"] = int(cs.n_cn)
         out["contact_force"] = float(np.abs(cs.pair_force).max())
+        gpu.integrator.to_host(gpu.state)  # each node's last contact step (a checkpoint's)
+        out["contact_step"] = bool(np.array_equal(cs.contact_step, gpu.state.contact.contact_step))
     return out
 
 

@@ -47,6 +47,8 @@ def test_device_step_matches_cpu(compared, case):
     for quantity in ("x", "v", "stress", "F", "history", "energy"):
         assert r[quantity] <= TOL, (quantity, r[quantity])
     assert r["history_columns"] and r["timers"]  # same history columns, same task names and timers
+    if "contact_nodes" in r:  # contact acted, and each node's last contact step (persist) reaches the host
+        assert r["contact_nodes"] > 0 and r["contact_force"] > 0.0 and r["contact_step"]
 
 
 def test_files_and_checkpoint_restart_on_cpu(tmp_path):
