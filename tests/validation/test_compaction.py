@@ -125,7 +125,7 @@ def test_filled_box_follows_confined_compression(shape, scheme, request):
     ("flip", {"normal": "specified", "normal_vector": [0.0, 1.0]}),  # the computed normal tilts in the corners
     # pass 1 with XPIC's contact term: 1.8% and 0.98% (docs/stability.md). Shape-function cloud
     # weights: with the paper's uniform ones the normals tilt more in the corners and a block
-    # particle is pushed through the piston at 58% compression (with rigid_bias 10 at 25%)
+    # particle is pushed through the piston at 64% compression (keep: 58%; keep with rigid_bias 10: 25%)
     ("xpic", {"passes": 1, "cloud_weights": "shape_function"}),
 ])
 def test_filled_box_against_a_rigid_contact_piston(scheme, contact):
