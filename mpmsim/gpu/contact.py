@@ -288,11 +288,12 @@ class DeviceContact:
         if self.groups > MAX_SLOTS:  # pragma: no cover - the deck refuses more groups
             raise ValueError("more than 64 contact groups")
         h_min = float(scene.grid.h.min())
-        from ..contact.grid import screen_volume
+        from ..contact.grid import mirror_planes, screen_volume
         from ..shapes import shape_function
 
         spline = shape_function(scene.settings.shape_function).grid_kind >= 2
-        self.method = spec.method(h_min, spline, screen_volume(spec, scene.grid, scene.thickness))
+        self.method = spec.method(h_min, spline, screen_volume(spec, scene.grid, scene.thickness),
+                                  mirror_planes(scene.grid, False))
         self.touch = float(self.method.touch)
         self.sep_velocity = spec.separation == SEP_VELOCITY
         self.recheck = bool(spec.recheck)
@@ -326,7 +327,8 @@ class DeviceContact:
         d["x0"] = to(np.ascontiguousarray(state.particles.x0)) if self.spec.needs_displacement else sd["x"]
         spec, M = self.spec, self.method
         d["laws"] = PairLaws(*(to(np.ascontiguousarray(a)) for a in spec.laws()))
-        d["method"] = M._replace(normal_vec=to(np.ascontiguousarray(M.normal_vec)), centre=to(np.ascontiguousarray(M.centre)))
+        d["method"] = M._replace(normal_vec=to(np.ascontiguousarray(M.normal_vec)), centre=to(np.ascontiguousarray(M.centre)),
+                                 mirror=to(np.ascontiguousarray(M.mirror)))
         d["rigid_of_group"] = to(np.ascontiguousarray(spec.rigid_of_group))
         d["no_before"] = to(np.zeros((0, dim)))
         d["reaction"] = to(np.zeros((1, 1, dim)))

@@ -177,9 +177,9 @@ def test_hertz_cylinder_at_r_over_h_20(tmp_path):
 def test_plainly_written_half_cylinder_reads_hertz(tmp_path, rh):
     """A half cylinder clipped at its symmetry line, written with no seeding key, on a rigid
     flat (bench/hertz.py --half --seeding auto): the default seeds it to its surface
-    (rings_half_step). Measured, R/h = 20 / 40: contact traction half-width +0.95% / -2.6% (fit),
-    +0.42% / -1.8% (moment), centre -5.6% / -0.5%; the bottom row's -sigma_yy half-width -0.45% /
-    -3.0%, centre -0.18% / +1.4%. On the lattice the centre reads -30% (traction) and -28% (row)
+    (rings_half_step). Measured, R/h = 20 / 40: contact traction half-width +1.06% / -3.0% (fit),
+    +0.63% / -1.9% (moment), centre -5.1% / -1.2%; the bottom row's -sigma_yy half-width -0.47% /
+    -2.4%, centre +0.25% / -2.1%. On the lattice the centre reads -30% (traction) and -28% (row)
     at R/h = 20, and no ellipse fits."""
     r = hertz.run_case(rh, out=tmp_path, seeding="auto", half=True, threads=1)["result"]
     assert abs(r["load_error"]) < 0.01

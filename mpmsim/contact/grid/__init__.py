@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...scene.grid import ROLLER
 from ...views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
@@ -106,6 +107,22 @@ def screen_volume(spec, grid, thickness: float) -> float:
     return frac * cell
 
 
+def mirror_planes(grid, axisymmetric: bool) -> np.ndarray:
+    """(2, 3): each axis's lower and upper mirror plane, on and beyond which the contact normal
+    has no component across it (-inf / +inf: none). A roller face is one: a symmetry plane, or a
+    frictionless wall, which mirrors the scene the same way; so is the axisymmetric axis r = 0.
+    A node there sees a one-sided point cloud (or gradient), whose normal tilts across the
+    plane, and the face's condition then removes the part of the exchange along the tilt."""
+    mirror = np.array([[-np.inf] * 3, [np.inf] * 3])
+    for f in range(2 * grid.dim):
+        if grid.face_type[f] == ROLLER:
+            a, side = divmod(f, 2)
+            mirror[side, a] = grid.origin[a] + grid.wall_index[f] * grid.h[a]
+    if axisymmetric:
+        mirror[0, 0] = max(mirror[0, 0], 0.0)
+    return mirror
+
+
 class ContactTasks:
     """The contact tasks of one scene, with the scene's settings bound."""
 
@@ -118,7 +135,8 @@ class ContactTasks:
         self.spec = spec
         self.pass_1_counts = pass_1_moves_particles
         h_min = float(grid.h.min())
-        self.method = spec.method(h_min, spline, screen_volume(spec, grid, thickness), axisymmetric)
+        self.method = spec.method(h_min, spline, screen_volume(spec, grid, thickness), mirror_planes(grid, axisymmetric),
+                                  axisymmetric)
         self.laws = spec.laws()
         self.touch = self.method.touch
         self.sep_velocity = spec.separation == SEP_VELOCITY

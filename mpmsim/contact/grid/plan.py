@@ -364,6 +364,33 @@ def interface_setup(a, b, rigid_b, s0, s1, ga, gb, delta, area, inp, geo, dim, v
 NORMAL, SEPARATION, INTERFACES = -1, -1, True
 
 
+@njit(cache=True, inline="always")
+def mirror_normal(xnode, mirror, dim, n):
+    """On (and beyond) a mirror plane (a roller face: a symmetry plane or a frictionless wall;
+    the axisymmetric axis) the normal has no component across it, by symmetry: drop that
+    component and renormalise (one component left: exactly +-1). False if nothing is left."""
+    cut = False
+    for d in range(dim):
+        if xnode[d] <= mirror[0, d] or xnode[d] >= mirror[1, d]:
+            n[d] = 0.0
+            cut = True
+    if not cut:
+        return True
+    big = 0.0
+    for d in range(dim):
+        big = max(big, abs(n[d]))
+    if not (big > 0.0):
+        return False
+    s = 0.0
+    for d in range(dim):
+        n[d] /= big  # (first to order one: a tiny remaining component would underflow when squared)
+        s += n[d] * n[d]
+    s = np.sqrt(s)
+    for d in range(dim):
+        n[d] /= s
+    return True
+
+
 def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
     """Law, normal, separation, area, level (and interface openings) of target a at a node
     at xnode; v holds four scratch vectors. Drops the target (role 0) where it cannot be
@@ -389,12 +416,9 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
         specified_normal(ga, gb, rigid_b, xnode, method, dim, n)
     else:
         gradient_normal(a, b, s0, s1, rigid_b, omega_a, omega_b, inp, dim, va, vb, n)
-    if method.axisymmetric and xnode[0] <= 0.0:  # on the axis the normal has no r component
-        n[0] = 0.0
-        if n[1] == 0.0:
-            geo.role[a] = 0
-            return
-        n[1] = 1.0 if n[1] > 0.0 else -1.0
+    if not mirror_normal(xnode, method.mirror, dim, n):
+        geo.role[a] = 0
+        return
     hp = h_perp(n, inp.grid.h, dim) if method.use_h_perp else inp.grid.h[0]
     d_edge = 0.0
     use_edge = False

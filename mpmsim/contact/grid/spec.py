@@ -69,7 +69,9 @@ class Method(NamedTuple):
     screen: float  # edge-screening volume (0: off)
     touch: float  # touching tolerance, a length
     h_min: float  # smallest cell edge
-    axisymmetric: bool = False  # x = r: areas per radian (x r_i), no radial normal on the axis
+    axisymmetric: bool  # x = r: areas per radian (x r_i)
+    mirror: np.ndarray  # (2, 3) each axis's lower and upper mirror plane (roller faces, the axisymmetric
+    # axis; -inf / +inf: none): on and beyond one, the normal has no component across it
 
 
 @dataclass
@@ -121,12 +123,13 @@ class ContactSpec:
     def laws(self) -> PairLaws:
         return PairLaws(self.law, self.mu, self.mu_static, self.stiffness)
 
-    def method(self, h_min: float, spline: bool, screen: float, axisymmetric: bool = False) -> Method:
-        """The kernels' parameters for a grid of smallest cell edge h_min."""
+    def method(self, h_min: float, spline: bool, screen: float, mirror: np.ndarray,
+               axisymmetric: bool = False) -> Method:
+        """The kernels' parameters for a grid of smallest cell edge h_min; mirror: see Method."""
         return Method(self.normal, self.separation, self.normal_vector, self.radial, self.normal_center,
                       self.rigid_bias, self.cutoff, self.fit_exponent, spline, self.warm_start,
                       self.interface_integration, self.area_correction, self.use_h_perp, screen, self.touch * h_min,
-                      h_min, axisymmetric)
+                      h_min, axisymmetric, mirror)
 
     def wants(self) -> Wants:
         return Wants(self.needs_displacement, self.needs_position, self.needs_gradients, self.has_interface,
