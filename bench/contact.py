@@ -6,6 +6,7 @@
     python bench/contact.py ellipses   # Fig. 6 at full size: LR, DF, CP to 75% compression
     python bench/contact.py chart      # redraw both charts from the saved results
     python bench/contact.py ledger     # cost of output.energy_ledger on the 1/20 mm ellipse box
+    python bench/contact.py pass3      # cost of pass 3's geometry: persist (default) against keep
 
 Accuracy: the two-block column (inputs/two_blocks.yaml) against one block (inputs/column.yaml),
 max |MM - SMM| / SMM of the mean axial stress from 0.2% strain on; writes
@@ -307,14 +308,59 @@ def ledger_cost(steps: int) -> None:
             print(f"| {threads} | {'on' if on else 'off'} | {rate:.3f} | {100 * share:.1f}% |", flush=True)
 
 
+def pass_3_cost(rounds: int, steps: int = 100) -> None:
+    """The cost of `pass_3: persist` (pass 3 computes the contact geometry again) against `keep`:
+    bench/two_blocks.yaml (16,000 particles, LR), both runs built in one process and stepped
+    alternately (`steps` timed steps per round, after 60 warm ones; the order flips each round),
+    on 1 and 2 threads; the median seconds per step of each, particle-steps/s and the ratio."""
+    import statistics
+
+    import numba
+
+    from machine import describe  # (bench/machine.py: run as python bench/contact.py)
+
+    from mpmsim.deck import load_deck_text
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    path = ROOT / "bench" / "two_blocks.yaml"
+    print("| threads | keep (M particle-steps/s) | persist | persist / keep (time per step) |")
+    print("|---|---|---|---|")
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        sims = {}
+        for mode in ("keep", "persist"):
+            data = yaml.safe_load(path.read_text())
+            data["contact"]["pass_3"] = mode
+            data["output"] = {"vtu_interval": 1e9, "history_interval": 1e9}
+            sims[mode] = Simulation(build_scene(load_deck_text(yaml.safe_dump(data), path)), out_dir=None,
+                                    threads=threads)
+            for _ in range(60):
+                sims[mode].step()
+        times = {"keep": [], "persist": []}
+        for r in range(rounds):
+            for mode in ("keep", "persist") if r % 2 == 0 else ("persist", "keep"):
+                t0 = time.perf_counter()
+                for _ in range(steps):
+                    sims[mode].step()
+                times[mode].append((time.perf_counter() - t0) / steps)
+        med = {m: statistics.median(t) for m, t in times.items()}
+        n = sims["keep"].state.particles.n
+        print(f"| {threads} | {n / med['keep'] / 1e6:.3f} | {n / med['persist'] / 1e6:.3f} | "
+              f"{med['persist'] / med['keep']:.3f} |", flush=True)
+    print(describe())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["accuracy", "cost", "all", "ellipses", "chart", "ledger"])
+    ap.add_argument("what", choices=["accuracy", "cost", "all", "ellipses", "chart", "ledger", "pass3"])
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--steps", type=int, default=200, help="timed steps on the 1 mm column")
     args = ap.parse_args()
     if args.what == "ledger":
         return ledger_cost(1000)
+    if args.what == "pass3":
+        return pass_3_cost(10)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     RESULTS.mkdir(parents=True, exist_ok=True)
     curves = costs = None
