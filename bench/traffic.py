@@ -56,6 +56,7 @@ from mpmsim.materials import NEO_HOOKEAN  # noqa: E402
 from mpmsim.parallel import specialize  # noqa: E402
 from mpmsim.scene import build_scene  # noqa: E402
 from mpmsim.solver import Simulation  # noqa: E402
+from mpmsim.stability import total_sums  # noqa: E402
 from mpmsim.tasks.boundary import has_walls  # noqa: E402
 from mpmsim.tasks.extrapolate import p2g_momentum  # noqa: E402
 from mpmsim.tasks.forces import p2g_forces  # noqa: E402
@@ -764,6 +765,7 @@ def big_report(steps: int, rounds: int, bw_mem: float) -> None:
         n = sims[1].state.particles.n
         for th, sim in sims.items():  # load (or compile) both kernel forms
             numba.set_num_threads(th)
+            total_sums(sim.state)  # (the energy check's kernel)
             sim.step()
         cli_rate(deck, folder / "warm", 1)
         rows: dict[str, list[tuple[float, float]]] = {}

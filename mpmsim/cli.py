@@ -392,10 +392,13 @@ def compile(
     decks: list[Path] = typer.Argument(None, help="Decks whose kernels to compile."),
     all_decks: bool = typer.Option(False, "--all", help="Every deck in the inputs/ folder next to the package."),
 ) -> None:
-    """Fill numba's kernel cache ahead of runs: build each deck's scene and take one step (no
-    output), so a later `mpmsim run` starts at once."""
+    """Fill numba's kernel cache ahead of runs: build each deck's scene and start its run as
+    `mpmsim run` does (the energy sums, the first history row and VTU frame, the first step) in
+    a temporary folder, so a later `mpmsim run` compiles nothing."""
+    import tempfile
+
     from .parallel import auto_threads
-    from .solver import Simulation
+    from .solver import Simulation, StopRequested
 
     paths = list(decks or [])
     if all_decks:
@@ -409,8 +412,14 @@ def compile(
         scene = _load_scene(path)
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
         threads, _ = auto_threads(cores, len(scene.deformable.x))  # the kernels a default run uses
-        with _deck_errors():
-            Simulation(scene, out_dir=None, threads=threads).first_step()  # a helper compiles part (compile_ahead)
+        def after_first() -> None:
+            raise StopRequested()
+
+        with _deck_errors(), tempfile.TemporaryDirectory(prefix="mpmsim-compile-") as tmp:
+            sim = Simulation(scene, out_dir=Path(tmp), threads=threads)  # its output kernels too
+            sim.compile_helper = True
+            with contextlib.suppress(StopRequested):
+                sim.run(between_steps=after_first)  # the first step: a helper compiles part (compile_ahead)
         out.print(f"{path}: kernels ready ({time.perf_counter() - t0:.1f} s)", highlight=False)
 
 

@@ -248,14 +248,25 @@ class Simulation:
         self._begin_step()
         self._finish_step()
 
-    def first_step(self, helper: bool = True) -> dict:
+    def first_step(self, helper: bool = True, before: Callable[[], None] | None = None) -> dict:
         """step(), with a helper process compiling part of the kernels the cache lacks where it
-        can (mpmsim/compile_ahead.py; helper=False: this process alone). Returns its report."""
-        self._begin_step()
+        can (mpmsim/compile_ahead.py; helper=False: this process alone). `before()`: what a new
+        run does first with the state at its start (the energy sums, the first history row and
+        frame), run inside the same window so that its kernels compile beside the helper's; it
+        sees the state as it was before the step began (its dt too). Returns the report."""
         st = self.state
-        parts = [*self.integrator.dry_parts(st), lambda: self.check(st)]
+        dt0 = st.dt
+        self._begin_step()
+        step, parts = self._finish_step, [*self.integrator.dry_parts(st), lambda: self.check(st)]
+        if before is not None:
+            def step() -> None:
+                dt, st.dt = st.dt, dt0
+                before()
+                st.dt = dt
+                self._finish_step()
+            parts.insert(0, lambda: total_sums(st, detail=True))  # (the helper runs no output)
         on_cpu = getattr(self.integrator, "device", None) is None
-        return compile_ahead.first_step(self._finish_step, parts, enabled=helper and on_cpu)
+        return compile_ahead.first_step(step, parts, enabled=helper and on_cpu)
 
     def _begin_step(self) -> None:
         """The step's time step and flags, the kernels' form."""
@@ -364,19 +375,24 @@ class Simulation:
         eps = 1e-9 * end
         start = wallclock.perf_counter()
         timed_from = None
-        if self.schedule is None:  # a new run (a restored one continues its schedule)
+
+        def open_run() -> None:  # a new run (a restored one continues its schedule)
             if st.step == 0:  # the energy balance starts from the state as the caller left it
                 sums = total_sums(st)
                 st.energy0 = float(sums[KINETIC]) if sums is not None else 0.0
             self._record()
             self._write_frame()
             self.schedule = Schedule(st.t + vtu_dt, st.t + hist_dt, st.t + self.checkpoint_every, st.t, st.t)
+
+        if self.schedule is None and not st.t < end - eps:
+            open_run()
         sc = self.schedule
         saved_at = wallclock.perf_counter()
         try:
             while st.t < end - eps:
-                if timed_from is None:
-                    self.compile_report = self.first_step(helper=self.compile_helper)
+                if timed_from is None:  # (a new run's start inside it: its kernels compile beside the helper's)
+                    self.compile_report = self.first_step(self.compile_helper, open_run if sc is None else None)
+                    sc = self.schedule
                 else:
                     self.step()
                 if timed_from is None:

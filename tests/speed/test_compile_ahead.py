@@ -186,3 +186,59 @@ def test_a_scene_first_step_with_the_helper_equals_step(deck):
         for name in names:
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     assert helped.state.t == plain.state.t and helped.state.step == plain.state.step == 1
+
+
+# The kernels (name, signature) a process has ready after `mpmsim compile DECK`, or after
+# running DECK for 12 steps with its output (past the first energy check, every 10 steps):
+# loaded from the cache or compiled, whichever; so the comparison does not depend on the cache.
+USED = '''
+import json, sys, tempfile
+from pathlib import Path
+import numba
+from numba.core.registry import CPUDispatcher
+what, deck = sys.argv[1], sys.argv[2]
+if what == "compile":
+    from mpmsim.cli import app
+    try:
+        app(["compile", deck], standalone_mode=False)
+    except SystemExit as exc:
+        assert not exc.code, exc.code
+else:
+    from mpmsim.cli import _load_scene
+    from mpmsim.parallel import auto_threads
+    from mpmsim.solver import Simulation, StopRequested
+    scene = _load_scene(Path(deck))
+    threads, _ = auto_threads(2, len(scene.deformable.x))
+    with tempfile.TemporaryDirectory() as tmp:
+        sim = Simulation(scene, out_dir=Path(tmp), threads=threads)
+        def stop():
+            if sim.state.step >= 12:
+                raise StopRequested()
+        try:
+            sim.run(between_steps=stop)
+        except StopRequested:
+            pass
+import gc
+ready = sorted({f"{d.py_func.__module__}.{d.py_func.__qualname__} {sig}"
+                for d in gc.get_objects() if isinstance(d, CPUDispatcher) for sig in d.overloads})
+print(json.dumps(ready))
+'''
+
+
+@pytest.mark.parametrize("deck", ["two_blocks", "disks"])
+def test_mpmsim_compile_readies_every_kernel_a_run_calls(deck):
+    """`mpmsim compile DECK` starts the run as `mpmsim run` does (energy sums, first history row
+    and frame, first step), so a run afterwards compiles nothing: every kernel a 12-step run with
+    its output calls, compile had ready (the energy check, the history and the VTU frame
+    included)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPMSIM_COMPILE_HELPER": "0", "NUMBA_NUM_THREADS": "2"}
+    path = str(ROOT / "inputs" / f"{deck}.yaml")
+    ready = {}
+    for what in ("compile", "run"):
+        run = subprocess.run([sys.executable, "-c", USED, what, path], capture_output=True, text=True,
+                             timeout=900, env=env)
+        assert run.returncode == 0, run.stderr[-3000:]
+        ready[what] = set(json.loads(run.stdout.strip().splitlines()[-1]))
+    assert ready["run"], "the run called no kernel"
+    missing = sorted(ready["run"] - ready["compile"])
+    assert not missing, f"a run after mpmsim compile still compiles: {missing}"
