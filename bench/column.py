@@ -1,5 +1,7 @@
 """Benchmark: particle-steps per second on the standard column problem, per task, after a line
-naming the machine (bench/machine.py: CPU model, numba's target CPU and its vector features).
+naming the machine (bench/machine.py: CPU model, numba's target CPU and its vector features),
+with the step's bytes per particle-step and their share of a memory triad timed in the same run
+(bench/traffic.py's accounting).
 
 The LR paper's 40 x 100 mm neo-Hookean column, 1 mm cells, 4 particles per cell (16 000
 particles), uGIMP, one material, rigid platen at 0.05% of the wave speed; a fixed number
@@ -57,12 +59,29 @@ def steps_wall(sim: Simulation, steps: int, warmup: int) -> float:
     return time.perf_counter() - t0
 
 
-def measure(deck: Path, steps: int, threads: int, warmup: int = 5, shape=None, update=None):
+def measure(deck: Path, steps: int, threads: int, warmup: int = 5, shape=None, update=None, keep: list | None = None):
     numba.set_num_threads(threads)
     sim = Simulation(build_scene(load(deck, shape, update)), out_dir=None, threads=threads)
     wall = steps_wall(sim, steps, warmup)
     n = sim.state.particles.n
+    if keep is not None:
+        keep.append(sim)
     return n * steps / wall, dict(sim.timers), n
+
+
+def traffic_line(sim, rate: float) -> str:
+    """The step's bytes per particle-step (bench/traffic.py's accounting of what each task
+    streams; grid gathers and scatters apart), the bandwidth that makes at `rate`, and its share
+    of a memory triad (a[i] = b[i] + s c[i] over 3 x 128 MiB) timed now."""
+    from traffic import TRAFFIC, task_bytes, triad_gbs  # (bench/traffic.py; imported here: it imports this file)
+
+    tasks = [t for t in sim.integrator.timers if t in TRAFFIC]
+    streamed = sum(task_bytes(sim, t)[0] for t in tasks)
+    gathered = sum(task_bytes(sim, t)[1] for t in tasks)
+    triad = triad_gbs(1 << 24, 7)
+    gbs = streamed * rate / 1e9
+    return (f"  traffic: {streamed:.0f} B streamed + {gathered:.0f} B gathered/scattered per particle-step; "
+            f"{gbs:.2f} GB/s = {100 * gbs / triad:.0f}% of the memory triad ({triad:.1f} GB/s, timed now)")
 
 
 def main() -> None:
@@ -84,10 +103,12 @@ def main() -> None:
         if th > numba.config.NUMBA_NUM_THREADS:
             print(f"skipping {th} threads: this machine allows {numba.config.NUMBA_NUM_THREADS}")
             continue
-        rate, timers, n = measure(args.deck, args.steps, th)
+        kept: list = []
+        rate, timers, n = measure(args.deck, args.steps, th, keep=kept)
         ref = reference.get(th)
         vs = f"  (C++ reference {ref / 1e6:.2f} M: x{rate / ref:.2f})" if ref else ""
         print(f"\n{th} thread(s): {n} particles x {args.steps} steps: {rate / 1e6:.3f} M particle-steps/s{vs}")
+        print(traffic_line(kept[0], rate))
         total = sum(timers.values())
         for name, sec in timers.items():
             if name == "output":
