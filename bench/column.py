@@ -75,9 +75,9 @@ def traffic_line(sim, rate: float) -> str:
     of a memory triad (a[i] = b[i] + s c[i] over 3 x 128 MiB) timed now."""
     from traffic import TRAFFIC, task_bytes, triad_gbs  # (bench/traffic.py; imported here: it imports this file)
 
-    tasks = [t for t in sim.integrator.timers if t in TRAFFIC]
-    streamed = sum(task_bytes(sim, t)[0] for t in tasks)
-    gathered = sum(task_bytes(sim, t)[1] for t in tasks)
+    per_task = [task_bytes(sim, t) for t in sim.integrator.timers if t in TRAFFIC]
+    streamed = sum(b[0] for b in per_task)
+    gathered = sum(b[1] for b in per_task)
     triad = triad_gbs(1 << 24, 7)
     gbs = streamed * rate / 1e9
     return (f"  traffic: {streamed:.0f} B streamed + {gathered:.0f} B gathered/scattered per particle-step; "
