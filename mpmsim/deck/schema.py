@@ -325,8 +325,13 @@ class BodyBase(Strict):
     )
     z_range: list[float] | None = Field(
         default=None,
-        description="3D only, 2D shapes: extrude the shape between z_range[0] and z_range[1].",
+        description="3D only, 2D shapes: extrude the shape between z_range[0] and z_range[1] (along "
+        "`extrude_axis`, z unless it says otherwise).",
     )
+    extrude_axis: Literal["x", "y", "z"] = Field(
+        default="z", description="3D particle bodies of a 2D shape: the axis the shape is extruded along, "
+        "over z_range. The shape's two coordinates are the other two axes in their order: (x, y) for z, "
+        "(x, z) for y (a disc lying flat, its axis vertical), (y, z) for x.")
     clip: Domain | None = Field(
         default=None, description="Keep only the part of the shape inside this box (symmetry models: "
         "an eighth of a sphere).")

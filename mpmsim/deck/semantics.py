@@ -221,6 +221,9 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
                 add(path + ["z_range"], f"a '{shape}' in a 3d deck needs z_range: [z0, z1] to extrude it")
             elif body.z_range is not None and (len(body.z_range) != 2 or body.z_range[1] <= body.z_range[0]):
                 add(path + ["z_range"], "z_range must be [z0, z1] with z1 > z0")
+        if body.extrude_axis != "z" and (dim != 3 or shape not in SHAPES_2D or body.discretization != "particles"):
+            add(path + ["extrude_axis"], "extrude_axis turns a 2D shape of a 3d deck's particle body (not a mesh, "
+                "not an FEM body); leave it out here")
         if shape == "mesh":
             if not (base_dir / body.file).is_file():
                 add(path + ["file"], f"mesh file not found: {base_dir / body.file}")

@@ -1,7 +1,8 @@
 """Shape membership tests and bounding boxes, vectorised over points.
 
 `inside(body, points)` answers for an (n, dim) array of particle centres; 2D shapes (and 2D
-meshes) in a 3D deck are extruded along z over `z_range`. Mesh files: scene/meshbody.py.
+meshes) in a 3D deck are extruded over `z_range` along `extrude_axis` (z unless it says otherwise;
+the shape's coordinates are then the other two axes in their order). Mesh files: scene/meshbody.py.
 """
 
 from __future__ import annotations
@@ -16,6 +17,12 @@ from .meshbody import mesh_region
 
 def _extruded(body) -> bool:
     return (body.shape in SHAPES_2D or body.shape == "mesh") and body.z_range is not None
+
+
+def _extrusion_order(body) -> list[int]:
+    """The scene's axes in the order (shape's first, shape's second, extrusion axis)."""
+    axis = "xyz".index(getattr(body, "extrude_axis", "z"))
+    return [a for a in range(3) if a != axis] + [axis]
 
 
 def bbox(body, base_dir, dim: int) -> tuple[np.ndarray, np.ndarray]:
@@ -51,14 +58,18 @@ def bbox(body, base_dir, dim: int) -> tuple[np.ndarray, np.ndarray]:
     else:  # pragma: no cover - the schema admits no other shape
         raise ValueError(s)
     if _extruded(body):
-        lo = np.append(lo, body.z_range[0])
-        hi = np.append(hi, body.z_range[1])
+        order = _extrusion_order(body)
+        lo3, hi3 = np.empty(3), np.empty(3)
+        lo3[order], hi3[order] = np.append(lo, body.z_range[0]), np.append(hi, body.z_range[1])
+        lo, hi = lo3, hi3
     return lo, hi
 
 
 def inside(body, points: np.ndarray, base_dir) -> np.ndarray:
     """Boolean mask of points inside the body (for images: inside a mapped pixel)."""
     s = body.shape
+    if _extruded(body):  # the shape's two axes first, the extrusion axis last
+        points = points[:, _extrusion_order(body)]
     xy = points[:, :2]
     if s in ("rectangle", "box"):
         lo, hi = np.array(body.min), np.array(body.max)
@@ -98,5 +109,7 @@ def inside(body, points: np.ndarray, base_dir) -> np.ndarray:
 def body_materials(body, points: np.ndarray, base_dir) -> np.ndarray:
     """Index into the body's material list per point (images map pixels; others are 0)."""
     if isinstance(body, Image):
+        if _extruded(body):
+            points = points[:, _extrusion_order(body)]
         return image_classes(body, points[:, :2], base_dir)
     return np.zeros(len(points), dtype=np.int64)

@@ -40,6 +40,8 @@ CASES = [
     ("unknown shape", [("shape: rectangle", "shape: rectangel")], "bodies.0", 9, "rectangle"),
     ("undefined material", [("material: block}", "material: stone}")], "bodies.0.material", 9, "no material named 'stone'"),
     ("vector length", [("min: [0, 0], max: [4, 4]", "min: [0, 0, 0], max: [4, 4, 4]")], "bodies.0.min", 9, "2 components"),
+    ("extrude_axis in 2D", [("max: [4, 4], material: block}", "max: [4, 4], material: block, extrude_axis: y}")],
+     "bodies.0.extrude_axis", 9, "3d deck's particle body"),
     ("3D shape in 2D", [("shape: rectangle, min: [0, 0], max: [4, 4]", "shape: sphere, center: [0, 0, 0], radius: 1")],
      "bodies.0.shape", 9, "3D shape"),
     ("axisymmetric with CPDI", [("units: mm-g-ms", "units: mm-g-ms\nanalysis: axisymmetric\nshape_function: cpdi")], "shape_function", 4,

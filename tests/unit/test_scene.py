@@ -83,6 +83,30 @@ def test_3d_extruded_and_solid_shapes():
     assert np.sum(P.mat == 1) * vol == pytest.approx(4 / 3 * np.pi * 27, rel=0.03)
 
 
+@pytest.mark.parametrize("axis,order", [("x", [1, 2, 0]), ("y", [0, 2, 1]), ("z", [0, 1, 2])])
+def test_extrude_axis_lays_the_shape_across_the_other_two_axes(axis, order):
+    """A rectangle [2, 6] x [1, 4] extruded over [3, 8] along `axis` fills exactly the box whose
+    extent along the other two axes (in their order) is the rectangle's and along `axis` the range:
+    its particles' bounds are the box's, half a spacing in, and their count its volume."""
+    body = {"shape": "rectangle", "min": [2, 1], "max": [6, 4], "z_range": [3, 8], "extrude_axis": axis,
+            "material": "a"}
+    x = build_scene(deck_from(_deck([body], analysis="3d", grid={"cell_size": 0.5}))).deformable.x
+    lo, hi = np.empty(3), np.empty(3)
+    lo[order], hi[order] = [2, 1, 3], [6, 4, 8]
+    assert np.allclose(x.min(axis=0), lo + 0.125) and np.allclose(x.max(axis=0), hi - 0.125)
+    assert len(x) * 0.25**3 == pytest.approx(4 * 3 * 5, rel=1e-12)
+
+
+def test_a_disc_extruded_along_y_is_round_in_x_z():
+    """A circle of radius 4 about (x, z) = (5, 6), extruded along y over [0, 2]: every particle within
+    the radius in x-z, y inside the range, the volume pi r^2 t to the lattice's staircase."""
+    body = {"shape": "circle", "center": [5, 6], "radius": 4, "z_range": [0, 2], "extrude_axis": "y",
+            "material": "a"}
+    x = build_scene(deck_from(_deck([body], analysis="3d", grid={"cell_size": 0.5}))).deformable.x
+    assert np.all(np.hypot(x[:, 0] - 5, x[:, 2] - 6) <= 4) and np.all((x[:, 1] > 0) & (x[:, 1] < 2))
+    assert len(x) * 0.25**3 == pytest.approx(np.pi * 16 * 2, rel=0.03)
+
+
 def test_grid_is_sized_from_the_scene():
     bodies = [{"shape": "rectangle", "min": [0, 0], "max": [10, 20], "material": "a"},
               {"shape": "rectangle", "min": [0, 20], "max": [10, 21], "material": "p"}]
