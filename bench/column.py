@@ -5,10 +5,13 @@ with the step's bytes per particle-step and their share of a memory triad timed 
 
 The LR paper's 40 x 100 mm neo-Hookean column, 1 mm cells, 4 particles per cell (16 000
 particles), uGIMP, one material, rigid platen at 0.05% of the wave speed; a fixed number
-of steps with 1 and 2 threads. Reference for scale: a C++ code does 0.82 M particle-steps/s
-on 1 thread and 1.5 M on 2 threads on this problem.
+of steps with 1 and 2 threads. A ratio to the reference code is printed only when its rate is
+given (`--reference M1 [M2]`: its particle-steps/s on 1 [and 2] threads, run on this machine in
+the same sitting, as docs/performance.md measures it); a figure from another machine or day
+would mislead.
 
     python bench/column.py [--steps N] [--threads 1 2] [--deck bench/column.yaml] [--matrix-steps N]
+                           [--reference 0.62e6 1.1e6]
 
 Then a table for every shape function x {FLIP, XPIC(5), APIC} (all threads).
 """
@@ -90,6 +93,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=400)
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--matrix-steps", type=int, default=100, help="steps per shape x scheme cell (0: skip)")
+    ap.add_argument("--reference", type=float, nargs="+", metavar="RATE",
+                    help="the reference code's particle-steps/s on 1 [and 2] threads, measured here in this sitting")
     args = ap.parse_args()
     print(describe())
     t0 = time.perf_counter()
@@ -98,7 +103,7 @@ def main() -> None:
     total_sums(sim.state)  # load/compile kernels: the energy sums (as a run's start) and a step
     sim.step()
     print(f"warm start (load deck, build scene, first step incl. JIT/cache load): {time.perf_counter() - t0:.2f} s")
-    reference = {1: 0.82e6, 2: 1.5e6}
+    reference = dict(zip((1, 2), args.reference or []))
     for th in args.threads:
         if th > numba.config.NUMBA_NUM_THREADS:
             print(f"skipping {th} threads: this machine allows {numba.config.NUMBA_NUM_THREADS}")
