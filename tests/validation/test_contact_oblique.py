@@ -273,3 +273,25 @@ def test_sphere_impact_never_gains_energy(h, oblique):
     assert energy.max() <= 1.005 * energy[0]
     vy = col("py_sphere") / abs(col("py_sphere")[0])
     assert 0.9 < vy[-1] <= 1.0  # it bounced (0.92-0.99 measured)
+
+
+@pytest.mark.contact_default
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="contact gains energy where pass 2 stops slots whose start-of-step "
+                   "velocities separate (docs/contact.md, 'Where the 3D gain comes from'): +11.9% here")
+def test_pic_impact_does_not_gain_energy():
+    """The oblique deck's cylinder dropped normally from a touching start (plane strain, h = 1 mm,
+    linear shape functions, PIC, USF): kinetic + strain energy never above its initial value by
+    more than 0.2% and no rebound faster than the impact. Measured +11.9% and vy 1.047 after: the
+    known defect of the passes (an experiment holding last step's contacts in pass 1 gives 0.000%
+    but breaks FLIP's oblique rows); strict, so that a fix shows."""
+    data = example("oblique_impact")
+    data["bodies"][1].update(center=[0.0, 15.0 + 10.0 + 0.125], velocity=[0.0, -1.0])
+    data.update({"shape_function": "linear", "update": {"scheme": "pic", "stress": "usf"},
+                 "time": {"end": 0.12, "cfl": 0.5}, "output": {"history_interval": 0.001},
+                 "stability": {"energy_tolerance": 1.0}})
+    sim = Simulation(build_scene(deck_from(data, ROOT / "inputs")))
+    sim.run()
+    col = sim.recorder.column
+    energy = col("kinetic_energy") + col("strain_energy")
+    vy = col("py_cylinder") / abs(col("py_cylinder")[0])
+    assert energy.max() <= 1.002 * energy[0] and vy[-1] <= 1.0
