@@ -6,11 +6,12 @@ its deck's default does (the r-z sphere in rings, the 3D one in shells; the disc
 
 Decks: tests/validation/data/sphere_rz/sphere_impact_rz.yaml (r-z; its `seeding: lattice` and
 `pass_3: recheck`, there to match the reference code's run, are dropped here) and
-sphere_impact_3d.yaml (the 3D half model z >= 0; `--quarter` cuts it again at x = 0). `--cell` scales both grids (R/h = 5 / cell).
-For each run: the whole body's peak contact force (the largest of the history's instantaneous
+sphere_impact_3d.yaml (the 3D half model z >= 0; `--quarter` cuts it again at x = 0). `--cell`
+sets both grids' cell size (R/h = 5 / cell). For each run: the whole body's peak contact force (the largest of the history's instantaneous
 force, rows every 0.2 us, and of its mean over each 1 us), the contact duration (force above 1%
 of the peak), the contact impulse, the sphere's rebound velocity (its axial momentum over its
-mass) and the wall time after the first step; then r-z over 3D. Results as JSON under results/bench_sphere_impact/.
+mass) and the wall time after the first step; then r-z over 3D. Results as JSON under
+results/bench_sphere_impact/.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ def _extruded(body) -> bool:
 
 def _extrusion_order(body) -> list[int]:
     """The scene's axes in the order (shape's first, shape's second, extrusion axis)."""
-    axis = "xyz".index(getattr(body, "extrude_axis", "z"))
+    axis = "xyz".index(body.extrude_axis)
     return [a for a in range(3) if a != axis] + [axis]
 
 

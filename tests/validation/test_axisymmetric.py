@@ -253,7 +253,7 @@ def test_the_3d_sphere_impact_deck_is_the_r_z_scene_revolved():
         made[model] = [(whole * P.vol[P.body == b].sum(), r[P.body == b].max(), x[P.body == b, 1].min(),
                         x[P.body == b, 1].max()) for b in (0, 1)]
     for model, tol_disc, tol_sphere in (("3d", 0.005, 1e-12), ("rz", 1e-12, 0.001)):
-        (v_disc, r_disc, y0, y1), (v_sphere, _, low, _) = made[model]
+        (v_disc, r_disc, y0, y1), (v_sphere, _, _, _) = made[model]
         assert v_disc == pytest.approx(np.pi * 64.0 * 6.0, rel=tol_disc)
         assert r_disc < 8.0 and 0.0 < y0 < 0.25 and 5.75 < y1 < 6.0
         assert v_sphere == pytest.approx(4.0 / 3.0 * np.pi * 125.0, rel=tol_sphere)
