@@ -33,7 +33,7 @@ from numba import cuda, float64, uint64
 
 from ..contact.grid import fields as cf
 from ..contact.grid.geometry import Regression
-from ..contact.grid.passes import (MAX_SLOTS, PASS_1, NodeScratch, Pass2Settings, advance_rule, pass_3_mode,
+from ..contact.grid.passes import (MAX_SLOTS, NO_HOLD, PASS_1, NodeScratch, Pass2Settings, advance_rule, pass_3_mode,
                                    exchange_node as _exchange_node, pair_changes as _pair_changes,
                                    pass_2_node_of, settle_pairs as _settle_pairs)
 from ..contact.grid.plan import GeometryInputs, node_planner
@@ -224,14 +224,15 @@ def exchange_kernel(groups: int):
     device function that returns them.)"""
 
     @cuda.jit
-    def kernel(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, dp1):
+    def kernel(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_step, dp1):
         c = cuda.grid(1)
         if c >= nodes.n_cn:
             return
         w = NodeScratch(cuda.local.array((groups, 3), float64), cuda.local.array((groups, 3), float64),
                         cuda.local.array(groups, float64), cuda.local.array(3, float64),
-                        cuda.local.array(3, float64), cuda.local.array(3, float64), cuda.local.array(3, float64))
-        exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, dp1)
+                        cuda.local.array(3, float64), cuda.local.array(3, float64), cuda.local.array(3, float64),
+                        cuda.local.array((groups, 3), float64))
+        exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_step, w, dp1)
 
     return kernel
 
@@ -249,7 +250,8 @@ def pass_2_kernel(groups: int):
             return
         w = NodeScratch(cuda.local.array((groups, 3), float64), cuda.local.array((groups, 3), float64),
                         cuda.local.array(groups, float64), cuda.local.array(3, float64),
-                        cuda.local.array(3, float64), cuda.local.array(3, float64), cuda.local.array(3, float64))
+                        cuda.local.array(3, float64), cuda.local.array(3, float64), cuda.local.array(3, float64),
+                        cuda.local.array((groups, 3), float64))
         node_pass(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, w, reaction, 0)
 
     return kernel
@@ -301,6 +303,8 @@ class DeviceContact:
         self.pass_3_mode = pass_3_mode(spec)
         upd = scene.settings.update
         self.pass_1_counts = upd.scheme in ("pic", "apic")  # (xpic and fmpm are not on the GPU)
+        self.holds = bool(spec.persist) and spec.passes == 2  # (as the CPU's ContactTasks)
+        self.hold_force = self.holds and not self.pass_1_counts
         self.plan_kernel = geometry_kernel(int(self.method.normal), int(self.method.separation))
         self.exchange_kernel = exchange_kernel(self.groups)
         self.pass_2_kernel = pass_2_kernel(self.groups)
@@ -352,7 +356,7 @@ class DeviceContact:
             d["cloud_sums"] = z(((cap + CHUNK - 1) // CHUNK + 1, 1), np.int64)
             for name in ("vol", "delta", "area", "mu", "mus", "level", "delta2"):
                 d[name] = z(cap)
-            for name in ("disp", "pos", "grad", "dp1", "normal", "open", "stick2", "applied2", "stick_total",
+            for name in ("disp", "pos", "grad", "dp1", "hold", "normal", "open", "stick2", "applied2", "stick_total",
                          "applied_total", "before"):
                 d[name] = z((cap, dim))
             d["stiff"] = z((cap, 3))
@@ -383,7 +387,7 @@ class DeviceContact:
     def decisions(self) -> Decisions:
         d = self.d
         return Decisions(*(d[k] for k in ("stick2", "applied2", "delta2", "contact2", "stick_total", "applied_total",
-                                          "contact_step")))
+                                          "contact_step", "hold")))
 
     def sums(self) -> SlotSums:
         d = self.d
@@ -460,15 +464,16 @@ class DeviceContact:
         self.plan_kernel[blocks(self.n_cn)](inp, self.targets(), d["pts"], d["cw"], d["clab"], d["clabels"])
         step.sync()
 
-    def _exchange(self, mode: int) -> None:
+    def _exchange(self, mode: int, held_step: int = NO_HOLD) -> None:
         d, sd = self.d, self.step.d
         if self.n_cn:
             self.exchange_kernel[blocks(self.n_cn)](mode, self.nodes(), sd["gmass"], sd["gmom"], self.targets(),
-                                                    self.decisions(), self.sep_velocity, self.touch, d["dp1"])
+                                                    self.decisions(), self.sep_velocity, self.touch, held_step,
+                                                    d["dp1"])
 
     def pass_1(self, state) -> None:
         d, sd = self.d, self.step.d
-        self._exchange(PASS_1)
+        self._exchange(PASS_1, int(state.step) - 1 if self.holds else NO_HOLD)
         if self.pass_1_counts and self.n_cn:
             pairs[1, 1](self.nodes(), sd["gmass"], d["dp1"], d["no_before"], False, d["pair_step"])
         self.step.sync()
@@ -481,11 +486,13 @@ class DeviceContact:
             copy_rows[blocks(ns)](vnew_slots, d["before"], ns)
             held = RigidHold(sd["grigid_vol"], sd["constrain"], sd["rv_end"])
             settings = Pass2Settings(self.sep_velocity, self.advance, int(self.spec.interface_integration), self.touch,
-                                     float(state.dt), int(state.step))
+                                     float(state.dt), int(state.step), self.hold_force)
             self.pass_2_kernel[blocks(self.n_cn)](self.nodes(), step.grid_view, held, d["rigid_of_group"], sd["gmass"],
                                            sd["gvnew"], sd["gacc"], self.targets(), self.decisions(), settings,
                                            d["reaction"])
             pairs[1, 1](self.nodes(), sd["gmass"], vnew_slots, d["before"][:ns], True, d["pair_step"])
+            if self.hold_force:
+                pairs[1, 1](self.nodes(), sd["gmass"], d["hold"], d["no_before"], False, d["pair_step"])
         settle[1, 1](d["pair_step"], d["pair_force"], d["pair_impulse"], float(state.dt))
         step.sync()
 

@@ -17,7 +17,7 @@ from ...views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras, touch_contact_nodes)
-from .passes import (NO_BEFORE, PASS_1, Pass2Settings, Pass2Sums, advance_rule, contact_pass_2, pass_3_mode,
+from .passes import (NO_BEFORE, NO_HOLD, PASS_1, Pass2Settings, Pass2Sums, advance_rule, contact_pass_2, pass_3_mode,
                      law_kernels, pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
 from .spec import SEP_LR, SEP_VELOCITY
@@ -143,6 +143,10 @@ class ContactTasks:
         self.recheck = spec.recheck
         self.advance = advance_rule(spec, int(self.method.separation) == SEP_LR)
         self.pass_3_mode = pass_3_mode(spec)
+        # pass 1 holds the pairs pass 2 held in the last step (`persist`); under FLIP that change is
+        # a force (its particles add only dt a), elsewhere the particles take it with v+
+        self.holds = bool(spec.persist) and spec.passes == 2
+        self.hold_force = self.holds and not self.pass_1_counts
         self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
         self.pass_2_kernel = contact_pass_2(bool(spec.has_interface), spec.plugin_laws)
 
@@ -160,8 +164,9 @@ class ContactTasks:
         """The laws on the extrapolated momenta (part of the extrapolation)."""
         cs, f, nn = state.contact, state.fields, state.grid.n_nodes
         exchange = law_kernels(self.spec.plugin_laws).exchange_pass
+        held_step = state.step - 1 if self.holds else NO_HOLD
         exchange(PASS_1, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.decisions(), self.sep_velocity, self.touch,
-                 state.nchunk, cs.dp1)
+                 held_step, state.nchunk, cs.dp1)
         if cs.n_con:
             ns = cs.n_slots
             before = f.mom[nn:nn + ns].copy()
@@ -179,15 +184,17 @@ class ContactTasks:
         nn, ns = g.n_nodes, cs.n_slots
         before = f.vnew[nn:nn + ns].copy()
         settings = Pass2Settings(self.sep_velocity, self.advance, self.spec.interface_integration, self.touch,
-                                 state.dt, state.step)
+                                 state.dt, state.step, self.hold_force)
         self.pass_2_kernel(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
                            cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)
         pair_changes(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, True, cs.pair_step)
+        if self.hold_force:
+            pair_changes(cs.nodes(nn), f.mass, cs.hold, NO_BEFORE, False, cs.pair_step)
         if self.spec.traction:  # output.contact_traction: the force each slot got (what pair_changes sums)
             counted = self.pass_1_counts and self.spec.passes == 2
-            record_slot_forces(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, cs.dp1, counted, state.dt,
-                               cs.slot_force)
+            record_slot_forces(cs.nodes(nn), f.mass, f.vnew[nn:nn + ns], before, cs.hold if self.hold_force else cs.dp1,
+                               counted or self.hold_force, state.dt, cs.slot_force)
             cs.traction_targets = (cs.role[:ns].copy(), cs.partner[:ns].copy(), cs.normal[:ns].copy(),
                                    cs.area[:ns].copy())
         settle_pairs(cs.pair_step, cs.pair_force, cs.pair_impulse, state.dt)
@@ -206,5 +213,5 @@ class ContactTasks:
             self.geometry(state)
         exchange = law_kernels(self.spec.plugin_laws).exchange_pass
         exchange(self.pass_3_mode, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.decisions(), self.sep_velocity,
-                 self.touch, state.nchunk, cs.dp1)
+                 self.touch, NO_HOLD, state.nchunk, cs.dp1)
         point_bond(cs.bonds(), nn, f.mass, f.mom, True, _NO_ACC, 0.0, cs.normal, state.dim)

@@ -3,7 +3,15 @@ with the targets planned by the geometry (plan.py).
 
 Pass 1, after extrapolation: change the extrapolated momenta p. This change is part of the
   extrapolation, never a force; it is also kept (`dp1`) for the multimaterial XPIC term.
-  `contact.passes: 1` skips it (the paper's "LR once").
+  `contact.passes: 1` skips it (the paper's "LR once"). With `pass_3: persist` (the default)
+  it also holds a pair of materials that pass 2 held in the previous step and that still
+  touch, whatever their normal velocity: where their extrapolated velocities separate, pass 2
+  would otherwise stop the approach the internal forces give them and its impulse would do
+  positive work at the step's mean velocity, which the stress update (at the start-of-step
+  velocity) never takes back: contact that makes energy. That holding change is a force
+  under FLIP (its particles add only dt a), so FLIP's particle velocities are pass 2's as
+  before; the start-of-step velocity (stress update, midpoint positions) is held.
+  docs/contact.md, choice 11.
 Pass 2, after the momentum update: the same laws on the updated momenta p+; each change is
   added to p+ and to the force (as dp/dt), so the particle update's acceleration includes the
   contact force f = dp+/dt (Eq. 33, option 1). The separation is advanced to the end of the
@@ -46,7 +54,7 @@ from ...bc import NO_BC, node_bc
 from ...gridops import chunk_range, node_ijk
 from ...parallel import chunk_kernel, specialize
 from .laws import apply_law, interface_impulse, plugin_dispatch
-from .spec import INTERFACE
+from .spec import COULOMB, FRICTIONLESS, INTERFACE
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
 NO_BEFORE = np.zeros((0, 3))  # pair_changes: the change itself is given
@@ -61,6 +69,10 @@ ADVANCE_NONE, ADVANCE_ALL, ADVANCE_HELD = 0, 1, 2
 # from 0.03, a sphere striking a block obliquely gains energy (+0.68% at R/h = 5; 0.1: +0.33%).
 # docs/contact.md, "One default for impacts and compression".
 RELEASE = 0.1
+# pass 1's limit (exchange_momenta) where it holds a pair pass 2 held in the previous step:
+# the normal stick impulse whatever its sign (frictionless while it pulls). NO_HOLD: a held
+# step no node has (pass 3, and the passes other than `persist`).
+HOLD, NO_HOLD = 1e300, -3
 
 
 def advance_rule(spec, lr_separation: bool) -> int:
@@ -153,6 +165,20 @@ def target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, d
 
 
 @njit(cache=True, inline="always")
+def cap_tangential(out, n, cap, dim):
+    """Scale the tangential part of impulse `out` (across n) down to at most `cap` in size."""
+    on = _dot(out, n, dim)
+    t2 = 0.0
+    for d in range(dim):
+        t = out[d] - on * n[d]
+        t2 += t * t
+    if t2 > cap * cap:
+        scale = cap / np.sqrt(t2)
+        for d in range(dim):
+            out[d] = on * n[d] + scale * (out[d] - on * n[d])
+
+
+@njit(cache=True, inline="always")
 def share_change(a, b, rigid_b, value, d, dpb, s0):
     """Add `value` to target a's change and its opposite to a deformable partner's."""
     dpb[a - s0, d] += value
@@ -162,24 +188,30 @@ def share_change(a, b, rigid_b, value, d, dpb, s0):
 
 @njit(cache=True, inline="always")
 def exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, role, partner, geo_n, slot_law, slot_mu, slot_mus,
-                     bonded, limit, dim, pbuf, dpb, imp, out, n):
+                     bonded, limit, dim, pbuf, dpb, imp, out, n, hpb):
     """The laws at one contact node on the momenta `mom`; the change of each slot in dpb.
     Target a is in contact where its stick impulse's normal part is below limit[a - s0]: 0 where
     the surfaces touch and contact needs them to approach, -inf where they do not touch, +inf
-    for a decision already made (whatever the normal velocity)."""
+    for a decision already made (whatever the normal velocity), HOLD for a held pair (as +inf,
+    but frictionless where the impulse pulls; that change also into hpb)."""
     for s in range(s0, s1):
         for d in range(dim):
             pbuf[s - s0, d] = mom[nn + s, d]
             dpb[s - s0, d] = 0.0
+            hpb[s - s0, d] = 0.0
     for a in range(s0, s1):
         if role[a] == 0:
             continue
         b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp)
         dotn = _dot(imp, n, dim)
         in_contact = dotn < limit[a - s0]
-        if apply_law(slot_law[a], slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, in_contact, dim, out):
+        pulls = limit[a - s0] == HOLD and dotn >= 0.0
+        law = FRICTIONLESS if pulls else slot_law[a]
+        if apply_law(law, slot_mu[a], slot_mus[a], bonded[a], imp, n, dotn, in_contact, dim, out):
             for d in range(dim):
                 share_change(a, b, rigid_b, out[d], d, dpb, s0)
+                if pulls:
+                    share_change(a, b, rigid_b, out[d], d, hpb, s0)
 
 
 class NodeScratch(NamedTuple):
@@ -192,20 +224,24 @@ class NodeScratch(NamedTuple):
     out: np.ndarray  # (3,) applied impulse
     n: np.ndarray  # (3,) normal
     df: np.ndarray  # (3,) relative force
+    hpb: np.ndarray  # (MAX_SLOTS, 3) pass 1's changes that hold a separating pair
 
 
 @njit(cache=True)
 def node_scratch():
     return NodeScratch(np.zeros((MAX_SLOTS, 3)), np.zeros((MAX_SLOTS, 3)), np.zeros(MAX_SLOTS),
-                       np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+                       np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros((MAX_SLOTS, 3)))
 
 
 @chunk_kernel
-def exchange_pass(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, nchunk, dp1):
+def exchange_pass(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_step, nchunk, dp1):
     """Pass 1 (mode PASS_1): the laws on the extrapolated momenta where the surfaces touch
     (separation below `touch`, a length; always for velocity-only detection) and approach;
-    the change is kept in dp1. Pass 3 (mode PASS_3): where pass 2 made contact (contact2),
-    whatever the normal velocity. Pass 3 rechecked (PASS_3_RECHECK, after the geometry was
+    the change is kept in dp1. Where pass 2 made contact in step `held_step` (NO_HOLD: nowhere)
+    at a node of two deformable materials and the surfaces still touch, pass 1 holds them: the
+    normal stick impulse whatever its sign, frictionless where it pulls (Coulomb and
+    frictionless laws), that pulling change kept in dec.hold as well (docs/contact.md, choice 11).
+    Pass 3 (mode PASS_3): where pass 2 made contact (contact2), whatever the normal velocity. Pass 3 rechecked (PASS_3_RECHECK, after the geometry was
     recomputed from the moved particles): where the surfaces touch and approach, as pass 1.
     Pass 3 persisting (PASS_3_PERSIST, geometry recomputed): where pass 2 made contact unless
     the surfaces separate by more than RELEASE of pass 2's normal impulse (dec.applied2), and
@@ -215,11 +251,11 @@ def exchange_pass(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, nchunk,
         start, stop = chunk_range(ch, nchunk, n_cn)
         w = node_scratch()
         for c in range(start, stop):
-            exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, dp1)
+            exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_step, w, dp1)
 
 
 @njit(cache=True, error_model="numpy")
-def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, dp1):
+def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_step, w, dp1):
     """exchange_pass at contact node c (w: NodeScratch). Also the GPU step's, a thread per
     contact node. (A function call, not inlined, as pass_2_node: inlined into a parallel loop,
     writes into arrays of a bundle passed into the loop can be lost.)"""
@@ -228,8 +264,14 @@ def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, d
     limit, dpb, contact2 = w.limit, w.dpb, dec.contact2
     s0 = cn_ptr[c]
     s1 = cn_ptr[c + 1]
+    # a pair of deformable materials that pass 2 held in the held step (where three or more
+    # meet, holding pushes them into each other: the ellipse box, docs/contact.md)
+    hold = (mode == PASS_1 and s1 - s0 == 2 and slot_group[s0] < n_def and slot_group[s0 + 1] < n_def
+            and dec.contact_step[nodes.cn_nodes[c]] == held_step)
     for a in range(s0, s1):
-        if mode == PASS_3:
+        if hold and geo.delta[a] < touch and (geo.law[a] == FRICTIONLESS or geo.law[a] == COULOMB):
+            limit[a - s0] = HOLD
+        elif mode == PASS_3:
             limit[a - s0] = np.inf if contact2[a] != 0 else -np.inf  # pass 2's decision
         elif mode == PASS_3_PERSIST and contact2[a] != 0:
             n2 = 0.0  # pass 2's normal impulse, along the recomputed normal
@@ -239,7 +281,7 @@ def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, d
         else:
             limit[a - s0] = 0.0 if sep_velocity or geo.delta[a] < touch else -np.inf  # touching and approaching
     exchange_momenta(s0, s1, slot_group, n_def, nn, mass, mom, geo.role, geo.partner, geo.normal, geo.law, geo.mu,
-                     geo.mus, geo.bonded, limit, dim, w.pbuf, dpb, w.imp, w.out, w.n)
+                     geo.mus, geo.bonded, limit, dim, w.pbuf, dpb, w.imp, w.out, w.n, w.hpb)
     for s in range(s0, s1):
         if slot_group[s] >= n_def:
             continue
@@ -247,6 +289,7 @@ def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, w, d
             mom[nn + s, d] += dpb[s - s0, d]
             if mode == PASS_1:
                 dp1[s, d] = dpb[s - s0, d]
+                dec.hold[s, d] = w.hpb[s - s0, d]
 
 
 class Pass2Sums(NamedTuple):
@@ -265,6 +308,7 @@ class Pass2Settings(NamedTuple):
     touch: float  # touching length
     dt: float
     step: int  # the step's number (dec.contact_step: where contact persists)
+    hold_force: bool  # pass 1's holding change (dec.hold) is a force: into a (FLIP, whose particles add dt a)
 
 
 HAS_INTERFACE = True  # a constant of pass_2_node, bound by pass_2_node_of (never compiled with this value)
@@ -284,7 +328,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
     cn_nodes, cn_ptr, slot_group, n_def, nn = nodes.cn_nodes, nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
     shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
     rigid_vol, constrain, rig_vel = held
-    sep_velocity, advance, integration, touch, dt, step = settings
+    sep_velocity, advance, integration, touch, dt, step, hold_force = settings
     pbuf, dpb, imp, out, n, df = w.pbuf, w.dpb, w.imp, w.out, w.n, w.df
     work = 0.0
     energy = 0.0
@@ -334,6 +378,12 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
             touching = sep_velocity or delta < touch
             applied = apply_law(geo.law[a], geo.mu[a], geo.mus[a], geo.bonded[a], imp, n, dotn, touching and dotn < 0.0,
                                 dim, out)
+            if applied and geo.law[a] == COULOMB:
+                # where pass 1 held the pair (pulling, dec.hold), friction is capped by the step's
+                # net normal impulse, pass 1's pull and pass 2's push together
+                hn = _dot(dec.hold[a], n, dim)
+                if hn != 0.0:
+                    cap_tangential(out, n, geo.mu[a] * max(-(dotn + hn), 0.0), dim)
         for d in range(dim):
             dec.stick2[a, d] = imp[d]
             dec.applied2[a, d] = out[d] if applied else 0.0
@@ -357,6 +407,12 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
         dec.contact_step[node] = step
     add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
                      rig_vel, mass, dpb, vnew, acc, dt, dim)
+    if hold_force:  # a += hold / (m dt) (v+ has the change: it is in the extrapolated momenta)
+        for s in range(s0, s1):
+            for d in range(dim):
+                w.hpb[s - s0, d] = dec.hold[s, d] / dt
+        add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
+                         rig_vel, mass, w.hpb, acc, acc, 0.0, dim)
     return work, energy
 
 

@@ -87,7 +87,8 @@ class Decisions(NamedTuple):
     """Pass 2's outcome per target, for the XPIC increments: stick and applied impulses,
     end-of-step separation, contact flag; and the running totals of the increments. Per grid
     node: the last step pass 2 made contact there (`pass_3: persist` advances the separation
-    only where contact persists)."""
+    only where contact persists, and pass 1 holds the pairs there: passes.exchange_node). Per
+    slot: pass 1's change where it held a separating pair, a force for FLIP (`hold`)."""
 
     stick2: np.ndarray
     applied2: np.ndarray
@@ -96,6 +97,7 @@ class Decisions(NamedTuple):
     stick_total: np.ndarray
     applied_total: np.ndarray
     contact_step: np.ndarray
+    hold: np.ndarray
 
 
 class Bonds(NamedTuple):
@@ -149,7 +151,7 @@ class ContactWorkspace:
         self.slot_group = z(cap, dtype=np.int64)
         self.slot_node = z(cap, dtype=np.int64)
         self.vol, self.delta, self.area = z(cap), z(cap), z(cap)
-        self.disp, self.pos, self.grad, self.dp1, self.normal = (z((cap, dim)) for _ in range(5))
+        self.disp, self.pos, self.grad, self.dp1, self.hold, self.normal = (z((cap, dim)) for _ in range(6))
         self.udisp, self.ugrad = z((cap, dim)), z((cap, dim, dim))  # interfaces: displacement at the node, gradient
         self.stick2, self.applied2, self.stick_total, self.applied_total = (z((cap, dim)) for _ in range(4))
         self.delta2 = z(cap)
@@ -208,7 +210,7 @@ class ContactWorkspace:
 
     def decisions(self) -> Decisions:
         return Decisions(self.stick2, self.applied2, self.delta2, self.contact2, self.stick_total, self.applied_total,
-                         self.contact_step)
+                         self.contact_step, self.hold)
 
     def bonds(self) -> Bonds:
         return Bonds(self.n_con, self.con_ptr, self.ent_a, self.ent_b, self.ent_w)
@@ -228,6 +230,6 @@ def no_contact(dim: int) -> NoContact:
     i1, f1, f2, f3 = np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros((1, dim)), np.zeros((1, 3))
     nodes = ContactNodes(0, i1, i1, i1, 0, 0)
     geo = Targets(i1, i1, f2, f1, f1, f2, i1, i1, f1, f1, f3, f1)
-    dec = Decisions(f2, f2, f1, i1, f2, f2, i1)
+    dec = Decisions(f2, f2, f1, i1, f2, f2, i1, f2)
     return NoContact(nodes, geo, dec, Bonds(0, i1, i1, i1, f1), SlotMap(np.full(1, -1, dtype=np.int64), i1, i1,
                                                                          np.zeros(1, dtype=np.uint64), 0))
