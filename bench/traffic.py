@@ -208,6 +208,8 @@ TRAFFIC: dict[str, list[Term]] = {
         T("contact.partner", "slot", "1", 8, 1, "partner"),
         T("contact.delta", "slot", "1", 8, 1, "separation"),
         T("contact.dp1", "slot", "dim", 8, 1, "change written"),
+        T("contact.contact_step", "cn", "1", 8, 1, "each node's last contact step (the hold)", when="hold"),
+        T("contact.hold", "slot", "dim", 8, 1, "holding change written", when="hold"),
     ],
     "update stress first": _GRID_VELOCITY + _STRESS,
     "forces": [  # zero_fields, p2g_forces
@@ -250,6 +252,7 @@ TRAFFIC: dict[str, list[Term]] = {
         T("contact.mu", "slot", "1", 8, 1, "friction"),
         T("contact.stick2", "slot", "dim", 8, 1, "decisions written"),
         T("contact.applied2", "slot", "dim", 8, 1, "decisions written"),
+        T("contact.hold", "slot", "dim", 8, 1, "pass 1's holding change, into a (FLIP)", when="hold"),
     ],
     "particle update": [  # particle_update_kernel(FLIP)
         T("entries.nodes", P_, "K", 8, 1, "field of each entry"),
@@ -286,6 +289,8 @@ TRAFFIC: dict[str, list[Term]] = {
         T("contact.partner", "slot", "1", 8, 1, "partner"),
         T("contact.contact2", "slot", "1", 8, 1, "pass 2's contact flag"),
         T("contact.dp1", "slot", "dim", 8, 1, "change written"),
+        T("contact.contact_step", "cn", "1", 8, 1, "each node's last contact step (the hold)", when="hold"),
+        T("contact.hold", "slot", "dim", 8, 1, "holding change written", when="hold"),
     ],
     "update stress last": _GRID_VELOCITY + _STRESS,
     "check stability": [  # every step: rigid bodies in the grid, particles inside rigid bodies
@@ -327,6 +332,8 @@ def conditions(sim) -> set[str]:
             on.add("cloud")
         if st.contact.spec.warm_start:
             on.add("warm")
+        if st.contact.spec.persist and st.contact.spec.passes == 2:
+            on.add("hold")  # (pass 2 reads the holding change only under FLIP: counted for every update)
     return on
 
 

@@ -54,7 +54,7 @@ from ...bc import NO_BC, node_bc
 from ...gridops import chunk_range, node_ijk
 from ...parallel import chunk_kernel, specialize
 from .laws import apply_law, interface_impulse, plugin_dispatch
-from .spec import COULOMB, FRICTIONLESS, INTERFACE
+from .spec import COULOMB, FRICTIONLESS, INTERFACE, STICK
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
 NO_BEFORE = np.zeros((0, 3))  # pair_changes: the change itself is given
@@ -239,8 +239,8 @@ def exchange_pass(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_st
     (separation below `touch`, a length; always for velocity-only detection) and approach;
     the change is kept in dp1. Where pass 2 made contact in step `held_step` (NO_HOLD: nowhere)
     at a node of two deformable materials and the surfaces still touch, pass 1 holds them: the
-    normal stick impulse whatever its sign, frictionless where it pulls (Coulomb and
-    frictionless laws), that pulling change kept in dec.hold as well (docs/contact.md, choice 11).
+    normal stick impulse whatever its sign, frictionless where it pulls (every law with a contact
+    test), that pulling change kept in dec.hold as well (docs/contact.md, choice 11).
     Pass 3 (mode PASS_3): where pass 2 made contact (contact2), whatever the normal velocity. Pass 3 rechecked (PASS_3_RECHECK, after the geometry was
     recomputed from the moved particles): where the surfaces touch and approach, as pass 1.
     Pass 3 persisting (PASS_3_PERSIST, geometry recomputed): where pass 2 made contact unless
@@ -269,7 +269,7 @@ def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held
     hold = (mode == PASS_1 and s1 - s0 == 2 and slot_group[s0] < n_def and slot_group[s0 + 1] < n_def
             and dec.contact_step[nodes.cn_nodes[c]] == held_step)
     for a in range(s0, s1):
-        if hold and geo.delta[a] < touch and (geo.law[a] == FRICTIONLESS or geo.law[a] == COULOMB):
+        if hold and geo.delta[a] < touch and geo.law[a] != STICK and geo.law[a] != INTERFACE:  # (laws with a test)
             limit[a - s0] = HOLD
         elif mode == PASS_3:
             limit[a - s0] = np.inf if contact2[a] != 0 else -np.inf  # pass 2's decision
