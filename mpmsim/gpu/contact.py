@@ -33,8 +33,8 @@ from numba import cuda, float64, uint64
 
 from ..contact.grid import fields as cf
 from ..contact.grid.geometry import Regression
-from ..contact.grid.passes import (MAX_SLOTS, NO_HOLD, PASS_1, NodeScratch, Pass2Settings, advance_rule, pass_3_mode,
-                                   exchange_node as _exchange_node, pair_changes as _pair_changes,
+from ..contact.grid.passes import (HOLD_FORCE, HOLD_NONE, HOLD_PAIRS, MAX_SLOTS, NO_HOLD, PASS_1, NodeScratch,
+                                   Pass2Settings, advance_rule, pass_3_mode, exchange_node as _exchange_node, pair_changes as _pair_changes,
                                    pass_2_node_of, settle_pairs as _settle_pairs)
 from ..contact.grid.plan import GeometryInputs, node_planner
 from ..contact.grid.spec import SEP_LR, SEP_VELOCITY, PairLaws
@@ -305,6 +305,7 @@ class DeviceContact:
         self.pass_1_counts = upd.scheme in ("pic", "apic")  # (xpic and fmpm are not on the GPU)
         self.holds = bool(spec.persist) and spec.passes == 2  # (as the CPU's ContactTasks)
         self.hold_force = self.holds and not self.pass_1_counts
+        self.hold_code = HOLD_FORCE if self.hold_force else HOLD_PAIRS if self.holds else HOLD_NONE
         self.plan_kernel = geometry_kernel(int(self.method.normal), int(self.method.separation))
         self.exchange_kernel = exchange_kernel(self.groups)
         self.pass_2_kernel = pass_2_kernel(self.groups)
@@ -486,7 +487,7 @@ class DeviceContact:
             copy_rows[blocks(ns)](vnew_slots, d["before"], ns)
             held = RigidHold(sd["grigid_vol"], sd["constrain"], sd["rv_end"])
             settings = Pass2Settings(self.sep_velocity, self.advance, int(self.spec.interface_integration), self.touch,
-                                     float(state.dt), int(state.step), self.hold_force)
+                                     float(state.dt), int(state.step), self.hold_code)
             self.pass_2_kernel[blocks(self.n_cn)](self.nodes(), step.grid_view, held, d["rigid_of_group"], sd["gmass"],
                                            sd["gvnew"], sd["gacc"], self.targets(), self.decisions(), settings,
                                            d["reaction"])

@@ -17,8 +17,8 @@ from ...views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras, touch_contact_nodes)
-from .passes import (NO_BEFORE, NO_HOLD, PASS_1, Pass2Settings, Pass2Sums, advance_rule, contact_pass_2, pass_3_mode,
-                     law_kernels, pair_changes, settle_pairs)
+from .passes import (HOLD_FORCE, HOLD_NONE, HOLD_PAIRS, NO_BEFORE, NO_HOLD, PASS_1, Pass2Settings, Pass2Sums,
+                     advance_rule, contact_pass_2, pass_3_mode, law_kernels, pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
 from .spec import SEP_LR, SEP_VELOCITY
 from .traction import record_slot_forces
@@ -147,6 +147,7 @@ class ContactTasks:
         # a force (its particles add only dt a), elsewhere the particles take it with v+
         self.holds = bool(spec.persist) and spec.passes == 2
         self.hold_force = self.holds and not self.pass_1_counts
+        self.hold_code = HOLD_FORCE if self.hold_force else HOLD_PAIRS if self.holds else HOLD_NONE
         self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
         self.pass_2_kernel = contact_pass_2(bool(spec.has_interface), spec.plugin_laws)
 
@@ -184,7 +185,7 @@ class ContactTasks:
         nn, ns = g.n_nodes, cs.n_slots
         before = f.vnew[nn:nn + ns].copy()
         settings = Pass2Settings(self.sep_velocity, self.advance, self.spec.interface_integration, self.touch,
-                                 state.dt, state.step, self.hold_force)
+                                 state.dt, state.step, self.hold_code)
         self.pass_2_kernel(cs.nodes(g.n_nodes), g.view, held, self.spec.rigid_of_group, f.mass, f.vnew, f.acc,
                            cs.targets(), cs.decisions(), settings, nc, sums)
         point_bond(cs.bonds(), g.n_nodes, f.mass, f.vnew, False, f.acc, state.dt, cs.normal, state.dim)

@@ -73,6 +73,7 @@ RELEASE = 0.1
 # the normal stick impulse whatever its sign (frictionless while it pulls). NO_HOLD: a held
 # step no node has (pass 3, and the passes other than `persist`).
 HOLD, NO_HOLD = 1e300, -3
+HOLD_NONE, HOLD_PAIRS, HOLD_FORCE = 0, 1, 2  # Pass2Settings.hold
 
 
 def advance_rule(spec, lr_separation: bool) -> int:
@@ -241,8 +242,9 @@ def exchange_pass(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_st
     at a node of two deformable materials and the surfaces still touch, pass 1 holds them: the
     normal stick impulse whatever its sign, frictionless where it pulls (every law with a contact
     test), that pulling change kept in dec.hold as well (docs/contact.md, choice 11).
-    Pass 3 (mode PASS_3): where pass 2 made contact (contact2), whatever the normal velocity. Pass 3 rechecked (PASS_3_RECHECK, after the geometry was
-    recomputed from the moved particles): where the surfaces touch and approach, as pass 1.
+    Pass 3 (mode PASS_3): where pass 2 made contact (contact2), whatever the normal velocity.
+    Pass 3 rechecked (PASS_3_RECHECK, after the geometry was recomputed from the moved
+    particles): where the surfaces touch and approach, as pass 1.
     Pass 3 persisting (PASS_3_PERSIST, geometry recomputed): where pass 2 made contact unless
     the surfaces separate by more than RELEASE of pass 2's normal impulse (dec.applied2), and
     elsewhere where they touch and approach. Only deformable slots change."""
@@ -308,7 +310,8 @@ class Pass2Settings(NamedTuple):
     touch: float  # touching length
     dt: float
     step: int  # the step's number (dec.contact_step: where contact persists)
-    hold_force: bool  # pass 1's holding change (dec.hold) is a force: into a (FLIP, whose particles add dt a)
+    hold: int  # HOLD_NONE: pass 1 holds nothing (dec.hold unread); HOLD_PAIRS: it holds pairs; HOLD_FORCE: and
+    # its holding change is a force, into a (FLIP, whose particles add only dt a)
 
 
 HAS_INTERFACE = True  # a constant of pass_2_node, bound by pass_2_node_of (never compiled with this value)
@@ -328,7 +331,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
     cn_nodes, cn_ptr, slot_group, n_def, nn = nodes.cn_nodes, nodes.cn_ptr, nodes.slot_group, nodes.n_def, nodes.nn
     shape, face_type, wall_index = grid.shape, grid.face_type, grid.wall_index
     rigid_vol, constrain, rig_vel = held
-    sep_velocity, advance, integration, touch, dt, step, hold_force = settings
+    sep_velocity, advance, integration, touch, dt, step, hold = settings
     pbuf, dpb, imp, out, n, df = w.pbuf, w.dpb, w.imp, w.out, w.n, w.df
     work = 0.0
     energy = 0.0
@@ -378,7 +381,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
             touching = sep_velocity or delta < touch
             applied = apply_law(geo.law[a], geo.mu[a], geo.mus[a], geo.bonded[a], imp, n, dotn, touching and dotn < 0.0,
                                 dim, out)
-            if applied and geo.law[a] == COULOMB:
+            if applied and geo.law[a] == COULOMB and hold != HOLD_NONE:
                 # where pass 1 held the pair (pulling, dec.hold), friction is capped by the step's
                 # net normal impulse, pass 1's pull and pass 2's push together
                 hn = _dot(dec.hold[a], n, dim)
@@ -407,7 +410,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
         dec.contact_step[node] = step
     add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wall_index, rigid_vol, constrain,
                      rig_vel, mass, dpb, vnew, acc, dt, dim)
-    if hold_force:  # a += hold / (m dt) (v+ has the change: it is in the extrapolated momenta)
+    if hold == HOLD_FORCE:  # a += hold / (m dt) (v+ has the change: it is in the extrapolated momenta)
         for s in range(s0, s1):
             for d in range(dim):
                 w.hpb[s - s0, d] = dec.hold[s, d] / dt
