@@ -34,8 +34,8 @@ from numba import cuda, float64, uint64
 from ..contact.grid import fields as cf
 from ..contact.grid.geometry import Regression
 from ..contact.grid.passes import (HOLD_FORCE, HOLD_NONE, HOLD_PAIRS, MAX_SLOTS, NO_HOLD, PASS_1, NodeScratch,
-                                   Pass2Settings, advance_rule, pass_3_mode, exchange_node as _exchange_node, pair_changes as _pair_changes,
-                                   pass_2_node_of, settle_pairs as _settle_pairs)
+                                   Pass2Settings, advance_rule, pass_3_mode, exchange_node as _exchange_node,
+                                   pair_changes as _pair_changes, pass_2_node_of, settle_pairs as _settle_pairs)
 from ..contact.grid.plan import GeometryInputs, node_planner
 from ..contact.grid.spec import SEP_LR, SEP_VELOCITY, PairLaws
 from ..contact.grid.workspace import Clouds, ContactNodes, Decisions, SlotMap, SlotSums, Targets
