@@ -33,8 +33,8 @@ from numba import cuda, float64, uint64
 
 from ..contact.grid import fields as cf
 from ..contact.grid.geometry import Regression
-from ..contact.grid.passes import (HOLD_FORCE, HOLD_NONE, HOLD_PAIRS, MAX_SLOTS, NO_HOLD, PASS_1, NodeScratch,
-                                   Pass2Settings, advance_rule, pass_3_mode, exchange_node as _exchange_node,
+from ..contact.grid.passes import (HOLD_FORCE, HOLD_NONE, MAX_SLOTS, NO_HOLD, PASS_1, NodeScratch, Pass2Settings,
+                                   advance_rule, hold_rule, pass_3_mode, exchange_node as _exchange_node,
                                    pair_changes as _pair_changes, pass_2_node_of, settle_pairs as _settle_pairs)
 from ..contact.grid.plan import GeometryInputs, node_planner
 from ..contact.grid.spec import SEP_LR, SEP_VELOCITY, PairLaws
@@ -303,9 +303,8 @@ class DeviceContact:
         self.pass_3_mode = pass_3_mode(spec)
         upd = scene.settings.update
         self.pass_1_counts = upd.scheme in ("pic", "apic")  # (xpic and fmpm are not on the GPU)
-        self.holds = bool(spec.persist) and spec.passes == 2  # (as the CPU's ContactTasks)
-        self.hold_force = self.holds and not self.pass_1_counts
-        self.hold_code = HOLD_FORCE if self.hold_force else HOLD_PAIRS if self.holds else HOLD_NONE
+        self.hold_code = hold_rule(spec, self.pass_1_counts)
+        self.holds, self.hold_force = self.hold_code != HOLD_NONE, self.hold_code == HOLD_FORCE
         self.plan_kernel = geometry_kernel(int(self.method.normal), int(self.method.separation))
         self.exchange_kernel = exchange_kernel(self.groups)
         self.pass_2_kernel = pass_2_kernel(self.groups)

@@ -17,8 +17,8 @@ from ...views import RigidHold
 from .bond import bond_points, point_bond
 from .fields import (assign_fields, build_clouds, build_slots, count_slots, scatter_group_masks, scatter_rigid_masks,
                      scatter_rigid_slots, scatter_slot_extras, touch_contact_nodes)
-from .passes import (HOLD_FORCE, HOLD_NONE, HOLD_PAIRS, NO_BEFORE, NO_HOLD, PASS_1, Pass2Settings, Pass2Sums,
-                     advance_rule, contact_pass_2, pass_3_mode, law_kernels, pair_changes, settle_pairs)
+from .passes import (HOLD_FORCE, HOLD_NONE, NO_BEFORE, NO_HOLD, PASS_1, Pass2Settings, Pass2Sums, advance_rule,
+                     contact_pass_2, hold_rule, pass_3_mode, law_kernels, pair_changes, settle_pairs)
 from .plan import contact_geometry as plan_geometry
 from .spec import SEP_LR, SEP_VELOCITY
 from .traction import record_slot_forces
@@ -145,9 +145,8 @@ class ContactTasks:
         self.pass_3_mode = pass_3_mode(spec)
         # pass 1 holds the pairs pass 2 held in the last step (`persist`); under FLIP that change is
         # a force (its particles add only dt a), elsewhere the particles take it with v+
-        self.holds = bool(spec.persist) and spec.passes == 2
-        self.hold_force = self.holds and not self.pass_1_counts
-        self.hold_code = HOLD_FORCE if self.hold_force else HOLD_PAIRS if self.holds else HOLD_NONE
+        self.hold_code = hold_rule(spec, self.pass_1_counts)
+        self.holds, self.hold_force = self.hold_code != HOLD_NONE, self.hold_code == HOLD_FORCE
         self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
         self.pass_2_kernel = contact_pass_2(bool(spec.has_interface), spec.plugin_laws)
 

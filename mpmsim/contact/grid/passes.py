@@ -84,6 +84,14 @@ def advance_rule(spec, lr_separation: bool) -> int:
     return ADVANCE_HELD if spec.persist else ADVANCE_NONE
 
 
+def hold_rule(spec, pass_1_counts: bool) -> int:
+    """Pass2Settings.hold for a scene: pass 1 holds pass 2's pairs with `persist` and two passes,
+    and its holding change is a force where the particles do not take pass 1's change (FLIP)."""
+    if not (spec.persist and spec.passes == 2):
+        return HOLD_NONE
+    return HOLD_PAIRS if pass_1_counts else HOLD_FORCE
+
+
 def pass_3_mode(spec) -> int:
     """exchange_pass's mode for `contact.pass_3`."""
     if not spec.recheck:
