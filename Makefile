@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-impact3d-fine bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-hertz-fem bench-hertz-reference bench-scaling examples docs clean-cache sweeps stability-table figures
+.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-impact3d-fine bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-hertz-fem bench-hertz-reference bench-oblique-fem bench-scaling examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -78,6 +78,12 @@ bench-impact3d-fine: $(STAMP)
 # (about 10 minutes on 2 cores; `python bench/contact.py ellipses` adds full-size Fig. 6)
 bench-contact: $(STAMP)
 	$(BIN)/python bench/contact.py all
+
+# the oblique impact without particles (docs/contact.md, "Friction from a touching start"): both bodies as
+# finite elements, four levels, frictionless and mu = 0.3 (about 10 minutes on one core)
+bench-oblique-fem: $(STAMP)
+	$(BIN)/python bench/oblique_fem.py run --levels 0 1 2 3 --mu 0.3 0
+	$(BIN)/python bench/oblique_fem.py table
 
 # the LR paper's shock example: Hugoniot table, energy balance (incl. 0.125 mm cells), Fig. 7;
 # figures in docs/figures/ (about 5 minutes on one core)
