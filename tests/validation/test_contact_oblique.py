@@ -244,15 +244,17 @@ def test_friction_does_not_raise_the_continuums_rebound():
     decided by a converged solution of the same scene that has no particles: both bodies as
     finite elements, stepped implicitly (midpoint Newmark), barrier contact with IPC's smoothed
     Coulomb friction (bench/oblique_fem.py; tests/validation/data/oblique_fem_reference.json
-    holds four levels, element size 0.2 to 0.025 mm at the contact, time step 0.5 to 0.0625 us).
-    Its vy with mu = 0.3 is within 0.3% of its frictionless vy and not above 1: friction slows
-    the cylinder's slide and spins it up; it does not send it off faster than it came. Run here:
-    the coarsest level, whose vy is within 0.3% of the finest level's."""
+    holds up to four levels, element size 0.2 to 0.025 mm at the contact, time step 0.5 to
+    0.0625 us, for mu = 0, 0.1, 0.3, 0.6). Its vy with friction is not above its frictionless vy
+    (+0.3% allowed; measured -0.00%, -0.05%, -0.27%) nor above 1: friction slows the cylinder's
+    slide and spins it up; it does not send it off faster than it came. Run here: the coarsest
+    level with mu = 0.3, whose vy is within 0.3% of the finest level's (measured -0.07%)."""
     run = oblique_fem.run(0, 0.3)
     fine, frictionless = continuum(0.3), continuum(0.0)
     assert run["vy"] == pytest.approx(fine["vy"], rel=0.003)
-    assert run["vx"] == pytest.approx(fine["vx"], rel=0.04)  # (level 0 +2.7%, converging: the table in docs)
-    assert fine["vy"] <= 1.0 and fine["vy"] <= frictionless["vy"] * 1.003
+    assert run["vx"] == pytest.approx(fine["vx"], rel=0.04)  # (level 0 +2.3%, converging: the table in docs)
+    for mu in (0.1, 0.3, 0.6):
+        assert continuum(mu)["vy"] <= min(1.0, frictionless["vy"] * 1.003)
     assert 0.4 < fine["vx"] < 0.6  # it stuck and slipped back: rolling alone would leave vx = 2/3
 
 
@@ -260,9 +262,9 @@ def test_friction_does_not_raise_the_continuums_rebound():
 def test_a_touching_start_rebounds_as_the_continuum_with_the_default_seeding():
     """Why both codes say 1.08: the lattice seeds the cylinder with a flat bottom (eight
     particles in its lowest row at 1 mm cells, 4 mm wide), and a start that puts that row's
-    domains on the block puts six nodes in contact at the first step: a flat punch, stiffer than
+    domains on the block puts six nodes in contact from the first steps: a flat punch, stiffer than
     the cylinder whose contact is about 0.4 mm wide; it rebounds at vy 1.080 (the continuum
-    0.997: +8%). Approached in flight the same lattice comes in one node at a time (0.769, -23%:
+    0.997: +8%). Approached in flight the same lattice comes in one node at a time (0.775, -22%:
     the contact lets go early; docs/contact.md). Seeded to its surface (the default for a circle
     in contact) the touching start rebounds within 2% of the continuum at R/h = 10 (measured
     0.985, -1.3%)."""
