@@ -568,7 +568,8 @@ def _describe_particles(scene, state, u) -> None:
 def _seeding_lines(scene) -> list[str]:
     """How each round particle body (circle, annulus, sphere) is seeded and why. On the lattice
     in a scene with grid contact: that its surface is a staircase whose corners carry the contact
-    load (docs/contact.md, "The staircase is the error"), and why the default did not follow the
+    load (docs/contact.md, "The staircase is the error"; "Friction from a touching start" for
+    the impact's rebound against the continuum), and why the default did not follow the
     surface (a body laid over others, `overwrites`, cannot)."""
     contact = scene.contact.grid is not None
     lines = []
@@ -583,7 +584,8 @@ def _seeding_lines(scene) -> list[str]:
             lines.append(f"{who} ({shape}): seeded in {seeding.how} that follow its surface{why}")
         elif contact:
             lines.append(f"{who} ({shape}): seeded on the lattice{why}, its surface a staircase whose corners carry "
-                         "the contact load (Hertz cylinder: centre pressure -29% at R/h = 20; docs/contact.md)")
+                         "the contact load (Hertz cylinder: centre pressure -29% at R/h = 20; oblique impact with "
+                         "friction: normal rebound off by up to 36% at R/h = 10-20; docs/contact.md)")
     return lines
 
 
