@@ -102,7 +102,7 @@ class DeviceStep:
         self.set_fields(0, to(np.zeros(1, dtype=np.int64)))
         view = g.view
         d["shape"], d["origin"], d["h"] = to(np.asarray(view.shape)), to(view.origin), to(view.h)
-        d["face_type"], d["wall_index"] = to(view.face_type), to(view.wall_index)
+        d["face_type"], d["wall_index"] = to(np.asarray(view.face_type)), to(np.asarray(view.wall_index))
         self.grid_view = GridView(d["shape"], d["origin"], d["h"], d["face_type"], d["wall_index"])
         d["offs"] = to(state.entry_offsets)
         d["gravity"] = to(np.asarray(state.gravity, dtype=np.float64))

@@ -20,6 +20,12 @@ FREE, FIXED, ROLLER = 0, 1, 2
 FACE_CODES = {"free": FREE, "fixed": FIXED, "roller": ROLLER, "slip": ROLLER}
 
 
+def faces_tuple(values) -> tuple:
+    """Six plain ints, one per face in FACES order (faces a 2D grid lacks are 0: free)."""
+    out = [int(v) for v in values]
+    return tuple(out + [0] * (6 - len(out)))
+
+
 @dataclass
 class GridSpec:
     dim: int
@@ -34,8 +40,9 @@ class GridSpec:
 
     @cached_property
     def view(self) -> GridView:
-        """The grid as kernels take it."""
-        return GridView(self.shape, self.origin, self.h, self.face_type, self.wall_index)
+        """The grid as kernels take it (its node counts and faces as tuples of ints: views.GridView)."""
+        return GridView(tuple(int(n) for n in self.shape), self.origin, self.h, faces_tuple(self.face_type),
+                        faces_tuple(self.wall_index))
 
     @property
     def n_nodes(self) -> int:

@@ -28,7 +28,7 @@ import numpy as np
 from .axisymmetric import AXISYMMETRIC_KINDS, BAD_AXIS
 from .cpdi import BAD_DOMAIN, BAD_SPAN, CORNERS, NINE_POINT, cpdi_shape_functions
 from .grid_functions import BSPLINE2, BSPLINE3, GIMP, LINEAR, NODES
-from .tensor import BAD_SUPPORT, tensor_shape_functions
+from .tensor import BAD_SUPPORT, tensor_kernel
 
 SHAPE_BAD_MESSAGES = {
     BAD_SUPPORT: "its shape-function support (a CPDI corner or spline node) left the grid",
@@ -106,7 +106,7 @@ class ShapeFunction:
                            np.full(nchunk, -1, dtype=np.int64),
                            np.full(nchunk, BAD_SUPPORT if self.cpdi_scheme < 0 else 0, dtype=np.int64))
         if self.cpdi_scheme < 0:
-            tensor_shape_functions(x, grid.view, semi, self.kind, nchunk, sd, boxes)
+            tensor_kernel(self.grid_kind, x.shape[1], self.axisymmetric)(x, grid.view, semi, nchunk, sd, boxes)
         else:
             if F is None:
                 F = np.broadcast_to(np.eye(x.shape[1]), (len(x), x.shape[1], x.shape[1]))

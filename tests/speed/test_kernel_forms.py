@@ -100,3 +100,34 @@ def test_serial_and_parallel_forms_agree_bit_for_bit(monkeypatch):
     assert t1 == t2
     assert np.array_equal(x1, x2) and np.array_equal(v1, v2) and np.array_equal(s1, s2)
     assert np.abs(v1).max() > 0.0  # the platen has moved material
+
+
+def test_the_grid_loops_take_no_array_reference_per_node_component():
+    """The grid loops call bc.node_bc once per node component; numba keeps an NRT incref and
+    decref per array argument of such an inlined helper wherever its branches stop the pruning
+    (4.3x on the benchmark column's grid velocities, docs/performance.md). The grid view's node
+    counts and faces are tuples for that. Read from the compiled code (a fresh, uncached
+    compile: numba shows no LLVM for cached code): each array is referenced once, on entry.
+    The same check sees the extra references when the faces are arrays."""
+    import re
+
+    from numba import njit
+
+    from mpmsim.tasks.boundary import grid_velocity, held_by
+
+    sim = Simulation(build_scene(load_deck(ROOT / "bench" / "column.yaml")), out_dir=None, threads=1)
+    sim.step()
+    st = sim.state
+    view = st.grid.view
+    assert all(isinstance(t, tuple) for t in (view.shape, view.face_type, view.wall_index))
+
+    def references(grid) -> list[str]:
+        fresh = njit(error_model="numpy")(grid_velocity.py_func)
+        fresh(st.box.active(), grid, held_by(st, st.rigid.v_start), st.fields.mass, st.fields.mom, st.fields.vel)
+        return re.findall(r"call void @NRT_incref\(ptr (?:nonnull )?(%[\w.]+)\)", fresh.inspect_llvm(fresh.signatures[0]))
+
+    refs = references(view)
+    assert refs and len(refs) == len(set(refs)), refs
+    arrays = view._replace(face_type=np.array(view.face_type), wall_index=np.array(view.wall_index))
+    refs = references(arrays)
+    assert len(refs) > len(set(refs)), refs
