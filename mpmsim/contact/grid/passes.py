@@ -52,7 +52,7 @@ from numba import njit, prange
 
 from ...bc import NO_BC, node_bc
 from ...gridops import chunk_range, node_ijk
-from ...parallel import chunk_kernel, specialize
+from ...parallel import BORROWING, chunk_kernel, specialize
 from .laws import apply_law, interface_impulse, plugin_dispatch
 from .spec import COULOMB, FRICTIONLESS, INTERFACE, STICK
 
@@ -264,7 +264,7 @@ def exchange_pass(mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_st
             exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_step, w, dp1)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **BORROWING)
 def exchange_node(c, mode, nodes, mass, mom, geo, dec, sep_velocity, touch, held_step, w, dp1):
     """exchange_pass at contact node c (w: NodeScratch). Also the GPU step's, a thread per
     contact node. (A function call, not inlined, as pass_2_node: inlined into a parallel loop,
@@ -438,7 +438,7 @@ def pass_2_node_of(has_interface: bool, plugin_laws: tuple = ()):
         tag += "_" + law_tag
     # (not inlined: inlined into pass_2_kernel's parallel loop, its writes into the arrays of
     # the `dec` bundle were lost on more than one thread; numpy's error model, as the kernels')
-    return njit(cache=True, error_model="numpy")(specialize(pass_2_node, tag, **bind))
+    return njit(cache=True, error_model="numpy", **BORROWING)(specialize(pass_2_node, tag, **bind))
 
 
 def pass_2_kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, nchunk, sums):
@@ -600,6 +600,7 @@ def law_kernels(plugin_laws: tuple) -> LawKernels:
         return LawKernels(exchange_pass, increment_contact, ())
     tag, law = plugin_dispatch(plugin_laws)
     momenta = njit(cache=True, inline="always")(specialize(exchange_momenta.py_func, tag, apply_law=law))
-    node = njit(cache=True, error_model="numpy")(specialize(exchange_node.py_func, tag, exchange_momenta=momenta))
+    node = njit(cache=True, error_model="numpy", **BORROWING)(specialize(exchange_node.py_func, tag,
+                                                                       exchange_momenta=momenta))
     return LawKernels(chunk_kernel(specialize(exchange_pass.py_func, tag, exchange_node=node)),
                       njit(cache=True)(specialize(increment_contact.py_func, tag, apply_law=law)), plugin_laws)

@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit, prange
 
 from ...gridops import chunk_range, node_ijk
-from ...parallel import chunk_kernel, specialize
+from ...parallel import BORROWING, chunk_kernel, specialize
 from .geometry import (cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal,
                        regression_scratch)
 from .spec import (AVERAGE_GRADIENT, FIRST_ORDER, FORCE_LIMIT, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT,
@@ -477,6 +477,12 @@ def plan_nodes(start, stop, inp, geo):
     R = regression_scratch(max_cloud)
     v = np.zeros((4, 3))
     xnode = np.zeros(3)
+    plan_range(start, stop, inp, geo, R, v, xnode)
+
+
+def plan_range(start, stop, inp, geo, R, v, xnode):
+    """Plan contact nodes start:stop with the scratch R, v, xnode (compiled BORROWING:
+    parallel.py)."""
     for c in range(start, stop):
         plan_contact_node(c, inp, geo, R, v, xnode)
 
@@ -505,5 +511,7 @@ def contact_geometry(normal: int, separation: int, interfaces: bool):
     """The geometry kernel (a ChunkKernel) of one normal method and separation (codes), with
     or without interface laws (node_planner)."""
     tag = f"{normal}_{separation}_{int(interfaces)}"
-    plan = njit(cache=True)(specialize(plan_nodes, tag, plan_contact_node=node_planner(normal, separation, interfaces)))
+    nodes = njit(cache=True, **BORROWING)(specialize(plan_range, tag,
+                                                    plan_contact_node=node_planner(normal, separation, interfaces)))
+    plan = njit(cache=True)(specialize(plan_nodes, tag, plan_range=nodes))
     return chunk_kernel(specialize(geometry_kernel, tag, plan_nodes=plan))
