@@ -146,15 +146,17 @@ TRAFFIC: dict[str, list[Term]] = {
         T("sd.nodes", P_, "K", 8, 1, "assign_fields: nodes"),
         T("contact.node_cn", E_, "1", 8, 1, "assign_fields: contact node of each entry's node"),
         T("contact.fidx", P_, "K", 8, 1, "assign_fields: field of each entry written"),
+        T("tmp:slotted", P_, "1", 1, 1, "assign_fields: whether an entry is a slot, written"),
+        T("box.order", P_, "1", 8, 1, "slab_subset: particle order (the particles with a slot entry kept)"),
+        T("tmp:slotted", P_, "1", 1, 1, "slab_subset: the flag read"),
         T("rigid_sd.nodes", R_, "K", 8, 1, "rigid masks, then rigid assign_fields", count="2", when="rigid"),
         T("rigid_sd.S", R_, "K", 8, 1, "scatter_rigid_masks: S > 0 test", when="rigid"),
         T("contact.rgroup", R_, "1", 8, 1, "rigid group", count="2", when="rigid"),
         T("contact.rfidx", R_, "K", 8, 1, "rigid slot of each entry written", when="rigid"),
         T("box.fields", F_, "1", 8, 2, "box.fields, box.fnodes rebuilt by concatenation", count="2"),
         T("box.skip", F_, "1", 1, 2, "box.skip rebuilt by concatenation"),
-        T("sd.nodes", P_, "K", 8, 1, "touch_contact_nodes (build_clouds' two passes then walk only the particles "
-          "at contact nodes: not counted)", when="cloud"),
-        T("sd.S", P_, "K", 8, 1, "touch_contact_nodes", when="cloud"),
+        T("tmp:slotted", P_, "1", 1, 1, "flatnonzero: the candidates (touch_contact_nodes and build_clouds' two "
+          "passes then walk only the particles with a slot entry: not counted)", when="cloud"),
         T("rigid_sd.nodes", R_, "K", 8, 1, "build_clouds: rigid entries, both passes", count="2",
           when="cloud rigid"),
         T("rigid_sd.S", R_, "K", 8, 1, "build_clouds: rigid, both passes", count="2", when="cloud rigid"),
@@ -182,8 +184,7 @@ TRAFFIC: dict[str, list[Term]] = {
         T("fields.rigid_vol", F_, "nr", 8, 1, "ghost_table: rigid_holds", when="walls rigid"),
         T("fields.ghost_src", F_, "dim", 8, 1, "ghost_table: mirrored field written", when="walls"),
         T("fields.ghost_face", F_, "dim", 8, 1, "ghost_table: face written", when="walls"),
-        T("box.order", P_, "1", 8, 1, "scatter_slot_extras: particle order", when="contact"),
-        T("contact.fidx", P_, "K", 8, 1, "scatter_slot_extras: only slot entries read more", when="contact"),
+        # (scatter_slot_extras walks only the particles with a slot entry: not counted)
         T("contact.rfidx", R_, "K", 8, 1, "scatter_rigid_slots: rigid slot entries", when="contact rigid"),
     ],
     # the geometry works on contact nodes: a logistic fit per node and group over its cloud

@@ -55,6 +55,24 @@ def slab(ptr, color, s):
 
 
 @njit(cache=True)
+def slab_subset(order, ptr, keep, sub_order, sub_ptr):
+    """The particles p of `order` (slabs `ptr`: a views.Scatter's) with keep[p], slab by slab in
+    their order there, into sub_order and sub_ptr (sizes order.size and ptr.size); returns
+    their number. A scatter over them adds the terms a scatter over all would add, in the same
+    order, where the others add none."""
+    n = 0
+    for s in range(ptr.size - 1):
+        sub_ptr[s] = n
+        for q in range(ptr[s], ptr[s + 1]):
+            p = order[q]
+            if keep[p]:
+                sub_order[n] = p
+                n += 1
+    sub_ptr[ptr.size - 1] = n
+    return n
+
+
+@njit(cache=True)
 def box_nodes(lo, hi, shape, out):
     """Flat indices of the nodes in the box [lo, hi] (inclusive), in memory order."""
     q = 0

@@ -22,7 +22,9 @@ class GridView(NamedTuple):
     # once per node component inside inlined helpers (bc.node_bc, bc.ghost_mirror), and numba
     # keeps an NRT incref/decref pair per array argument per such call where the helper's
     # branches stop its pruning (on the benchmark column: grid velocities 4.3x, the ghost
-    # table 5.5x slower with these as arrays).
+    # table 5.5x slower with these as arrays). A parallel loop cannot take the view whole (numba's
+    # parfor lowering refuses a tuple inside a tuple argument): unpack it before the loop and
+    # build it inside (contact/grid/plan.geometry_kernel).
     shape: tuple  # 3 ints: nodes per direction (nz = 1 in 2D)
     origin: np.ndarray  # (dim,)
     h: np.ndarray  # (dim,)

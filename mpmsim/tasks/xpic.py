@@ -50,7 +50,7 @@ from ..contact.grid.spec import SEP_VELOCITY
 from ..contact.grid.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
 from ..parallel import chunk_kernel, specialize
-from ..views import RigidHold
+from ..views import GridView, RigidHold
 from .boundary import has_walls, mirror_ghosts
 
 
@@ -100,7 +100,7 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
     # (parallel loops work on arrays bound to locals: docs/architecture.md)
     order_, ptr, nodes, S = sc
     fields, fnodes, skip = active
-    shape, _, _, face_type, wall_index = grid
+    shape, origin, h, face_type, wall_index = grid  # (the contact increments rebuild the view: views.GridView)
     rigid_vol, constrain, rig_vel = held
     mass, vnew, vstart, dv, tmp, vstar = f
     m_order, filter_updated, seed_shift, use_shift, walls, sep_velocity, touch = opts
@@ -184,7 +184,8 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
             for d in range(dim):
                 prev[s, d] = dv[nn + s, d]
         for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
-            increment_contact(c, cnodes, grid, held, mass, dv, geo, dec, sep_velocity, touch)
+            increment_contact(c, cnodes, GridView(shape, origin, h, face_type, wall_index), held, mass, dv, geo, dec,
+                              sep_velocity, touch)
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
             point_bond(bonds, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
         for s in prange(gain.shape[0]):

@@ -100,18 +100,21 @@ def build_slots(box_nodes, mask, c, s, node_cn, cn_nodes, cn_ptr, slot_group, sl
 
 
 @chunk_kernel
-def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx):
+def assign_fields(nodes, S, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx, slotted):
     """fidx = n_nodes + the slot of the particle's group at contact nodes; elsewhere the node
     itself (keep_nodes, deformable particles) or -1 (rigid contact particles live only in
-    slots; rigid velocity-condition particles have group -1 and no fields)."""
+    slots; rigid velocity-condition particles have group -1 and no fields). slotted[p]: some
+    entry of p is a slot (the particles the slot sums and the point clouds walk)."""
     for p in prange(S.shape[0]):
-        assign_particle(p, nodes, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx)
+        slotted[p] = assign_particle(p, nodes, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx)
 
 
 @njit(cache=True, inline="always")
 def assign_particle(p, nodes, group, node_cn, cn_ptr, slot_group, n_nodes, keep_nodes, fidx):
-    """assign_fields for particle p (also the GPU step's, a thread per particle)."""
+    """assign_fields for particle p (also the GPU step's, a thread per particle); whether an
+    entry of p is a slot."""
     g = group[p]
+    slotted = False
     for k in range(fidx.shape[1]):
         node = nodes[p, k]
         f = node if keep_nodes else -1
@@ -120,25 +123,29 @@ def assign_particle(p, nodes, group, node_cn, cn_ptr, slot_group, n_nodes, keep_
             for s in range(cn_ptr[c], cn_ptr[c + 1]):
                 if slot_group[s] == g:
                     f = n_nodes + s
+                    slotted = True
                     break
         fidx[p, k] = f
+    return slotted
 
 
 @chunk_kernel
-def touch_contact_nodes(sd, node_cn, nchunk, out):
-    """out[p]: deformable particle p weighs a contact node (sd: shapes.ShapeData); in chunks,
-    so the clouds' serial passes below walk only these particles."""
+def touch_contact_nodes(sd, node_cn, candidates, nchunk, out):
+    """out[q]: deformable particle candidates[q] weighs a contact node (sd: shapes.ShapeData; a
+    non-zero weight); in chunks, so the clouds' serial passes below walk only these particles."""
     nodes, S = sd.nodes, sd.S
-    n, K = S.shape
+    K = S.shape[1]
+    n = candidates.size
     for c in prange(nchunk):
         start, stop = chunk_range(c, nchunk, n)
-        for p in range(start, stop):
+        for q in range(start, stop):
+            p = candidates[q]
             hit = False
             for k in range(K):
                 if S[p, k] > 0.0 and node_cn[nodes[p, k]] >= 0:
                     hit = True
                     break
-            out[p] = hit
+            out[q] = hit
 
 
 @njit(cache=True)

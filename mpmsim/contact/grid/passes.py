@@ -53,6 +53,7 @@ from numba import njit, prange
 from ...bc import NO_BC, node_bc
 from ...gridops import chunk_range, node_ijk
 from ...parallel import BORROWING, chunk_kernel, specialize
+from ...views import GridView
 from .laws import apply_law, interface_impulse, plugin_dispatch
 from .spec import COULOMB, FRICTIONLESS, INTERFACE, STICK
 
@@ -446,6 +447,7 @@ def pass_2_kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, 
     n_cn = nodes.n_cn
     dim = vnew.shape[1]
     chunk_reaction, chunk_work, chunk_energy = sums
+    shape, origin, h, face_type, wall_index = grid  # (see views.GridView)
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
         w = node_scratch()
@@ -455,8 +457,8 @@ def pass_2_kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, 
             for d in range(dim):
                 chunk_reaction[ch, r, d] = 0.0
         for c in range(start, stop):
-            work, energy = PASS_2_NODE(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, w,
-                                       chunk_reaction, ch)
+            work, energy = PASS_2_NODE(c, nodes, GridView(shape, origin, h, face_type, wall_index), held, rigid_of_group,
+                                       mass, vnew, acc, geo, dec, settings, w, chunk_reaction, ch)
             chunk_work[ch] += work
             chunk_energy[ch] += energy
 

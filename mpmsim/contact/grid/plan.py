@@ -29,6 +29,7 @@ from numba import njit, prange
 
 from ...gridops import chunk_range, node_ijk
 from ...parallel import BORROWING, chunk_kernel, specialize
+from ...views import GridView
 from .geometry import (cloud_direction, cloud_separation, contact_area, gather_cloud, h_perp, regression_normal,
                        regression_scratch)
 from .spec import (AVERAGE_GRADIENT, FIRST_ORDER, FORCE_LIMIT, INTERFACE, LINEAR_REGRESSION, LOGISTIC, MAX_GRADIENT,
@@ -490,9 +491,11 @@ def plan_range(start, stop, inp, geo, R, v, xnode):
 def geometry_kernel(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt, nchunk, geo):
     """Plan every contact node (parallel over chunks of nodes); results in geo (Targets)."""
     n_cn = nodes.n_cn
+    shape, origin, h, face_type, wall_index = grid  # (see views.GridView)
     for ch in prange(nchunk):  # (numba's parallel loops read bundle members through locals only)
         start, stop = chunk_range(ch, nchunk, n_cn)
-        plan_nodes(start, stop, GeometryInputs(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt), geo)
+        plan_nodes(start, stop, GeometryInputs(nodes, GridView(shape, origin, h, face_type, wall_index), mass, sums,
+                                               clouds, laws, method, warm_phi, dt), geo)
 
 
 @cache

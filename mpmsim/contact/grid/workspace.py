@@ -127,6 +127,10 @@ class ContactWorkspace:
     cloud_ptr: np.ndarray = None
     cloud_idx: np.ndarray = None
     cloud_w: np.ndarray = None
+    # the deformable particles with a slot entry, in the step's slab order (slot_ptr: the slabs'
+    # starts), for the slot sums
+    slot_order: np.ndarray = None
+    slot_ptr: np.ndarray = None
     # momentum contact gives each deformable group from each other one (G x G x dim, G the
     # deformable groups; [a, b]: what b gives a): this step's so far, the last step's as a
     # force, and the impulse since t = 0 (history columns contact_f*, contact_impulse_*)
@@ -185,6 +189,7 @@ class ContactWorkspace:
         # empty clouds until material_fields builds them: the bundles have their types from the
         # start (a helper compiling a first step's kernels from their types reads them before)
         cs.cloud_ptr, cs.cloud_idx, cs.cloud_w = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
+        cs.slot_order, cs.slot_ptr = np.zeros(0, dtype=np.int64), np.zeros(2, dtype=np.int64)
         G = spec.n_def_groups
         cs.pair_step, cs.pair_force, cs.pair_impulse = (np.zeros((G, G, dim)) for _ in range(3))
         cs.contact_step = np.full(n_nodes, NEVER, dtype=np.int64)
