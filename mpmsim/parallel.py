@@ -107,11 +107,10 @@ def chunk_kernel(fn) -> ChunkKernel:
 # With it, numba keeps an NRT incref/decref call (an atomic add through a function pointer) for
 # every array of every bundle bound in an inlined helper wherever the helper's branches stop
 # its pruning: in the LR contact planner over a hundred per contact node. Without it the
-# function borrows its arguments; numba refuses to compile an allocation there, so the option
-# cannot hide a leak, and the numbers are the same to the bit. On the two-block benchmark
-# column: the contact geometry 2.5x, pass 2 1.8x faster (docs/performance.md).
-# (`_nrt` is numba's own target option, the one its `nopython` tests use to compile without the
-# runtime.)
+# function borrows its arguments; numba refuses to compile an allocation there (a typing error
+# at np.zeros), so the option cannot hide a leak, and the numbers are the same to the bit. On
+# the two-block benchmark column: the contact geometry 2.5x, pass 2 1.8x faster
+# (docs/performance.md). (`_nrt` is numba's target option for compiling without its runtime.)
 BORROWING = {"_nrt": False}
 
 

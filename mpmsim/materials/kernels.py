@@ -26,10 +26,10 @@ CBRT_GUESS = (0.5006378, 0.70397339, -0.24700861, 0.04260007)
 
 @njit(cache=True, inline="always")
 def cube_root(x):
-    """x^(1/3), within 3 ulp of np.cbrt: on [0.5, 2] (the volume ratios of a solid) a cubic
-    guess and two Halley steps, y <- y (y^3 + 2x) / (2y^3 + x) (each cubes the error: 3e-3,
-    1e-8, 1e-16), 3.4x faster than the libm call np.cbrt makes (6 against 20 ns on the AMD
-    EPYC VM, 2026-12-01); np.cbrt elsewhere."""
+    """x^(1/3): on [0.5, 2] (the volume ratios of a solid) a cubic guess and two Halley steps,
+    y <- y (y^3 + 2x) / (2y^3 + x) (each cubes the error: 3e-3, 1e-8, 1e-16), within 3.2 ulp of
+    the true root as numba's np.cbrt (a libm call) is within 3.1; np.cbrt elsewhere. A loop of
+    J^(-5/3) takes 6 ns a value this way, 20 ns with np.cbrt (the AMD EPYC VM, 2026-12-01)."""
     if not (x >= 0.5 and x <= 2.0):
         return np.cbrt(x)
     a0, a1, a2, a3 = CBRT_GUESS
