@@ -35,6 +35,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from machine import cpu_model  # (bench/machine.py: run as python bench/reference.py)
+
 ROOT = Path(__file__).resolve().parents[1]
 STEPS = {1.0: 400, 0.25: 30}
 
@@ -140,16 +142,6 @@ def main() -> None:
         summary[f"{sc}:{cell:g}"] = {c: rates[(sc, cell, c)] for c in codes}
     if args.json:
         args.json.write_text(json.dumps(summary, indent=1))
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 if __name__ == "__main__":

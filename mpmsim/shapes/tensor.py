@@ -1,5 +1,6 @@
 """Tensor-product shape functions (linear, uGIMP, quadratic and cubic B-splines), 2D and 3D
-in one kernel: S_ip and G_ip are products of the 1D weights of `grid_functions`."""
+in one kernel, compiled per grid function and dimension (`tensor_kernel`): S_ip and G_ip are
+products of the 1D weights of `grid_functions`."""
 
 from __future__ import annotations
 
