@@ -16,7 +16,7 @@ difference per pair.
 from __future__ import annotations
 
 import argparse
-import time
+import timeit
 from pathlib import Path
 
 import numba
@@ -25,16 +25,6 @@ import numpy as np
 from machine import describe  # (bench/machine.py: run as python bench/refcount.py)
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def best_of(fn, repeat: int = 5) -> float:
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:
@@ -59,7 +49,12 @@ def main() -> None:
     kernel = grid_velocity.serial
     per_field = {}
     for name, grid in (("faces as tuples (mpmsim)", view), ("faces as arrays", arrays)):
-        t = best_of(lambda: [kernel(active, grid, held, fields.mass, fields.mom, fields.vel) for _ in range(args.repeat)])
+        def calls():
+            for _ in range(args.repeat):
+                kernel(active, grid, held, fields.mass, fields.mom, fields.vel)
+
+        calls()  # (compiles the kernel for the arrays' types)
+        t = min(timeit.repeat(calls, number=1, repeat=5))
         per_field[name] = t / args.repeat / nf
         print(f"column grid velocities, {name}: {t / args.repeat * 1e6:.1f} us for {nf} fields, "
               f"{per_field[name] * 1e9:.1f} ns a field")
