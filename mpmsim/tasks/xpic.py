@@ -45,7 +45,7 @@ from numba import prange
 from ..bc import NO_BC, add_reaction, node_bc
 from ..contact.grid.bond import point_bond
 from ..contact.grid.laws import plugin_dispatch
-from ..contact.grid.passes import NO_BEFORE, increment_contact, law_kernels, pair_changes
+from ..contact.grid.passes import NO_BEFORE, increment_contact, law_kernels, node_scratch, pair_changes
 from ..contact.grid.spec import SEP_VELOCITY
 from ..contact.grid.workspace import no_contact
 from ..gridops import chunk_range, node_ijk, slab
@@ -183,9 +183,12 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
         for s in prange(gain.shape[0]):
             for d in range(dim):
                 prev[s, d] = dv[nn + s, d]
-        for c in prange(n_cn):  # contact re-imposed on the increment (notes §5.2)
-            increment_contact(c, cnodes, GridView(shape, origin, h, face_type, wall_index), held, mass, dv, geo, dec,
-                              sep_velocity, touch)
+        for ch in prange(nchunk):  # contact re-imposed on the increment (notes §5.2), node by node
+            start, stop = chunk_range(ch, nchunk, n_cn)
+            w = node_scratch()
+            for c in range(start, stop):
+                increment_contact(c, cnodes, GridView(shape, origin, h, face_type, wall_index), held, mass, dv, geo,
+                                  dec, sep_velocity, touch, w)
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
             point_bond(bonds, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
         for s in prange(gain.shape[0]):

@@ -489,13 +489,14 @@ def add_free_changes(node, i, j, k, s0, s1, slot_group, n_def, nn, face_type, wa
                 acc[nn + s, d] += dpb[s - s0, d] / (m * dt)
 
 
-@njit(cache=True)
-def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, touch):
+@njit(cache=True, **BORROWING)
+def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, touch, w):
     """Re-impose contact on one XPIC increment dv at contact node c (notes §5.2): the
     increment's stick change is added to a running stick total (seeded by pass 2's), the law
     is applied to the total, and only the change of the applied result is put on the
     increment. With bonded contact every increment goes to the centre of mass, so the filter
-    is exactly single-material XPIC."""
+    is exactly single-material XPIC. w: NodeScratch (the slots' momenta and changes, the
+    impulses and the normal), cleared here for this node's slots."""
     dim = dv.shape[1]
     _, cn_nodes, cn_ptr, slot_group, n_def, _ = nodes
     shape, _, _, face_type, wall_index = grid
@@ -503,19 +504,20 @@ def increment_contact(c, nodes, grid, held, mass, dv, geo, dec, sep_velocity, to
     role, partner, geo_n, _, _, _, bonded, slot_law, slot_mu, slot_mus, _, _ = geo
     delta2, stick_total, applied_total = dec.delta2, dec.stick_total, dec.applied_total
     nn = shape[0] * shape[1] * shape[2]
-    pbuf = np.zeros((MAX_SLOTS, 3))
-    dpb = np.zeros((MAX_SLOTS, 3))
-    imp = np.zeros(3)
-    out = np.zeros(3)
-    n = np.zeros(3)
+    pbuf, dpb, imp, out, n = w.pbuf, w.dpb, w.imp, w.out, w.n
+    for d in range(3):
+        imp[d] = 0.0
+        out[d] = 0.0
+        n[d] = 0.0
     s0 = cn_ptr[c]
     s1 = cn_ptr[c + 1]
     node = cn_nodes[c]
     i, j, k = node_ijk(node, shape)
     for s in range(s0, s1):
-        for d in range(dim):
-            pbuf[s - s0, d] = mass[nn + s] * dv[nn + s, d] if slot_group[s] < n_def else 0.0
-    for a in range(s0, s1):  # (dpb: zeros as allocated)
+        for d in range(3):
+            pbuf[s - s0, d] = mass[nn + s] * dv[nn + s, d] if slot_group[s] < n_def and d < dim else 0.0
+            dpb[s - s0, d] = 0.0
+    for a in range(s0, s1):
         if role[a] == 0:
             continue
         b, rigid_b, mred = target_stick(a, s0, s1, slot_group, n_def, nn, mass, partner, geo_n, pbuf, dim, n, imp)
@@ -605,4 +607,5 @@ def law_kernels(plugin_laws: tuple) -> LawKernels:
     node = njit(cache=True, error_model="numpy", **BORROWING)(specialize(exchange_node.py_func, tag,
                                                                        exchange_momenta=momenta))
     return LawKernels(chunk_kernel(specialize(exchange_pass.py_func, tag, exchange_node=node)),
-                      njit(cache=True)(specialize(increment_contact.py_func, tag, apply_law=law)), plugin_laws)
+                      njit(cache=True, **BORROWING)(specialize(increment_contact.py_func, tag, apply_law=law)),
+                      plugin_laws)
