@@ -129,8 +129,7 @@ TRAFFIC: dict[str, list[Term]] = {
         T("rigid_sd.G", R_, "K*dim", 8, 1, "rigid: gradients (unused later, still written)", when="rigid"),
         T("rigid_sd.lowest", R_, "3", 8, 1, "rigid: lowest node", when="rigid"),
         T("box.fields", F_, "1", 8, 1, "box_nodes: the box's node list rewritten"),
-        T("box.order", P_, "1", 8, 1, "one thread: order[:] = np.arange(n)"),
-        T("tmp:arange", P_, "1", 8, 2, "... through an n-long temporary, written then read"),
+        # (one thread: the order stays 0, 1, ..., n - 1 from step to step, not rewritten)
     ],
     "material fields": [  # contact/__init__.material_fields (contact scenes)
         T("box.fields", F_, "1", 8, 2, "box node list copied (read, copy written)"),

@@ -142,6 +142,7 @@ class ActiveBox:
         self.skip = np.zeros(0, dtype=np.bool_)
         self.n_box = 0  # the first n_box fields are the box's nodes
         self.storage_axis = -1  # the axis the particles' storage order varies slowest along
+        self.in_storage_order = False  # order is 0, 1, ..., n - 1 (one thread's single slab)
 
     def active(self) -> ActiveFields:
         return ActiveFields(self.fields, self.fnodes, self.skip)
@@ -165,10 +166,14 @@ class ActiveBox:
         n = len(lowest)
         if self.order.shape[0] != n:
             self.order = np.arange(n, dtype=np.int64)
+            self.in_storage_order = True
         if threads <= 1:
-            self.order[:] = np.arange(n)
+            if not self.in_storage_order:  # (rewritten only after a threaded step binned it)
+                self.order[:] = np.arange(n)
+                self.in_storage_order = True
             self.ptr = np.array([0, n], dtype=np.int64)
             return
+        self.in_storage_order = False
         extent = self.hi - self.lo + 1
         width = max(span, 1)
         if self.storage_axis < 0:  # once: particles keep their storage order through a run

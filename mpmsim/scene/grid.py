@@ -44,6 +44,11 @@ class GridSpec:
         return GridView(tuple(int(n) for n in self.shape), self.origin, self.h, faces_tuple(self.face_type),
                         faces_tuple(self.wall_index))
 
+    @cached_property
+    def has_walls(self) -> bool:
+        """Some domain face holds velocities (fixed or roller): ghost values are mirrored."""
+        return bool(np.any(self.face_type[: 2 * self.dim] != 0))
+
     @property
     def n_nodes(self) -> int:
         return int(np.prod(self.shape))

@@ -152,7 +152,7 @@ def fold_ghost_forces(fields, ghost_src, ghost_face, force):
 
 
 def has_walls(state) -> bool:
-    return bool(np.any(state.grid.face_type[: 2 * state.dim] != 0))
+    return state.grid.has_walls
 
 
 def held_by(state, velocity) -> RigidHold:

@@ -4,6 +4,7 @@ compute at them (plain arrays, grown by doubling as a run needs more)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -229,9 +230,11 @@ class NoContact(NamedTuple):
     slots: SlotMap
 
 
+@cache
 def no_contact(dim: int) -> NoContact:
     """Bundles of the same types as a workspace's, for kernels that loop over zero contact
-    nodes (one compiled kernel serves scenes with and without contact)."""
+    nodes (one compiled kernel serves scenes with and without contact). Made once per
+    dimension: nothing reads or writes them past their zero nodes."""
     i1, f1, f2, f3 = np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros((1, dim)), np.zeros((1, 3))
     nodes = ContactNodes(0, i1, i1, i1, 0, 0)
     geo = Targets(i1, i1, f2, f1, f1, f2, i1, i1, f1, f1, f3, f1)
