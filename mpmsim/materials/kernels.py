@@ -20,26 +20,6 @@ from numba import njit
 VOIGT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2]], dtype=np.int64)
 
 
-# cube_root's first guess on [0.5, 2]: the cubic fitted to x^(1/3) there (within 0.32%)
-CBRT_GUESS = (0.5006378, 0.70397339, -0.24700861, 0.04260007)
-
-
-@njit(cache=True, inline="always")
-def cube_root(x):
-    """x^(1/3): on [0.5, 2] (the volume ratios of a solid) a cubic guess and two Halley steps,
-    y <- y (y^3 + 2x) / (2y^3 + x) (each cubes the error: 3e-3, 1e-8, 1e-16), within 3.2 ulp of
-    the true root as numba's np.cbrt (a libm call) is within 3.1; np.cbrt elsewhere. A loop of
-    J^(-5/3) takes 6 ns a value this way, 20 ns with np.cbrt (the AMD EPYC VM, 2026-12-01)."""
-    if not (x >= 0.5 and x <= 2.0):
-        return np.cbrt(x)
-    a0, a1, a2, a3 = CBRT_GUESS
-    y = a0 + x * (a1 + x * (a2 + x * a3))
-    for _ in range(2):
-        y3 = y * y * y
-        y = y * (y3 + 2.0 * x) / (2.0 * y3 + x)
-    return y
-
-
 @njit(cache=True, inline="always")
 def det3(A):
     return (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])

@@ -121,35 +121,3 @@ def test_anisotropic_increment_and_energy():
     np.testing.assert_allclose(s, C @ de, rtol=1e-12, atol=1e-14)
     assert compliance_energy(props, s) == pytest.approx(0.5 * de @ C @ de, rel=1e-12)
     assert modulus == pytest.approx(max(C[0, 0], C[1, 1], C[2, 2]))
-
-
-@pytest.mark.speed
-def test_cube_root_is_as_close_to_the_cube_root_as_np_cbrt():
-    """The neo-Hookean J^(1/3) (materials.kernels.cube_root: a cubic guess and two Halley steps
-    on [0.5, 2], np.cbrt elsewhere) against the cube root to 40 digits (decimal) on 4001 points of
-    [0.5, 2]: at most 3.5 ulp off and 0.6 on average, as np.cbrt is in compiled code (numba's
-    libm call: 3.1 and 0.53 here; one Halley step would be 1e8 ulp off). Outside, NaN and
-    infinity included, np.cbrt itself."""
-    from decimal import Decimal, getcontext
-
-    from numba import njit
-
-    from mpmsim.materials.kernels import cube_root
-
-    @njit
-    def roots(x, fast):
-        out = np.empty_like(x)
-        for i in range(x.size):
-            out[i] = cube_root(x[i]) if fast else np.cbrt(x[i])
-        return out
-
-    getcontext().prec = 40
-    x = np.linspace(0.5, 2.0, 4001)
-    third = Decimal(1) / Decimal(3)
-    exact = [Decimal(float(v)) ** third for v in x]
-    for fast in (True, False):
-        ulp = np.array([abs(float(Decimal(float(r)) - e)) for r, e in zip(roots(x, fast), exact)]) / np.spacing(np.cbrt(x))
-        assert ulp.max() <= 3.5 and ulp.mean() < 0.6, (fast, ulp.max(), ulp.mean())
-    outside = np.array([0.0, 1e-300, 0.3, 0.4999999, 2.0000001, 7.5, 1e300, -8.0, np.inf, -np.inf])
-    assert np.array_equal(roots(outside, True), roots(outside, False))
-    assert np.isnan(roots(np.array([np.nan]), True)[0])
