@@ -42,6 +42,7 @@ STEPS = {1.0: 400, 0.25: 30}
 
 MPMSIM = r"""
 import json, sys, time
+from pathlib import Path
 import numba, yaml
 numba.set_num_threads(1)
 from mpmsim.deck import load_deck_text
@@ -51,7 +52,6 @@ from mpmsim.stability import total_sums
 deck, cell, steps = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
 data = yaml.safe_load(open(deck).read())
 data["grid"]["cell_size"] = cell
-from pathlib import Path
 sim = Simulation(build_scene(load_deck_text(yaml.safe_dump(data), Path(deck))), out_dir=None, threads=1)
 total_sums(sim.state)
 for _ in range(3):

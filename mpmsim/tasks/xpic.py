@@ -186,9 +186,9 @@ def xpic_series(sc, pmass, active, grid, held, f, opts, cnodes, geo, dec, bonds,
         for ch in prange(nchunk):  # contact re-imposed on the increment (notes §5.2), node by node
             start, stop = chunk_range(ch, nchunk, n_cn)
             w = node_scratch()
+            gview = GridView(shape, origin, h, face_type, wall_index)
             for c in range(start, stop):
-                increment_contact(c, cnodes, GridView(shape, origin, h, face_type, wall_index), held, mass, dv, geo,
-                                  dec, sep_velocity, touch, w)
+                increment_contact(c, cnodes, gview, held, mass, dv, geo, dec, sep_velocity, touch, w)
         if n_cn > 0:  # and the consistent normal bond (contact.bond); a 1-row acc: no force to record
             point_bond(bonds, nn, mass, dv, False, vstar[:1], 0.0, geo_n, dim)
         for s in prange(gain.shape[0]):

@@ -451,14 +451,15 @@ def pass_2_kernel(nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec, 
     for ch in prange(nchunk):
         start, stop = chunk_range(ch, nchunk, n_cn)
         w = node_scratch()
+        gview = GridView(shape, origin, h, face_type, wall_index)
         chunk_work[ch] = 0.0
         chunk_energy[ch] = 0.0
         for r in range(chunk_reaction.shape[1]):
             for d in range(dim):
                 chunk_reaction[ch, r, d] = 0.0
         for c in range(start, stop):
-            work, energy = PASS_2_NODE(c, nodes, GridView(shape, origin, h, face_type, wall_index), held, rigid_of_group,
-                                       mass, vnew, acc, geo, dec, settings, w, chunk_reaction, ch)
+            work, energy = PASS_2_NODE(c, nodes, gview, held, rigid_of_group, mass, vnew, acc, geo, dec, settings, w,
+                                       chunk_reaction, ch)
             chunk_work[ch] += work
             chunk_energy[ch] += energy
 
