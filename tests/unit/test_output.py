@@ -406,7 +406,8 @@ def test_ctrl_c_or_sigterm_stops_a_run_with_a_message_and_keeps_its_output(tmp_p
 
     frames = [float(t) for t in re.findall(r'timestep="([^"]+)"', (out / "long.pvd").read_text())]
     last_row = read_history(out / "long_history.csv")["time"][-1]
-    assert frames[-1] == pytest.approx(last_row, rel=1e-9, abs=1e-12) and frames[-1] > 0.003
+    # the signal may land in the very step that wrote frame 3 (then that frame is the last one)
+    assert frames[-1] == pytest.approx(last_row, rel=1e-9, abs=1e-12) and frames[-1] >= 0.003 * (1 - 1e-9)
 
 
 def test_a_rerun_into_the_same_folder_leaves_no_stale_series_files(tmp_path):
