@@ -8,7 +8,7 @@ from pydantic import Field
 from typing import Literal
 
 from ..schema_base import Strict
-from .kernels import det3
+from .kernels import cube_root, det3
 from .model import NEO_HOOKEAN, NPROP, MaterialModel, register
 
 
@@ -41,7 +41,7 @@ def neo_hookean_stress(K, G, F3, s):
     bxz = F3[0, 0] * F3[2, 0] + F3[0, 1] * F3[2, 1] + F3[0, 2] * F3[2, 2]
     tr3 = (bxx + byy + bzz) / 3.0
     pres = 0.5 * K * (J - 1.0 / J)
-    cj = np.cbrt(J)
+    cj = cube_root(J)
     c = G / (J * cj * cj)  # G J^(-5/3) without the slow pow
     s[0] = pres + c * (bxx - tr3)
     s[1] = pres + c * (byy - tr3)
@@ -65,7 +65,7 @@ def neo_hookean_stress_2d(K, G, J, f00, f01, f10, f11, s):
     bxy = f00 * f10 + f01 * f11 + 0.0  # (+ 0.0: the 3D sum's last term, which turns -0 into +0)
     tr3 = (bxx + byy + 1.0) / 3.0
     pres = 0.5 * K * (J - 1.0 / J)
-    cj = np.cbrt(J)
+    cj = cube_root(J)
     c = G / (J * cj * cj)
     s[0] = pres + c * (bxx - tr3)
     s[1] = pres + c * (byy - tr3)
