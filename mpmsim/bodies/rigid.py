@@ -156,8 +156,20 @@ def _first_inside(x, origin, spacing, lo, span, owner):
     lowest corner), or (-1, -1)."""
     n, dim = x.shape
     k = np.zeros(3, np.int64)
+    # the lattice's cells with one spacing to spare on each side: a particle outside this box
+    # fails the exact test below, which the box spares most particles (a divide and a floor an axis)
+    near_lo, near_hi = np.zeros(3), np.zeros(3)
+    for a in range(dim):
+        near_lo[a] = origin[a] + (lo[a] - 0.5) * spacing[a]
+        near_hi[a] = origin[a] + (lo[a] + span[a] + 0.5) * spacing[a]
     for p in range(n):
         inside = True
+        for a in range(dim):
+            if not (x[p, a] >= near_lo[a] and x[p, a] <= near_hi[a]):
+                inside = False
+                break
+        if not inside:
+            continue
         for a in range(dim):
             k[a] = int(np.floor((x[p, a] - origin[a]) / spacing[a] - 0.5)) - lo[a]
             if k[a] < 0 or k[a] + 1 >= span[a]:

@@ -109,3 +109,46 @@ def test_a_scene_larger_than_the_memory_is_refused_before_it_is_built(monkeypatc
     assert f": {key}: " in text and "GB are available" in text and "Traceback" not in text
     monkeypatch.setattr(memory, "available_bytes", lambda: 24 << 30)
     assert CliRunner().invoke(app, ["check", str(ROOT / "inputs" / f"{deck}.yaml")]).exit_code == 0
+
+
+@pytest.mark.speed
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_inside_rigid_search_finds_what_a_plain_search_of_every_cell_finds(dim):
+    """bodies.rigid._first_inside skips the particles outside the lattice's box before its
+    exact cell test; the first particle found (and its cell's owner) must be the one an exact
+    test of every particle finds, here with particles scattered in and around an L-shaped
+    lattice with a hole, at positions within rounding of the cell edges too."""
+    import numpy as np
+
+    from mpmsim.bodies.rigid import _first_inside
+
+    rng = np.random.default_rng(dim)
+    origin, spacing = np.array([0.3, -1.1, 0.2])[:dim], np.array([0.5, 0.25, 0.4])[:dim]
+    lo, span = np.array([3, 7, 2])[:dim], np.array([6, 5, 4])[:dim]
+    owner = np.arange(int(np.prod(span)), dtype=np.int64).reshape(tuple(span))
+    owner[3:, 3:] = -1  # the L
+    owner[1, 1] = -1  # a hole
+    owner = owner.ravel()
+
+    def plain(x):
+        for p in range(len(x)):
+            k = np.floor((x[p] - origin) / spacing - 0.5).astype(np.int64) - lo
+            if np.any(k < 0) or np.any(k + 1 >= span):
+                continue
+            corners = [np.ravel_multi_index(tuple(k + np.array([(c >> a) & 1 for a in range(dim)])), tuple(span))
+                       for c in range(2 ** dim)]
+            if all(owner[f] >= 0 for f in corners):
+                return p, int(owner[np.ravel_multi_index(tuple(k), tuple(span))])
+        return -1, -1
+
+    box_lo, box_hi = origin + (lo - 1.0) * spacing, origin + (lo + span + 1.0) * spacing
+    found = 0
+    for trial in range(200):
+        x = rng.uniform(box_lo, box_hi, (int(rng.integers(1, 40)), dim))
+        edges = origin + (lo + rng.integers(0, span, x.shape) + 0.5) * spacing  # on cell edges, +- an ulp
+        pick = rng.random(x.shape) < 0.3
+        x[pick] = np.nextafter(edges[pick], edges[pick] + rng.choice([-1.0, 1.0], pick.sum()))
+        got = _first_inside(x, origin, spacing, lo, span, owner)
+        assert got == plain(x), trial
+        found += got[0] >= 0
+    assert 20 < found < 190  # both outcomes seen
