@@ -44,7 +44,7 @@ def p2g_momentum(sc, pmass, pvel, with_mass, gmass, gmom, affine, C, lowest, off
                     w = S[p, k]
                     if w == 0.0:
                         continue
-                    i = nodes[p, k]
+                    i = np.uint64(nodes[p, k])  # (unsigned: no negative-index wrap per access)
                     wm = w * mp
                     if with_mass:
                         gmass[i] += wm

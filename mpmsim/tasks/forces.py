@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit, prange
 
 from ..gridops import slab, zero_fields
@@ -34,7 +35,7 @@ def p2g_forces(sc, G, T, P, gravity, has_gravity, gforce):
                                                 stress[p, 4], stress[p, 5])
                 for k in range(K):
                     w = S[p, k]
-                    i = nodes[p, k]
+                    i = np.uint64(nodes[p, k])  # (unsigned: no negative-index wrap per access)
                     gz = G[p, k, 2] if dim == 3 else 0.0
                     fx, fy, fz = node_force(G[p, k, 0], G[p, k, 1], gz, w, vp, wm, sxx, syy, szz, sxy, syz, sxz, g0, g1,
                                             g2, has_gravity, dim)

@@ -102,7 +102,7 @@ def particle_update_kernel(scheme: int, position: int, dim: int):
                 sx = sy = sz = 0.0  # S v*
                 for k in range(K):  # gather only the fields this scheme uses
                     w = S[p, k]
-                    i = nodes[p, k]
+                    i = np.uint64(nodes[p, k])  # (unsigned: no negative-index wrap per access)
                     if use_a:
                         ax += w * acc[i, 0]
                         ay += w * acc[i, 1]

@@ -86,7 +86,7 @@ def stress_kernel(entries, gvel, dt, P, M, dx, nchunk, chunk_wave, faults):
                     for b in range(dim):
                         L[a, b] = 0.0
                 for k in range(K):
-                    i = nodes[p, k]
+                    i = np.uint64(nodes[p, k])  # (unsigned: no negative-index wrap per access)
                     for a in range(dim):
                         va = gvel[i, a]
                         for b in range(dim):
@@ -176,7 +176,7 @@ def velocity_gradient_2d(p, nodes, G, gvel):
     l10 = 0.0
     l11 = 0.0
     for k in range(nodes.shape[1]):
-        i = nodes[p, k]
+        i = np.uint64(nodes[p, k])  # unsigned: numba then adds no negative-index wrap per access
         v0, v1 = gvel[i, 0], gvel[i, 1]
         g0, g1 = G[p, k, 0], G[p, k, 1]
         l00 += v0 * g0
@@ -191,7 +191,7 @@ def hoop_rate(p, nodes, T, gvel):
     """The axisymmetric hoop strain rate of particle p, L_tt = sum_k v_r,i T_pk."""
     l22 = 0.0
     for k in range(nodes.shape[1]):
-        l22 += gvel[nodes[p, k], 0] * T[p, k]
+        l22 += gvel[np.uint64(nodes[p, k]), 0] * T[p, k]
     return l22
 
 
