@@ -133,14 +133,16 @@ def wave_speed(lam: float) -> float:
     return float(np.sqrt(lam**2 * (uniaxial_sxx(lam + d) - uniaxial_sxx(lam - d)) / (2 * d) / RHO))
 
 
-def fixed_step_cfl() -> Measured:
-    """Effective CFL, dt c(lam) / h at the bar's mean stretch (from the grip's displacement),
-    when the fixed-step run was stopped (the exact wave speed: the failing state's is garbage)."""
+def fixed_step_stress() -> Measured:
+    """The bar pulled to stretch 3 under a fixed step 0.8 h/c0 (effective CFL dt c(lam) / h 1.54
+    by the end, with the exact wave speed): the interior stress error (a torn bar scores ~100%),
+    whether or not the run was stopped. Where and whether it stops depends on the last bits of
+    the arithmetic (docs/stability.md, "A fixed step on the stretched bar"); the stress it
+    leaves does not: ~100% either way, 0.2% at 0.7 h/c0."""
     dt = 0.8 * 1.0 / C0  # the end a whole number of steps, so the run's steps are this dt exactly
     end = math.ceil(STRETCH_3["time.end"] / dt) * dt
     sim, stopped = run("stretch", **{**STRETCH_3, "time.end": end}, time={"end": end, "dt": dt})
-    st = sim.state
-    return Measured(st.dt * wave_speed(grip_stretch(sim)) / float(st.grid.h.min()), stopped)
+    return Measured(interior_deviation(sim), stopped)
 
 
 def adaptive_step_stress() -> Measured:
@@ -287,8 +289,8 @@ SCENARIOS = [
     Scenario("cell crossing at large stretch", "neo-Hookean bar stretched to 100%", "B2CPDI (XPIC(5))",
              STRETCH_METRIC, 0.02, "below", lambda: stretch_deviation("b2cpdi")),
     Scenario("time step too large on a stiffening material", "neo-Hookean bar stretched to 200%",
-             "fixed dt = 0.8 h / c0 (c rises 1.9x)", "effective CFL dt c(stretch) / h when stopped", 1.0, "above",
-             fixed_step_cfl, unit="", must_stop=True),
+             "fixed dt = 0.8 h / c0 (c rises 1.9x: CFL 1.54 at stretch 3)", STRETCH_METRIC + " (to stretch 3)",
+             0.5, "above", fixed_step_stress),
     Scenario("time step too large on a stiffening material", "neo-Hookean bar stretched to 200%",
              "adaptive step, CFL 0.8 on the current wave speed",
              STRETCH_METRIC + " (to stretch 3)", 0.02, "below", adaptive_step_stress,
