@@ -33,8 +33,8 @@ def cube_root(x):
     """np.cbrt(x) to the last bit, inlined: the same operations as the C library's cbrt (which
     np.cbrt calls) for x in [0.25, 4), where the exponent splitting is one exact scaling and
     no power-of-two scaling is left at the end; np.cbrt itself elsewhere. The call, its frexp
-    and ldexp are what make np.cbrt slow in a loop (12.8 against 5.2 ns a value, AMD EPYC
-    VM, 2026-12-01). tests/unit/test_materials.py checks the bits against np.cbrt."""
+    and ldexp are what make np.cbrt slow in a loop (8.9 against 2.8 ns a value, bench/traffic.py
+    on the AMD EPYC VM, 2026-12-01). tests/unit/test_materials.py checks the bits against np.cbrt."""
     if x >= 0.5 and x < 1.0:
         m, f = x, 1.0
     elif x >= 1.0 and x < 2.0:
