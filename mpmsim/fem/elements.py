@@ -108,14 +108,14 @@ def _fem_form(code, props, F, out, Finv, neo_hookean, linear_elastic):
     return np.nan
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def first_piola(code, props, F, P, Finv):
     """P = dpsi/dF into P (d, d); Finv (d, d) is scratch. Returns J (neo-Hookean P is NaN for
     J <= 0)."""
     return _fem_form(code, props, F, P, Finv, cnh.fem_piola, linear.fem_piola)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def stress_tangent(code, props, F, C, Finv):
     """C[a*d + b, c*d + e] = dP_ab/dF_ce into C (d*d, d*d); Finv (d, d) scratch. Returns J."""
     return _fem_form(code, props, F, C, Finv, cnh.fem_tangent, linear.fem_tangent)
@@ -352,7 +352,7 @@ def twist_modes(F, W):
     return m
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def project_tangent(code, F, C, work):
     """Make the stress tangent C = dP/dF (d^2 square) PSD in place, as projected Newton needs
     (a Hessian vol G^T C G is then PSD); `work` from tangent_scratch. Linear elasticity's

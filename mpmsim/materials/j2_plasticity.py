@@ -378,7 +378,7 @@ def trial_be(L, dt, hs):
             (w02 + w00 * h20 + w01 * h21 + w02 * h22) + (h02 + h20 + h00 * h20 + h01 * h21 + h02 * h22))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def j2_stress(pr, L, dt, J, s, h, B, work, vecs, hs):
     """The update of the module's text for one particle: hs its state row (in place), s its
     Cauchy stress (Voigt, written), h, B, work, vecs 3x3 scratch. Returns the wave modulus.
