@@ -31,7 +31,7 @@ from mpmsim.shapes import SHAPE_FUNCTIONS
 from mpmsim.solver import Simulation
 from mpmsim.stability import total_sums
 
-from machine import describe  # (bench/machine.py: run as python bench/column.py)
+from machine import describe, steps_wall  # (bench/machine.py: run as python bench/column.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMES = {"flip": {"scheme": "flip"}, "xpic(5)": {"scheme": "xpic", "order": 5}, "apic": {"scheme": "apic"}}
@@ -48,20 +48,6 @@ def load(deck: Path, shape: str | None = None, update: dict | None = None):
     return load_deck_text(yaml.safe_dump(data), deck)
 
 
-def steps_wall(sim: Simulation, steps: int, warmup: int) -> float:
-    """Wall seconds of `steps` steps after `warmup` ones (the timers zeroed after the warm-up).
-    The energy sums are taken once first, as a run does at its start: the stability check's
-    kernel (every stability.check_every steps) is then loaded, or compiled, outside the timing."""
-    total_sums(sim.state)
-    for _ in range(warmup):
-        sim.step()
-    sim.reset_timers()
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        sim.step()
-    return time.perf_counter() - t0
-
-
 def measure(deck: Path, steps: int, threads: int, warmup: int = 5, shape=None, update=None, keep: list | None = None):
     numba.set_num_threads(threads)
     sim = Simulation(build_scene(load(deck, shape, update)), out_dir=None, threads=threads)
@@ -76,7 +62,7 @@ def traffic_line(sim, rate: float) -> str:
     """The step's bytes per particle-step (bench/traffic.py's accounting of what each task
     streams; grid gathers and scatters apart), the bandwidth that makes at `rate`, and its share
     of a memory triad (a[i] = b[i] + s c[i] over 3 x 128 MiB) timed now."""
-    from traffic import TRAFFIC, task_bytes, triad_gbs  # (bench/traffic.py; imported here: it imports this file)
+    from traffic import TRAFFIC, task_bytes, triad_gbs  # (bench/traffic.py; imported when asked for: it builds its own kernels)
 
     per_task = [task_bytes(sim, t) for t in sim.integrator.timers if t in TRAFFIC]
     streamed = sum(b[0] for b in per_task)

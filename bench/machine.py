@@ -64,3 +64,21 @@ def seconds_per_step(deck, steps: int, threads: int) -> tuple[float, int]:
     for _ in range(steps):
         sim.step()
     return (time.perf_counter() - t0) / steps, sim.state.particles.n
+
+
+def steps_wall(sim, steps: int, warmup: int) -> float:
+    """Wall seconds of `steps` steps after `warmup` ones (the timers zeroed after the warm-up).
+    The energy sums are taken once first, as a run does at its start: the stability check's
+    kernel (every stability.check_every steps) is then loaded, or compiled, outside the timing."""
+    import time
+
+    from mpmsim.stability import total_sums
+
+    total_sums(sim.state)
+    for _ in range(warmup):
+        sim.step()
+    sim.reset_timers()
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        sim.step()
+    return time.perf_counter() - t0

@@ -49,7 +49,7 @@ for folder in (ROOT, ROOT / "bench"):  # the package beside it, and bench/column
     if str(folder) not in sys.path:
         sys.path.insert(0, str(folder))
 
-from column import steps_wall  # noqa: E402
+from machine import steps_wall  # noqa: E402
 from mpmsim.cli import busy_cores  # noqa: E402
 from mpmsim.deck import load_deck_text  # noqa: E402
 from mpmsim.materials import NEO_HOOKEAN  # noqa: E402

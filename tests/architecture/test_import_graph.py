@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "mpmsim"
+BENCH = Path(__file__).resolve().parents[2] / "bench"
 
 
 def modules(package: Path = PACKAGE) -> dict[str, tuple[Path, bool]]:
@@ -46,6 +47,22 @@ def import_graph(package: Path = PACKAGE) -> dict[str, set[str]]:
                 graph[name] |= {a.name for a in node.names if a.name in mods}
     for targets in graph.values():
         targets.intersection_update(mods)
+    return graph
+
+
+def script_graph(folder: Path = BENCH) -> dict[str, set[str]]:
+    """The import graph of a folder of scripts run as `python folder/x.py` (bench/): each file is
+    a top-level module named by its stem, and `import y` or `from y import z` (at any depth in
+    the file) is an edge to y when y is a script of the same folder."""
+    scripts = {path.stem: path for path in sorted(folder.glob("*.py"))}
+    graph: dict[str, set[str]] = {name: set() for name in scripts}
+    for name, path in scripts.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and not node.level and node.module:
+                graph[name].add(node.module.split(".")[0])
+            elif isinstance(node, ast.Import):
+                graph[name] |= {a.name.split(".")[0] for a in node.names}
+        graph[name].intersection_update(scripts)
     return graph
 
 
@@ -96,6 +113,23 @@ def test_no_module_imports_itself_through_others():
     graph = import_graph()
     assert len(graph) > 120 and sum(map(len, graph.values())) > 350  # the whole package was read
     assert circles(graph) == []
+
+
+@pytest.mark.architecture
+def test_no_bench_script_imports_itself_through_others():
+    graph = script_graph()
+    assert len(graph) > 25 and sum(map(len, graph.values())) >= 10  # the whole folder was read
+    assert circles(graph) == []
+
+
+@pytest.mark.architecture
+def test_the_script_graph_sees_a_circle_through_a_lazy_import(tmp_path):
+    (tmp_path / "a.py").write_text("from b import f\n")
+    (tmp_path / "b.py").write_text("def f():\n    import a\n    return a\n")
+    (tmp_path / "c.py").write_text("import numpy\nfrom a import f\n")
+    graph = script_graph(tmp_path)
+    assert graph == {"a": {"b"}, "b": {"a"}, "c": {"a"}}
+    assert circles(graph) == [["a", "b"]]
 
 
 @pytest.mark.architecture
