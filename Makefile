@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 DECK   ?= inputs/disks.yaml
 
-.PHONY: run test bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-impact3d-fine bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-hertz-fem bench-hertz-reference bench-oblique-fem bench-scaling examples docs clean-cache sweeps stability-table figures
+.PHONY: run test validate bench fuzz bench-fem bench-fem-3d bench-rings-paper bench-impact3d-fine bench-contact bench-shock bench-interfaces bench-hertz bench-hertz-pair80 bench-hertz-sphere bench-hertz-fem bench-hertz-reference bench-oblique-fem bench-scaling examples docs clean-cache sweeps stability-table figures
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -23,13 +23,23 @@ run: $(STAMP)
 	$(BIN)/mpmsim compile $(DECK)
 	$(BIN)/mpmsim run $(DECK)
 
-# the suite on every core (pytest-xdist; TEST_WORKERS=0 for one process), each test module whole on
-# one worker (its shared runs made once), the costliest modules first; the kernel cache filled
-# first by two processes compiling disjoint halves (tests/warm.py); closes with the 20 slowest
+# The suite's two tiers (tests/tiers.py, docs/architecture.md "The test suite"), each on every core
+# (pytest-xdist; TEST_WORKERS=0 for one process), each test module whole on one worker (its shared
+# runs made once), the costliest modules first; the kernel cache filled first by two processes
+# compiling disjoint halves (tests/warm.py); both close with the 20 slowest.
+# make test: every code path, every deck stepped, the fingerprints, faults, and each validation at
+# the coarsest resolution that still fails the wrong method (what CI runs; 12 minutes on 2 cores).
+# make validate: the papers' resolutions, reference-code comparisons, convergence studies; writes
+# the report results/validation.md (case, bound, measured, time) and prints it.
 TEST_WORKERS ?= auto
+PYTEST := $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadscope --durations=20
 test: $(STAMP)
 	$(BIN)/python -m tests.warm
-	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadscope --durations=20
+	$(PYTEST) -m "not validation"
+
+validate: $(STAMP)
+	$(BIN)/python -m tests.warm
+	$(PYTEST) -m validation
 
 bench: $(STAMP)
 	$(BIN)/python bench/coldstart.py

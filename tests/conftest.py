@@ -16,6 +16,8 @@ from mpmsim.solver import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 
+pytest_plugins = ["tests.tiers"]  # the two tiers' marker, the `measure` fixture, the validation report
+
 if os.environ.get("PYTEST_XDIST_WORKER"):
     # One thread per test worker: `make test` runs a worker per core, so a scene large enough
     # for threads by default (State: PARALLEL_MIN_PARTICLES) would put two threads on one core
@@ -46,18 +48,21 @@ def root() -> Path:
     return ROOT
 
 
-# The suite's budget on CI (2 cores): past SUITE_LIMIT_S the run fails even when every test
-# passed, so that a slow test is dealt with when it arrives (`make test` prints the 20 slowest).
-# The aim is 720 s (12 minutes); the suite is not there yet (docs/architecture.md, "The test
-# suite": 27.6 minutes of pytest on CI's 2 cores from an empty cache), so the guard stands at
-# 3600 s and comes down as the suite does.
-SUITE_LIMIT_S = float(os.environ.get("MPMSIM_SUITE_LIMIT_S", 3600))
+# The test tier's budget on CI (2 cores): past SUITE_LIMIT_S of pytest the run fails even when
+# every test passed, so that a slow test is dealt with when it arrives (`make test` prints the 20
+# slowest). The aim is 720 s of the whole `make test` (12 minutes, the warm step included); the
+# tier is not there yet (docs/architecture.md, "The test suite": 1,172 s of pytest on a 2-core
+# AMD Zen 3 from an empty cache), so the guard stands at 2400 s, room for the slower Intel Xeon
+# (1.4x), and comes down as the tier does. `make validate` has no budget.
+SUITE_LIMIT_S = float(os.environ.get("MPMSIM_SUITE_LIMIT_S", 2400))
 _STARTED = time.monotonic()
 
 
 def pytest_sessionfinish(session, exitstatus):
     if hasattr(session.config, "workerinput") or not os.environ.get("CI"):
         return  # an xdist worker, or not on CI
+    if "not validation" not in (session.config.option.markexpr or ""):
+        return  # not the test tier
     elapsed = time.monotonic() - _STARTED
     if elapsed > SUITE_LIMIT_S and exitstatus == 0:
         writer = session.config.get_terminal_writer()

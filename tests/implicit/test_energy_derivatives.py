@@ -183,6 +183,7 @@ def test_2d_terms_match_central_differences_rings_as_they_meet():
     assert_exact(worst, {"FEM strain energy", "particle strain energy", "barrier contact"})
 
 
+@pytest.mark.validation
 def test_2d_terms_match_central_differences_paper_size_rings_at_step_41():
     """The rings at the BFEMP paper's size (bench/implicit.py --paper-rings: h = 8.66 mm, FEM
     elements 15.3 mm, 20,109 particles; newton_tolerance 1e-6), at the start of step 41's Newton

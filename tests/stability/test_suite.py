@@ -8,10 +8,12 @@ import pytest
 from .scenarios import SCENARIOS
 
 
+@pytest.mark.validation
 @pytest.mark.parametrize("row", SCENARIOS, ids=[s.id for s in SCENARIOS])
-def test_row(row):
+def test_row(row, measure):
     m = row.measure()
     side = ">" if row.expect == "above" else "<"
+    measure(f"{row.scene}, {row.method}: {row.metric}", f"{m.value:.4g}", f"{side} {row.threshold:g}")
     stop = {True: "stopped as unstable", False: "finished", None: "either"}[row.must_stop]
     assert row.passed(m), (f"{row.scene}, {row.method}: {row.metric} = {m.value:.4g}, expected {side} "
                            f"{row.threshold:g}; run must have {stop}, it {'stopped: ' + m.stopped if m.stopped else 'finished'}")

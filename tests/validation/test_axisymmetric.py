@@ -283,8 +283,9 @@ def test_whole_body_history_columns_are_the_body_of_revolutions_totals():
 
 
 # ----------------------------------------------------------------------------- composite sphere
+@pytest.mark.validation
 @pytest.mark.parametrize("D, measured", [(1e4, 0.0030), (1e12, 0.0047)])
-def test_composite_sphere_bulk_modulus_is_hashins(D, measured):
+def test_composite_sphere_bulk_modulus_is_hashins(D, measured, measure):
     """inputs/sphere_composite_rz.yaml: the composite spheres assemblage's own unit (glass
     a = 0.7 mm in a polymer shell, fraction 18.10%) at 25 um cells (7,694 particles; the 3D cubic
     array at this cell would take about 500,000), under 10 MPa outer pressure, settled. K from
@@ -305,6 +306,7 @@ def test_composite_sphere_bulk_modulus_is_hashins(D, measured):
         assert h["interface_energy"].iloc[-1] > 0.05 * U  # the spring takes its share
     K = p * p * (b**3 / 3) / (2 * U)
     csa = csa_bulk_modulus(2400.0, 0.33, 70000.0, 0.25, (a / b) ** 3, D, a)
+    measure(f"r-z composite sphere K, D = {D:g}", f"{K:.1f} MPa ({K / csa - 1:+.2%})", f"within 1% of CSA {csa:.1f}")
     assert K == pytest.approx(csa, rel=0.01), (K, csa)
 
 

@@ -190,8 +190,9 @@ def ellipse_box_lr():
     return compress_run(with_overrides(example("ellipse_box"), ellipse_box_overrides()), ROOT / "inputs")
 
 
+@pytest.mark.validation
 @pytest.mark.compaction
-def test_ellipse_box_volumes_stay_within_the_box_and_energy_balances():
+def test_ellipse_box_volumes_stay_within_the_box_and_energy_balances(measure):
     """inputs/ellipse_box.yaml at 1/20 mm cells (LR, PIC, the piston a velocity condition): at
     every 1% of the stroke sum J V0 <= the box area (+0.5%), and at the end the voids have
     closed to within 5% of the box (measured 0.9983; with XPIC(5) 1.12 when the energy check
@@ -204,6 +205,7 @@ def test_ellipse_box_volumes_stay_within_the_box_and_energy_balances():
     (force gap -158%), which the transfers take out again (+144%): docs/validation.md,
     "Energy ledger"."""
     (_, _, ratios), history, _ = ellipse_box_lr()
+    measure("ellipse box: largest sum J V0 / box, final", f"{max(ratios):.4f}, {ratios[-1]:.4f}", "< 1.005, > 0.95")
     assert len(ratios) == 75
     assert max(ratios) < 1.005, max(ratios)
     assert ratios[-1] > 0.95, ratios[-1]
@@ -215,7 +217,8 @@ def test_ellipse_box_volumes_stay_within_the_box_and_energy_balances():
     assert abs(end["condition_loss"]) < 0.02, end["condition_loss"]
 
 
-def test_lr_keeps_ellipses_apart_and_cp_does_not():
+@pytest.mark.validation
+def test_lr_keeps_ellipses_apart_and_cp_does_not(measure):
     """Fig. 6: twenty ellipses compressed 75% at 1/20 mm cells (3.5x coarser than the paper):
     the area claimed by two materials is 2.0% with LR and 35% with CP = 0.8, whose ellipses
     pass into each other, so that their particle volumes add up to more than the box (1.34x;
@@ -228,6 +231,8 @@ def test_lr_keeps_ellipses_apart_and_cp_does_not():
         assert sim.recorder.column("u_piston_y")[-1] == pytest.approx(-1.5, rel=1e-6)  # 75% of 2 mm
         P = sim.state.particles
         overlap[name] = overlap_fraction(P.x, P.F, P.mat, sim.scene.semi_size, ELLIPSE_H / 8)
+    measure("Fig. 6: area claimed by two materials, LR and CP = 0.8", f"{overlap['lr']:.3f}, {overlap['cp']:.3f}",
+            "LR < 0.06, CP > 4 x LR")
     assert overlap["lr"] < 0.06
     assert overlap["cp"] > 4 * overlap["lr"]
     assert lr.state.contact.n_cn > 0

@@ -201,8 +201,9 @@ def two_wave_state(Kb: float, G: float, gamma0: float, s1: float, rho0: float, Y
             "c_elastic": np.sqrt((Kb + 4.0 * G / 3.0) / rho0)}
 
 
+@pytest.mark.validation
 @pytest.mark.plasticity
-def test_j2_with_mie_gruneisen_gives_the_elastic_precursor_and_the_plastic_hugoniot_state():
+def test_j2_with_mie_gruneisen_gives_the_elastic_precursor_and_the_plastic_hugoniot_state(measure):
     """Nickel (Mie-Grüneisen K, gamma0, S1 of the decks) with G = 76 GPa and a yield stress of
     1 GPa (j2_plasticity with eos: mie_gruneisen), a 100 mm bar driven at 100 m/s for 15 us
     (B2CPDI, XPIC(5), A1 = 0.4, A2 = 4): the elastic precursor runs ahead at c_L and its plateau
@@ -229,6 +230,8 @@ def test_j2_with_mie_gruneisen_gives_the_elastic_precursor_and_the_plastic_hugon
     plastic = sxx[(x0 > plastic_front + 6.0) & (x0 < length - 2.0)]
     assert len(precursor) >= 20 and len(plastic) >= 400
     nu = (3 * NI["K"] - 2 * NI["G"]) / (2 * (3 * NI["K"] + NI["G"]))
+    measure("nickel J2 + Mie-Grueneisen: precursor, plastic state", f"{precursor.mean():.1f}, {plastic.mean():.1f} MPa",
+            f"HEL {Y * (1 - nu) / (1 - 2 * nu):.1f} (2%), sigma1 {w['sigma1']:.1f} (0.5%), sigma2 {w['sigma2']:.1f} (1%)")
     assert precursor.mean() == pytest.approx(Y * (1 - nu) / (1 - 2 * nu), rel=0.02)
     assert precursor.mean() == pytest.approx(w["sigma1"], rel=0.005)
     assert precursor.max() - precursor.min() < 0.01 * w["sigma1"]  # a plateau, not a ramp

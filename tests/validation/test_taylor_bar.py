@@ -71,7 +71,8 @@ def test_the_energy_ledger_closes_and_plastic_work_takes_the_impact():
     assert end["kinetic_energy"] < 0.01 * E0  # the rod has stopped (to 0.2%)
 
 
-def test_3d_taylor_bar_refined_converges_with_the_reference_code_and_closes_its_energy():
+@pytest.mark.validation
+def test_3d_taylor_bar_refined_converges_with_the_reference_code_and_closes_its_energy(measure):
     """The quarter model at 0.4 mm cells (32,886 particles, the reference code's count; about two
     minutes on one thread): length and foot radius within 1% and 2% of NairnMPM's 21.435 and
     7.209 mm at 0.4 mm (measured 21.470 mm, +0.17%, and 7.183 mm, -0.36%); from 0.8 to 0.4 mm
@@ -82,6 +83,10 @@ def test_3d_taylor_bar_refined_converges_with_the_reference_code_and_closes_its_
     0.1% (measured 0.02%)."""
     fine, ref = taylor("taylor_bar_3d", 0.4), reference("taylor_3dq_h0.4")
     coarse, ref_coarse = taylor(), reference("taylor_3dq_h0.8")
+    measure("Taylor bar 3D, 0.4 mm: final length", f"{fine['Lf']:.3f} mm ({fine['Lf'] / ref['L_f_mm'] - 1:+.2%})",
+            f"within 1% of NairnMPM {ref['L_f_mm']:.3f}")
+    measure("Taylor bar 3D, 0.4 mm: foot radius", f"{fine['Rf']:.3f} mm ({fine['Rf'] / ref['R_f_mm'] - 1:+.2%})",
+            f"within 2% of NairnMPM {ref['R_f_mm']:.3f}")
     assert fine["n"] == ref["particles"]
     assert fine["Lf"] == pytest.approx(ref["L_f_mm"], rel=0.01)
     assert fine["Rf"] == pytest.approx(ref["R_f_mm"], rel=0.02)
@@ -129,8 +134,9 @@ def unaccounted(hist) -> float:
 OFHC_EXPERIMENT = {"LfL0": 0.638, "DfD0": 1.78}
 
 
+@pytest.mark.validation
 @pytest.mark.axisymmetric
-def test_johnson_cook_taylor_test_against_the_experiment():
+def test_johnson_cook_taylor_test_against_the_experiment(measure):
     """inputs/taylor_ofhc_rz.yaml (Johnson-Cook with Johnson and Cook's OFHC constants, adiabatic
     heating, frictionless anvil, 0.3175 mm cells, axisymmetric). Measured: L_f/L0 0.681 (+6.7% of
     the experiment's 0.638), D_f/D0 1.884 (+5.8% of 1.78), converged in length (0.15875 mm:
@@ -141,6 +147,8 @@ def test_johnson_cook_taylor_test_against_the_experiment():
     is the final kinetic and elastic energy, plastic work and the anvil's loss to 0.5%."""
     r = taylor("taylor_ofhc_rz")
     length, foot = r["Lf"] / 25.4, 2.0 * r["Rf"] / 7.62
+    measure("Johnson-Cook Taylor test: L_f/L0, D_f/D0", f"{length:.3f}, {foot:.3f}",
+            f"0-8% above the experiment's {OFHC_EXPERIMENT['LfL0']}, {OFHC_EXPERIMENT['DfD0']}")
     assert 0.0 < length / OFHC_EXPERIMENT["LfL0"] - 1.0 < 0.08
     assert 0.0 < foot / OFHC_EXPERIMENT["DfD0"] - 1.0 < 0.08
     assert 450.0 < r["Tmax"] < 600.0
