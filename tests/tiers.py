@@ -42,6 +42,14 @@ def pytest_configure(config):
         config.pluginmanager.register(Report(), "mpmsim-validation-report")
 
 
+def pytest_collection_modifyitems(items):
+    """Tags the validation tests' reports (a report's keywords hold its folders' names too:
+    tests/validation/ is not the tier)."""
+    for item in items:
+        if item.get_closest_marker("validation") is not None:
+            item.user_properties.append(("tier", "validation"))
+
+
 class Report:
     """The validation tests' rows of one session (reports reach the controller under xdist)."""
 
@@ -49,7 +57,7 @@ class Report:
         self.entries: list[dict] = []
 
     def pytest_runtest_logreport(self, report):
-        if "validation" not in report.keywords:
+        if ("tier", "validation") not in report.user_properties:
             return
         if report.when == "call" or (report.when == "setup" and not report.passed):
             rows = [v for k, v in report.user_properties if k == "measure"]

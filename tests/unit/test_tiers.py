@@ -35,6 +35,8 @@ def test_rows(h):
 def run(pytester, *args):
     pytester.makeconftest("pytest_plugins = ['tests.tiers']\n")
     pytester.makepyfile(test_suite=SUITE)
+    pytester.mkpydir("validation").joinpath("test_in_a_validation_folder.py").write_text(
+        "def test_plain():\n    pass\n")  # a folder named validation is not the tier
     return pytester.runpytest_inprocess("-p", "no:cacheprovider", "-p", "no:xdist", *args)
 
 
@@ -43,11 +45,11 @@ def test_validate_writes_one_row_per_measurement_with_bound_measured_time_and_ou
     report = tmp_path / "out" / "validation.md"
     monkeypatch.setenv("MPMSIM_VALIDATION_REPORT", str(report))
     result = run(pytester, "-m", "validation")
-    result.assert_outcomes(passed=2, failed=1, deselected=2)  # test_fine, test_rows[h=0.5]; test_fails
+    result.assert_outcomes(passed=2, failed=1, deselected=3)  # test_fine, test_rows[h=0.5]; test_fails
     text = report.read_text()
     assert "2 of 3 validation tests passed" in text
     lines = [line for line in text.splitlines() if line.startswith("| test_suite.py")]
-    assert len(lines) == 3
+    assert len(lines) == 3 and "test_plain" not in text
     fine = next(line for line in lines if "::test_fine" in line)
     cells = [c.strip() for c in fine.split("|")[1:-1]]
     assert cells[1:4] == ["period", "within 1% of 0.2725 ms", "0.2726 ms (+0.05%)"]
@@ -62,7 +64,7 @@ def test_the_test_tier_writes_no_report_and_runs_the_coarse_rows(pytester, tmp_p
     report = tmp_path / "validation.md"
     monkeypatch.setenv("MPMSIM_VALIDATION_REPORT", str(report))
     result = run(pytester, "-m", "not validation", "-v")
-    result.assert_outcomes(passed=2, deselected=3)
+    result.assert_outcomes(passed=3, deselected=3)
     assert "test_rows[h=1]" in result.stdout.str() and "test_rows[h=0.5]" not in result.stdout.str()
     assert not report.exists()
 
