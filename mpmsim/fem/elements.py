@@ -108,7 +108,7 @@ def _fem_form(code, props, F, out, Finv, neo_hookean, linear_elastic):
     return np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def first_piola(code, props, F, P, Finv):
     """P = dpsi/dF into P (d, d); Finv (d, d) is scratch. Returns J (neo-Hookean P is NaN for
     J <= 0)."""

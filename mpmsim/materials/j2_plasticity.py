@@ -378,7 +378,7 @@ def trial_be(L, dt, hs):
             (w02 + w00 * h20 + w01 * h21 + w02 * h22) + (h02 + h20 + h00 * h20 + h01 * h21 + h02 * h22))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def j2_stress(pr, L, dt, J, s, h, B, work, vecs, hs):
     """The update of the module's text for one particle: hs its state row (in place), s its
     Cauchy stress (Voigt, written), h, B, work, vecs 3x3 scratch. Returns the wave modulus.
@@ -416,6 +416,15 @@ def j2_stress(pr, L, dt, J, s, h, B, work, vecs, hs):
             hs[S_BE + i] = be[i]
             s[i] = ((p if i < 3 else 0.0) + 2.0 * G * d[i]) / J
         return tangent
+    return spectral_return(pr, K, G, J, dt, tangent, bt, s, B, work, vecs, hs)
+
+
+@njit(cache=True)
+def spectral_return(pr, K, G, J, dt, tangent, bt, s, B, work, vecs, hs):
+    """j2_stress past the series' radius: the return map on the eigenvalues of be_tr - I (Jacobi),
+    compiled once and called, not inlined: the rare large-strain path is most of the update's
+    code, and every stress kernel (2D, r-z, 3D, the Mie-Grueneisen form) links this one copy.
+    Returns the wave modulus `tangent`."""
     for a in range(3):
         for b in range(3):
             B[a, b] = bt[VOIGT[a, b]]
