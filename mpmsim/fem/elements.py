@@ -115,7 +115,7 @@ def first_piola(code, props, F, P, Finv):
     return _fem_form(code, props, F, P, Finv, cnh.fem_piola, linear.fem_piola)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def stress_tangent(code, props, F, C, Finv):
     """C[a*d + b, c*d + e] = dP_ab/dF_ce into C (d*d, d*d); Finv (d, d) scratch. Returns J."""
     return _fem_form(code, props, F, C, Finv, cnh.fem_tangent, linear.fem_tangent)
