@@ -184,7 +184,7 @@ stability-table: $(STAMP)
 
 # every PNG in docs/ from the decks and sweeps; one target per figure group, so a new
 # figure is one more entry in FIGURES and one more rule
-FIGURES := figure-contact figure-sweeps figure-column-history figure-shock figure-interfaces figure-buckling
+FIGURES := figure-contact figure-sweeps figure-column-history figure-shock figure-interfaces figure-buckling figure-gallery figure-tutorial
 figures: $(FIGURES)
 .PHONY: $(FIGURES)
 
@@ -200,6 +200,18 @@ figure-interfaces: bench-interfaces
 # the stacked semicircular rings for three friction coefficients (about 7 minutes on one core)
 figure-buckling: $(STAMP)
 	$(BIN)/python bench/implicit.py --buckling
+
+# the gallery's pictures (docs/gallery.md) and the README's: disks, oblique_impact, taylor_bar_rz,
+# fem_ramp_2d and sphere_composite_rz run on one thread into results/gallery/ (reused when complete),
+# frames drawn to docs/figures/gallery_*.png; under a minute to about three a deck on one core
+figure-gallery: $(STAMP)
+	NUMBA_NUM_THREADS=1 $(BIN)/python bench/gallery.py
+
+# the tutorial's pictures (docs/tutorial.md), made by running the tutorial as written in a temporary
+# folder (needs ParaView's pvbatch and xvfb-run): docs/figures/tutorial_paraview.png and
+# tutorial_energy.png; about a minute
+figure-tutorial: $(STAMP)
+	NUMBA_NUM_THREADS=1 $(BIN)/python bench/tutorial_figures.py
 
 figure-column-history: $(STAMP)
 	$(BIN)/mpmsim run inputs/column.yaml --quiet --out results/column
