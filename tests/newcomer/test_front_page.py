@@ -117,7 +117,7 @@ def test_readme_names_the_two_commands():
     text = README.read_text()
     targets = make_targets()
     for command in ("make run", "make test"):
-        assert command in text, f"README.md does not name `{command}`"
+        assert re.search(rf"\b{command}\b", text), f"README.md does not name `{command}`"
         assert command.split()[1] in targets, f"the Makefile has no target for `{command}`"
 
 
