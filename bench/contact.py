@@ -10,7 +10,7 @@
 
 Accuracy: the two-block column (inputs/two_blocks.yaml) against one block (inputs/column.yaml),
 max |MM - SMM| / SMM of the mean axial stress from 0.2% strain on; writes
-docs/figures/contact_column_error.png and prints the table in docs/contact.md.
+docs/figures/contact_column_error.png and prints the table in docs/contact-methods.md.
 Cost: one thread, per contact task; 200 steps of the column at 1 mm cells (16 000
 particles), and whole runs of the ellipse box at 1/20 mm cells (DF, CP, LR cold and warm
 start). `ellipses` runs Fig. 6 at the paper's 1/70 mm cells (about half an hour per method). Runs go in parallel

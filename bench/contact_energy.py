@@ -10,7 +10,7 @@ the scheme made; dissipation (transfers, contact) makes E fall.
 
     python bench/contact_energy.py [--decks two_blocks oblique_impact ...] [--fraction 1.0]
 
-Results in results/bench_contact_energy/<date and time>.json; docs/contact.md quotes them. A
+Results in results/bench_contact_energy/<date and time>.json; docs/contact-methods.md quotes them. A
 single-material deck (column, column_3d) may be given for comparison.
 """
 

@@ -411,7 +411,7 @@ def test_impact_gains_no_energy_whatever_the_update(scheme, stress):
     """The dropped cylinder: kinetic + strain energy never above its initial value by more than
     0.2%, and no rebound faster than the impact. Where pass 2 stopped slots whose start-of-step
     velocities separate, its impulse did work at the step's mean velocity that the stress update
-    never took back: with PIC and USF +11.9% and vy 1.047 after (docs/contact.md, "Where the
+    never took back: with PIC and USF +11.9% and vy 1.047 after (docs/contact-methods.md, "Where the
     3D gain came from"); pass 1 now holds such pairs (choice 11). Measured 0.000% in all three."""
     gain, vy = energy_gain(dropped_cylinder(scheme, stress), "cylinder")
     assert gain <= 0.002 and 0.85 < vy <= 1.0

@@ -1,5 +1,5 @@
-"""The finite-element reference of the Hertz cylinder (bench/hertz_reference.py, docs/contact.md
-"Hertz contact"): the same half-disk and gravity load as the MPM scene, exact frictionless
+"""The finite-element reference of the Hertz cylinder (bench/hertz_reference.py, docs/contact-methods.md
+"A converged reference"): the same half-disk and gravity load as the MPM scene, exact frictionless
 (Signorini) contact on the rigid flat by an active-set iteration.
 
 1. At a small load (Hertz half-width a = 0.5 mm, a/R = 0.05) on the coarsest mesh (elements a/20

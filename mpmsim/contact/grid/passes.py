@@ -68,7 +68,7 @@ ADVANCE_NONE, ADVANCE_ALL, ADVANCE_HELD = 0, 1, 2
 # compressed interface's ringing (99% below 2.4e-4, 99.9% below 0.011 on the XPIC(5) column);
 # held at 0.3 or more, ellipses compressed in a box overlap (sum J V0 1.008 of the box); released
 # from 0.03, a sphere striking a block obliquely gains energy (+0.68% at R/h = 5; 0.1: +0.33%).
-# docs/contact.md, "One default for impacts and compression".
+# docs/contact-methods.md, "One default for impacts and compression".
 RELEASE = 0.1
 # pass 1's limit (exchange_momenta) where it holds a pair pass 2 held in the previous step:
 # the normal stick impulse whatever its sign (frictionless while it pulls). NO_HOLD: a held
