@@ -498,11 +498,25 @@ def geometry_kernel(nodes, grid, mass, sums, clouds, laws, method, warm_phi, dt,
                                                clouds, laws, method, warm_phi, dt), geo)
 
 
+def geometry_form(normal: int, separation: int) -> tuple[int, int]:
+    """The codes target_geometry is compiled with for a normal method and separation: one per
+    family, since within a family the code is the same and the method is read at run time
+    (regression_normal_of: logistic or linear; gradient_normal: average, max gradient or max
+    volume; grid_separation: displacement, cutoff, fit or velocity). A scene compiles its
+    family's code only, and the suite's method variants share it."""
+    if normal == LINEAR_REGRESSION:
+        normal = LOGISTIC
+    elif normal != LOGISTIC and normal != SPECIFIED:
+        normal = AVERAGE_GRADIENT
+    return normal, (SEP_LR if separation == SEP_LR else SEP_DISPLACEMENT)
+
+
 @cache
 def node_planner(normal: int, separation: int, interfaces: bool):
-    """plan_contact_node compiled for one normal method and separation (codes), with or
-    without interface laws: these are constants of target_geometry, so a scene compiles the
-    code of its own methods only."""
+    """plan_contact_node compiled for one family of normal methods and of separations
+    (geometry_form), with or without interface laws: these are constants of target_geometry,
+    so a scene compiles the code of its own methods only."""
+    normal, separation = geometry_form(normal, separation)
     tag = f"{normal}_{separation}_{int(interfaces)}"
     target = njit(cache=True, inline="always")(specialize(target_geometry, tag, NORMAL=normal, SEPARATION=separation,
                                          INTERFACES=interfaces))
@@ -513,6 +527,7 @@ def node_planner(normal: int, separation: int, interfaces: bool):
 def contact_geometry(normal: int, separation: int, interfaces: bool):
     """The geometry kernel (a ChunkKernel) of one normal method and separation (codes), with
     or without interface laws (node_planner)."""
+    normal, separation = geometry_form(normal, separation)
     tag = f"{normal}_{separation}_{int(interfaces)}"
     nodes = njit(cache=True, **BORROWING)(specialize(plan_range, tag,
                                                     plan_contact_node=node_planner(normal, separation, interfaces)))
