@@ -1,6 +1,7 @@
 """docs/ explains the code as it is (issue 76): no line of docs/*.md dates a measurement (a date, a
-sitting, a named VM or development machine), except the rows of docs/performance.md's tables, where
-each measurement keeps its machine and date; and the two pages that read as lab notebooks,
+sitting, a named VM or development machine), except docs/performance.md's tables, where each
+measurement keeps its machine and date (the rows, and the one caption line above a table that says
+where and when it was measured); and the two pages that read as lab notebooks,
 docs/contact.md and docs/bfemp.md, are at most half as long as they were."""
 
 from __future__ import annotations
@@ -37,16 +38,44 @@ DATED = re.compile("|".join([
 ]), re.IGNORECASE)
 
 
-def dated_lines(page) -> list[str]:
-    """'file:line: text' for each line of the page that dates a measurement; the rows of
-    performance.md's tables (lines starting with '|') are where dated measurements belong."""
+# A table's caption: one line, "Measured on <CPU>, <cores>, <date> (`command`):", ending in a colon.
+CAPTION = re.compile(r"^Measured on \S.*:$")
+
+
+def _is_table_row(line: str) -> bool:
+    return line.lstrip().startswith("|")
+
+
+def _captions(lines: list[str]) -> set[int]:
+    """Indices of the caption lines: a line of CAPTION's form whose next non-blank line starts a
+    table. Only that one line counts as the table's; a line above it is prose again."""
+    found = set()
+    for i, line in enumerate(lines):
+        if not CAPTION.match(line.strip()):
+            continue
+        following = next((nxt for nxt in lines[i + 1:] if nxt.strip()), "")
+        if _is_table_row(following):
+            found.add(i)
+    return found
+
+
+def dated_lines_in(name: str, text: str) -> list[str]:
+    """'file:line: text' for each line of the page `name` that dates a measurement. In
+    performance.md a table's rows (lines starting with '|') and its caption line are where dated
+    measurements belong; anywhere else, and on every other page, a dated line is reported."""
+    lines = text.splitlines()
+    table = _captions(lines) if name == "performance.md" else set()
     found = []
-    for n, line in enumerate(page.read_text().splitlines(), 1):
-        if page.name == "performance.md" and line.lstrip().startswith("|"):
+    for i, line in enumerate(lines):
+        if name == "performance.md" and (_is_table_row(line) or i in table):
             continue
         if DATED.search(line):
-            found.append(f"docs/{page.name}:{n}: {line.strip()}")
+            found.append(f"docs/{name}:{i + 1}: {line.strip()}")
     return found
+
+
+def dated_lines(page) -> list[str]:
+    return dated_lines_in(page.name, page.read_text())
 
 
 @pytest.mark.parametrize("text", [
@@ -81,10 +110,34 @@ def test_the_pattern_passes_references_dois_and_versions(text):
     assert not DATED.search(text), text
 
 
+_CAPTION_LINE = ("Measured on AMD EPYC (Zen 5), 2 cores, idle, 2026-12-01 "
+                 "(`python bench/coldstart.py two_blocks disks`):")
+_TABLE = "| deck | wall (s) |\n|---|---:|\n| disks | 5.3 |\n"
+
+
+def test_a_caption_directly_above_a_table_may_date_it():
+    """The caption line counts as its table's, blank lines between them or not; the same text as
+    prose (no table next), two lines above a table, or on another page, is reported."""
+    for gap in ("\n", "\n\n"):
+        assert dated_lines_in("performance.md", f"Prose.\n{_CAPTION_LINE}{gap}{_TABLE}") == []
+    as_prose = f"{_CAPTION_LINE}\nthe text goes on.\n\n{_TABLE}"
+    assert dated_lines_in("performance.md", as_prose) == [f"docs/performance.md:1: {_CAPTION_LINE}"]
+    at_the_end = f"Prose.\n{_CAPTION_LINE}\n"
+    assert dated_lines_in("performance.md", at_the_end) == [f"docs/performance.md:2: {_CAPTION_LINE}"]
+    two_lines = f"{_CAPTION_LINE}\nMeasured on the same machine:\n{_TABLE}"
+    assert dated_lines_in("performance.md", two_lines) == [f"docs/performance.md:1: {_CAPTION_LINE}"]
+    not_a_caption = "On AMD EPYC, 2 cores, 2026-12-01, the step took 2.5 ms:"
+    assert dated_lines_in("performance.md", f"{not_a_caption}\n{_TABLE}") == [
+        f"docs/performance.md:1: {not_a_caption}"]
+    assert dated_lines_in("architecture.md", f"{_CAPTION_LINE}\n{_TABLE}") == [
+        f"docs/architecture.md:1: {_CAPTION_LINE}"]
+
+
 def test_no_line_in_docs_dates_a_measurement():
-    """Every dated line in docs/*.md outside performance.md's table rows, named file:line. A
+    """Every dated line in docs/*.md outside performance.md's tables, named file:line. A
     measurement is written undated with the command that reproduces it (a make target, a bench
-    command, a pytest selection); its machine and date go to a row of docs/performance.md."""
+    command, a pytest selection); its machine and date go to a table of docs/performance.md (a row
+    or the caption above it)."""
     found = [hit for page in sorted(DOCS.glob("*.md")) for hit in dated_lines(page)]
     assert not found, f"{len(found)} lines date a measurement:\n" + "\n".join(found)
 
