@@ -110,7 +110,8 @@ def main() -> None:
     sys.path.insert(0, str(ROOT / "bench"))
     from machine import describe  # noqa: E402 (bench/machine.py)
 
-    print(f"\n# {describe()}, one thread, {len(records)} decks of inputs/, empty kernel cache, helper off")
+    stamp = f"{describe()}, one thread, {len(records)} decks of inputs/, empty kernel cache, helper off"
+    print(f"\n# {stamp}")
     print("| deck | measured CPU s | estimated | ratio |\n|---|---|---|---|")
     for r in records:
         meas = r["start"] + r["first_step"]
@@ -120,7 +121,7 @@ def main() -> None:
         from mpmsim.cost import COSTS
 
         data = json.loads(COSTS.read_text())
-        data["compile"] = {"decks": len(records), **costs}
+        data["compile"] = {"measured": stamp, **costs}
         COSTS.write_text(json.dumps(data, indent=1) + "\n")
         print(f"wrote {COSTS}")
 
