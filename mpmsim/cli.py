@@ -65,10 +65,10 @@ def _deck_errors():
     try:
         yield
     except DeckError as exc:
-        err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        err.print(f"[bold red]mpmsim: bad deck[/]\n{escape(exc.format())}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
     except CheckpointError as exc:
-        err.print(f"mpmsim: cannot restart: {exc}", highlight=False, soft_wrap=True)
+        err.print(f"mpmsim: cannot restart: {escape(str(exc))}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
 
 
@@ -147,7 +147,7 @@ def run(
                 log.note(f"device: {device} (the explicit MPM step on the GPU: docs/performance.md#gpu)")
             for notice in scene.notices:  # (also with --quiet: a warning is not progress)
                 log.note(f"warning: {notice}")
-                err.print(f"[yellow]warning:[/] {notice}", highlight=False, soft_wrap=True)
+                err.print(f"[yellow]warning:[/] {escape(notice)}", highlight=False, soft_wrap=True)
             if restart is not None:
                 restarted = (f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
                              f"{_units(scene).time}")
@@ -155,8 +155,8 @@ def run(
                 if not quiet:
                     out.print(restarted, highlight=False)
     except (OSError, ValueError) as exc:  # the folder: not creatable, a file in the way, a NUL in the path
-        err.print(f"mpmsim: cannot write the output folder {str(directory)!r}: {_reason(exc)}", highlight=False,
-                  soft_wrap=True)
+        err.print(f"mpmsim: cannot write the output folder {escape(repr(str(directory)))}: {escape(_reason(exc))}",
+                  highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_IO) from None
 
     def stop(message: str, reason: str, code: int) -> typer.Exit:
@@ -217,10 +217,11 @@ def run(
         else:
             result = sim.run(first_step=compiled, between_steps=between_steps)
     except InstabilityError as exc:
-        raise stop(f"[bold red]mpmsim: run stopped[/]: {exc}\noutput so far (including the failing state) is in "
-                   f"{directory}", f"unstable at step {st.step}, t = {st.t:.6g} {tu}", EXIT_UNSTABLE) from None
+        raise stop(f"[bold red]mpmsim: run stopped[/]: {escape(str(exc))}\noutput so far (including the failing "
+                   f"state) is in {directory}", f"unstable at step {st.step}, t = {st.t:.6g} {tu}",
+                   EXIT_UNSTABLE) from None
     except OSError as exc:  # a write failed mid-run (disk full, folder removed): earlier files are whole
-        raise stop(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {_reason(exc)}; the files "
+        raise stop(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {escape(_reason(exc))}; the files "
                    f"written before are whole, in {directory}", "output failed", EXIT_IO) from None
     except StepLimit:
         stop(f"mpmsim: stopped after {steps} steps (--steps) at t = {st.t:.6g} {tu}; results in {directory}; "
@@ -467,7 +468,7 @@ def _check_device(scene, device: str, driver: bool = True) -> None:
         try:
             check_device(scene, device, driver)
         except DeviceError as exc:
-            err.print(f"mpmsim: {exc}", highlight=False, soft_wrap=True)
+            err.print(f"mpmsim: {escape(str(exc))}", highlight=False, soft_wrap=True)
             raise typer.Exit(EXIT_BAD_DECK) from None
 
 
@@ -677,11 +678,11 @@ def sweep(
         out.print(f"[bold]{sweep_file}[/]: {len(runs)} runs + {len(refs)} reference runs, {where}", highlight=False)
         result = run_sweep(loaded, jobs=jobs, limit=limit, out_dir=out_dir, progress=progress, scheduler=scheduler)
     except DeckError as exc:
-        err.print(f"[bold red]mpmsim: bad sweep[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        err.print(f"[bold red]mpmsim: bad sweep[/]\n{escape(exc.format())}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
     except SweepStopped as exc:  # an unreachable scheduler, no workers, workers that cannot run mpmsim
-        err.print(f"mpmsim sweep: {exc}; {len(done)} run(s) finished here are kept; the same command again "
-                  "continues", highlight=False, soft_wrap=True)
+        err.print(f"mpmsim sweep: {escape(str(exc))}; {len(done)} run(s) finished here are kept; the same command "
+                  "again continues", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK if isinstance(exc, SchedulerUnreachable) else 1) from None
     except KeyboardInterrupt:  # caught here: the command-line framework would swallow it
         err.print(f"mpmsim sweep: interrupted; pending runs cancelled, {len(done)} run(s) finished here are kept; "
@@ -741,7 +742,7 @@ def paraview(
     try:
         script = write_script(results, stress)
     except (OSError, ResultsError) as exc:
-        err.print(f"mpmsim paraview: {exc}", highlight=False, soft_wrap=True)
+        err.print(f"mpmsim paraview: {escape(str(exc))}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
     out.print(f"wrote {script}\n  open:   paraview --script={script}\n"
               f"  render: pvbatch {script} --screenshot {script.with_suffix('.png')}", highlight=False)

@@ -308,7 +308,8 @@ def _union_message(value, branches: list[str]) -> str:
     words = [_accepted(b) for b in branches]
     accepted = ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else words[0]
     hint = ""
-    number = re.match(r"^\s*([-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?)\s*[A-Za-z]", value) if isinstance(value, str) else None
+    number = re.match(r"^\s*([-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?)\s*[A-Za-z]", value) if isinstance(value, str) \
+        else None
     if number:
         hint = f" (numbers are plain, in the units the deck's `units:` sets: write {number.group(1)})"
     return f"{shown} is not {accepted}{hint}"
