@@ -169,3 +169,9 @@ def test_a_value_no_form_of_a_union_accepts(tmp_path):
 def test_a_fault_inside_one_form_of_a_union_is_named_there(tmp_path):
     line = one_line_error(invoke("check", deck(tmp_path, cell_size="[0.25, abc]")), "grid.cell_size.1:")
     assert "number" in line
+
+
+def test_a_bracketed_word_in_a_deck_error_is_shown(tmp_path):
+    """Deck errors go through rich: a value such as '[bold]' is text, not a style tag."""
+    line = one_line_error(invoke("check", deck(tmp_path, cell_size="'[bold]'")), "grid.cell_size:")
+    assert "'[bold]' is not a number" in line
