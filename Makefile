@@ -46,6 +46,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/checkpoint.py
 	$(BIN)/python bench/contention.py
 	$(BIN)/python bench/calibrate.py
+	$(BIN)/python bench/compile_costs.py
 	$(BIN)/python bench/column.py
 	$(BIN)/python bench/column.py --deck bench/two_blocks.yaml --matrix-steps 0
 	$(BIN)/python bench/traffic.py

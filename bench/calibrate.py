@@ -84,7 +84,11 @@ def main() -> None:
         est = sum(costs[t][0] + costs[t][1] * r["n"] * r["K"] for t in [*r["plan"], CHECK] if t in costs)
         print(f"| {name} | {r['n']} | {r['K']} | {meas:.0f} | {est:.0f} | {est / meas:.2f} |")
     if not args.dry_run:
-        COSTS.write_text(json.dumps({"measured": stamp, "tasks": costs}, indent=1) + "\n")
+        try:  # the file's other tables (bench/compile_costs.py's "compile") are kept
+            kept = json.loads(COSTS.read_text())
+        except (OSError, ValueError):
+            kept = {}
+        COSTS.write_text(json.dumps({**kept, "measured": stamp, "tasks": costs}, indent=1) + "\n")
         print(f"wrote {COSTS}")
 
 

@@ -10,6 +10,7 @@ output could not be written (folder, disk), 130 / 143 stopped by Ctrl-C / SIGTER
 from __future__ import annotations
 
 import contextlib
+import inspect
 import io
 import os
 import signal
@@ -23,6 +24,7 @@ from typing import Optional
 import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
@@ -34,7 +36,9 @@ EXIT_BAD_DECK = 2
 EXIT_UNSTABLE = 3
 EXIT_IO = 4
 
-app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, no_args_is_help=True,
+# rich_markup_mode None: help texts are shown as written (brackets such as mpmsim[cuda] are not
+# markup); each command's docstring opens with a one-line summary, the command list's entry
+app = typer.Typer(add_completion=False, pretty_exceptions_enable=False, no_args_is_help=True, rich_markup_mode=None,
                   help="Material point method simulator for multimaterial contact mechanics.")
 out = Console(soft_wrap=True)  # never break file paths across lines
 err = Console(stderr=True, soft_wrap=True)
@@ -61,10 +65,10 @@ def _deck_errors():
     try:
         yield
     except DeckError as exc:
-        err.print(f"[bold red]mpmsim: bad deck[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        err.print(f"[bold red]mpmsim: bad deck[/]\n{escape(exc.format())}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
     except CheckpointError as exc:
-        err.print(f"mpmsim: cannot restart: {exc}", highlight=False, soft_wrap=True)
+        err.print(f"mpmsim: cannot restart: {escape(str(exc))}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
 
 
@@ -76,7 +80,12 @@ def _load_scene(deck: Path):
         return build_scene(load_deck(deck))
 
 
-@app.command()
+def _command(function):
+    """A command whose entry in the command list is its docstring's first line, whole."""
+    return app.command(short_help=inspect.getdoc(function).splitlines()[0])(function)
+
+
+@_command
 def run(
     ctx: typer.Context,
     deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
@@ -84,8 +93,9 @@ def run(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar, timing table or file list."),
     threads: Optional[int] = typer.Option(
         None, "--threads", help="Worker threads (default: the cores other processes leave idle)."),
-    max_steps: float = typer.Option(1e8, "--max-steps", help="Refuse a run estimated to take more steps."),
-    max_frames: float = typer.Option(1e5, "--max-frames", help="Refuse more VTU frames or history rows."),
+    max_steps: int = typer.Option(100_000_000, "--max-steps", min=1,
+                                  help="Refuse a run estimated to take more steps."),
+    max_frames: int = typer.Option(100_000, "--max-frames", min=1, help="Refuse more VTU frames or history rows."),
     restart: Optional[Path] = typer.Option(
         None, "--restart", help="Continue the run whose output folder (and checkpoint) this is."),
     steps: Optional[int] = typer.Option(
@@ -137,7 +147,7 @@ def run(
                 log.note(f"device: {device} (the explicit MPM step on the GPU: docs/performance.md#gpu)")
             for notice in scene.notices:  # (also with --quiet: a warning is not progress)
                 log.note(f"warning: {notice}")
-                err.print(f"[yellow]warning:[/] {notice}", highlight=False, soft_wrap=True)
+                err.print(f"[yellow]warning:[/] {escape(notice)}", highlight=False, soft_wrap=True)
             if restart is not None:
                 restarted = (f"restarting from the checkpoint at step {sim.state.step}, t = {sim.state.t:.6g} "
                              f"{_units(scene).time}")
@@ -145,8 +155,8 @@ def run(
                 if not quiet:
                     out.print(restarted, highlight=False)
     except (OSError, ValueError) as exc:  # the folder: not creatable, a file in the way, a NUL in the path
-        err.print(f"mpmsim: cannot write the output folder {str(directory)!r}: {_reason(exc)}", highlight=False,
-                  soft_wrap=True)
+        err.print(f"mpmsim: cannot write the output folder {escape(repr(str(directory)))}: {escape(_reason(exc))}",
+                  highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_IO) from None
 
     def stop(message: str, reason: str, code: int) -> typer.Exit:
@@ -207,10 +217,11 @@ def run(
         else:
             result = sim.run(first_step=compiled, between_steps=between_steps)
     except InstabilityError as exc:
-        raise stop(f"[bold red]mpmsim: run stopped[/]: {exc}\noutput so far (including the failing state) is in "
-                   f"{directory}", f"unstable at step {st.step}, t = {st.t:.6g} {tu}", EXIT_UNSTABLE) from None
+        raise stop(f"[bold red]mpmsim: run stopped[/]: {escape(str(exc))}\noutput so far (including the failing "
+                   f"state) is in {directory}", f"unstable at step {st.step}, t = {st.t:.6g} {tu}",
+                   EXIT_UNSTABLE) from None
     except OSError as exc:  # a write failed mid-run (disk full, folder removed): earlier files are whole
-        raise stop(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {_reason(exc)}; the files "
+        raise stop(f"mpmsim: output failed at step {st.step}, t = {st.t:.6g} {tu}: {escape(_reason(exc))}; the files "
                    f"written before are whole, in {directory}", "output failed", EXIT_IO) from None
     except StepLimit:
         stop(f"mpmsim: stopped after {steps} steps (--steps) at t = {st.t:.6g} {tu}; results in {directory}; "
@@ -387,14 +398,15 @@ def _timing_table(result, sim) -> Table:
     return table
 
 
-@app.command()
+@_command
 def compile(
     decks: list[Path] = typer.Argument(None, help="Decks whose kernels to compile."),
     all_decks: bool = typer.Option(False, "--all", help="Every deck in the inputs/ folder next to the package."),
 ) -> None:
-    """Fill numba's kernel cache ahead of runs: build each deck's scene and start its run as
-    `mpmsim run` does (the energy sums, the first history row and VTU frame, the first step) in
-    a temporary folder, so a later `mpmsim run` compiles nothing."""
+    """Fill numba's kernel cache for decks, so later runs compile nothing.
+
+    Builds each deck's scene and starts its run as `mpmsim run` does (the energy sums, the
+    first history row and VTU frame, the first step) in a temporary folder."""
     import tempfile
 
     from .parallel import auto_threads
@@ -423,7 +435,7 @@ def compile(
         out.print(f"{path}: kernels ready ({time.perf_counter() - t0:.1f} s)", highlight=False)
 
 
-@app.command()
+@_command
 def check(
     deck: Path = typer.Argument(..., help="Problem deck (YAML)."),
     probe: bool = typer.Option(True, "--probe/--no-probe", help="FEM and implicit scenes: estimate the cost by "
@@ -431,7 +443,11 @@ def check(
     device: str = typer.Option("cpu", "--device", help="cuda: also refuse (exit 2, naming the key) what the GPU "
                                "step does not do yet (no GPU needed to check)."),
 ) -> None:
-    """Validate a deck and print the scene: particles, grid, time step, cost, and the task list."""
+    """Validate a deck; print the scene, time step, cost and task list.
+
+    The scene: particles, grid, FEM bodies, contact; the cost: an estimate of the run's time on
+    one thread and of a first run's compiling; warnings where the deck pairs methods measured to
+    go wrong in its setting."""
     scene = _load_scene(deck)
     _check_device(scene, device, driver=False)
     with _deck_errors():
@@ -452,11 +468,12 @@ def _check_device(scene, device: str, driver: bool = True) -> None:
         try:
             check_device(scene, device, driver)
         except DeviceError as exc:
-            err.print(f"mpmsim: {exc}", highlight=False, soft_wrap=True)
+            err.print(f"mpmsim: {escape(str(exc))}", highlight=False, soft_wrap=True)
             raise typer.Exit(EXIT_BAD_DECK) from None
 
 
-def _check(scene, want_probe: bool = True) -> None:
+def _check(scene, want_probe: bool = True) -> list[str]:
+    """Print what `mpmsim check` says of a scene; returns the warnings among it."""
     from .integrators import make_integrator
     from .state import State
 
@@ -483,13 +500,13 @@ def _check(scene, want_probe: bool = True) -> None:
     steps = int(np.ceil(d.time.end / dt))
     out.print(f"time step: {dt:.4g} {u.time} ({how}); end {d.time.end:g} {u.time} -> about {steps} steps",
               highlight=False)
-    for notice in scene.notices:
-        out.print(f"[yellow]warning:[/] {notice}", highlight=False)
+    warned = list(scene.notices)
     if scene.has_particles:
         from .stability import compaction_warnings
 
-        for warning in compaction_warnings(scene, state.particles.x):
-            out.print(f"[yellow]warning:[/] {warning}", highlight=False)
+        warned += compaction_warnings(scene, state.particles.x)
+    for warning in warned:
+        out.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     P = state.particles
     if (d.integrator == "implicit" or state.fem is not None) and not want_probe:
         out.print("cost: not estimated (--no-probe)", highlight=False)
@@ -501,8 +518,8 @@ def _check(scene, want_probe: bool = True) -> None:
         implicit = d.integrator == "implicit"
         found = probe(scene) if implicit else probe(scene, max_steps=200, seconds=1.0)
         if found.failed:
-            out.print(f"[yellow]warning:[/] the probe stopped at its step {found.steps + 1}: {found.failed}",
-                      highlight=False, soft_wrap=True)
+            warned.append(f"the probe stopped at its step {found.steps + 1}: {found.failed}")
+            out.print(f"[yellow]warning:[/] {escape(warned[-1])}", highlight=False, soft_wrap=True)
         seconds = found.run_seconds(steps) if found.steps >= 2 else 0.0
         if found.steps < 2:
             out.print("cost: no estimate (the probe needs two steps)", highlight=False)
@@ -523,13 +540,16 @@ def _check(scene, want_probe: bool = True) -> None:
                       f"later half of the probe) -> about {seconds:.3g} s for the run (CPU time on one thread, the "
                       "wall time on an idle core; plus JIT compile on a first run)", highlight=False)
     else:
-        from .cost import step_microseconds, task_costs
+        from .cost import compile_seconds, step_microseconds
 
-        us, missing = step_microseconds([name for name, _ in integrator.plan], P.n, int(state.entries.nodes.shape[1]))
+        tasks = [name for name, _ in integrator.plan]
+        us, missing = step_microseconds(tasks, P.n, int(state.entries.nodes.shape[1]))
         lacking = f"; no cost measured for {', '.join(missing)}" if missing else ""
+        first = compile_seconds(tasks)
+        compiling = (f"; a first run from an empty kernel cache adds about {first:.0f} s of compiling (CPU time; "
+                     "later runs load the kernels)" if first is not None else "; plus compiling on a first run")
         out.print(f"cost: {steps * P.n:.3g} particle-steps, about {us / 1e3:.3g} ms per step on one thread -> "
-                  f"{steps * us * 1e-6:.3g} s (plus JIT compile on a first run; task costs measured "
-                  f"{task_costs()['measured']}{lacking})", highlight=False)
+                  f"{steps * us * 1e-6:.3g} s{compiling}{lacking}", highlight=False)
     if scene.has_particles and d.integrator != "implicit":
         out.print(f"kernels: {kernel_dimension(state)}", highlight=False)
     out.print(f"[bold]tasks per step[/] ({integrator.name} integrator; only what this scene needs):")
@@ -539,6 +559,7 @@ def _check(scene, want_probe: bool = True) -> None:
         out.print("[bold]left out[/] (not needed by this scene):")
         for name, why in integrator.skipped:
             out.print(f"      {name:22s} {why}", highlight=False)
+    return warned
 
 
 def _describe_particles(scene, state, u) -> None:
@@ -619,7 +640,7 @@ def kernel_dimension(state) -> str:
             f"({state.shape.name}), {state.grid.shape[2]} node layer(s) in z")
 
 
-@app.command()
+@_command
 def sweep(
     sweep_file: Path = typer.Argument(..., help="Sweep file (YAML): base deck, axes, reference, metrics."),
     jobs: int = typer.Option(1, "--jobs", "-j", min=0, help="Worker processes of a local Dask cluster, one numba "
@@ -630,7 +651,10 @@ def sweep(
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Results directory (overrides the sweep file)."),
     limit: Optional[int] = typer.Option(None, "--limit", help="Run at most this many of the missing runs."),
 ) -> None:
-    """Run a matrix of deck variants; CSV of error and cost per run, chart of error against cost.
+    """Run a matrix of deck variants: error and cost per run, and a chart.
+
+    Writes a CSV of the error and the cost of every run and a chart of error against cost.
+
     Finished runs are kept in OUT/runs/, so a re-run resumes where a killed sweep stopped."""
     from .sweep import load_sweep, run_sweep
     from .sweep.matrix import expand
@@ -654,11 +678,11 @@ def sweep(
         out.print(f"[bold]{sweep_file}[/]: {len(runs)} runs + {len(refs)} reference runs, {where}", highlight=False)
         result = run_sweep(loaded, jobs=jobs, limit=limit, out_dir=out_dir, progress=progress, scheduler=scheduler)
     except DeckError as exc:
-        err.print(f"[bold red]mpmsim: bad sweep[/]\n{exc.format()}", highlight=False, soft_wrap=True)
+        err.print(f"[bold red]mpmsim: bad sweep[/]\n{escape(exc.format())}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
     except SweepStopped as exc:  # an unreachable scheduler, no workers, workers that cannot run mpmsim
-        err.print(f"mpmsim sweep: {exc}; {len(done)} run(s) finished here are kept; the same command again "
-                  "continues", highlight=False, soft_wrap=True)
+        err.print(f"mpmsim sweep: {escape(str(exc))}; {len(done)} run(s) finished here are kept; the same command "
+                  "again continues", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK if isinstance(exc, SchedulerUnreachable) else 1) from None
     except KeyboardInterrupt:  # caught here: the command-line framework would swallow it
         err.print(f"mpmsim sweep: interrupted; pending runs cancelled, {len(done)} run(s) finished here are kept; "
@@ -678,7 +702,7 @@ def _sweep_progress(run, record, k: int, n: int) -> None:
     out.print(f"  {k}/{n} {run.id} {record['status']:8s} {cost:>9s}  {what}", highlight=False)
 
 
-@app.command()
+@_command
 def plot(
     histories: list[Path] = typer.Argument(..., help="History CSV files (mpmsim run output)."),
     x: str = typer.Option("time", "--x", help="Column (or expression of columns) on the x axis."),
@@ -687,24 +711,28 @@ def plot(
     xlabel: Optional[str] = typer.Option(None, "--xlabel", help="x axis label (default: the column and its unit)."),
     ylabel: Optional[str] = typer.Option(None, "--ylabel", help="y axis label (default: the columns and units)."),
 ) -> None:
-    """Overlay history columns of one or more runs in a PNG, labelled by the decks' titles."""
-    from .plotting import plot_histories
+    """Overlay history columns of one or more runs in a PNG.
+
+    Each run's curves are labelled by its deck's title."""
+    from .plotting import PlotError, plot_histories
 
     try:
         plot_histories(histories, x, y, output, xlabel, ylabel)
-    except (OSError, KeyError, ValueError) as exc:
-        err.print(f"[bold red]mpmsim plot[/]: {exc}", highlight=False, soft_wrap=True)
+    except PlotError as exc:
+        err.print(f"mpmsim plot: {exc}", highlight=False, soft_wrap=True, markup=False)
         raise typer.Exit(EXIT_BAD_DECK) from None
     out.print(f"wrote {output}", highlight=False)
 
 
-@app.command()
+@_command
 def paraview(
     results: Path = typer.Argument(..., help="Results folder of a run (or the .pvd in it)."),
     stress: str = typer.Option("yy", "--stress", help="Stress component of the second view: xx yy zz xy yz xz."),
 ) -> None:
-    """Write <name>_paraview.py beside the series: opens it in ParaView coloured by material, with a
-    stress view and colour bar (paraview --script=FILE, or pvbatch FILE --screenshot out.png)."""
+    """Write a ParaView script, <name>_paraview.py, beside a run's series.
+
+    The script opens the series coloured by material, with a stress view and colour bar
+    (paraview --script=FILE, or pvbatch FILE --screenshot out.png)."""
     from .output.paraview import COMPONENTS, ResultsError, write_script
 
     if stress not in COMPONENTS:
@@ -714,7 +742,7 @@ def paraview(
     try:
         script = write_script(results, stress)
     except (OSError, ResultsError) as exc:
-        err.print(f"mpmsim paraview: {exc}", highlight=False, soft_wrap=True)
+        err.print(f"mpmsim paraview: {escape(str(exc))}", highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_DECK) from None
     out.print(f"wrote {script}\n  open:   paraview --script={script}\n"
               f"  render: pvbatch {script} --screenshot {script.with_suffix('.png')}", highlight=False)

@@ -7,7 +7,10 @@ particle-node pair (n particles, K grid nodes in each particle's support: 9 for 
 over. The coefficients are fitted, per task, by `python bench/calibrate.py` (in `make bench`)
 to the warm task timers of every explicit particle deck in inputs/ on one thread, and stored
 in task_costs.json with the date and machine they were measured on (docs/performance.md says
-how close the estimates come).
+how close the estimates come). A first run also compiles the scene's kernels (numba, when the
+kernel cache lacks them): `compile_seconds` adds up a typical compile cost per task of the
+step and one for the run's start (state, energy sums, output), CPU seconds from an empty
+cache on one thread, measured by `python bench/compile_costs.py` and stored in the same file.
 
 Scenes with FEM bodies, and implicit scenes: their cost does not follow one size (augury
 contact goes with the boundary nodes, the augury grid and the kernel; the stability check with
@@ -56,6 +59,15 @@ def step_microseconds(tasks: list[str], n: int, K: int) -> tuple[float, list[str
         else:
             missing.append(name)
     return total, missing
+
+
+def compile_seconds(tasks: list[str]) -> float | None:
+    """Estimated CPU seconds of compiling a first run's kernels from an empty kernel cache: the
+    run's start plus each task's typical compile cost (None where the file has none)."""
+    costs = task_costs().get("compile")
+    if not costs:
+        return None
+    return costs["start"] + sum(costs["tasks"].get(name, 0.0) for name in [*tasks, CHECK])
 
 
 @dataclass

@@ -74,36 +74,63 @@ class StabilityCheck:
                 state.t, state.step)
 
 
-# a rigid body's travel, as a fraction of the deformable material's extent along that axis,
-# above which `mpmsim check` warns about methods that lose track of volume under compaction
+# a rigid body's travel towards the deformable material, as a fraction of the material's extent
+# along that axis, above which `mpmsim check` warns about methods that lose track of volume
+# under compaction (and, travelling away from it, about FLIP in large stretches)
 COMPACTION_WARN_STRAIN = 0.1
 
 
+def rigid_travel(scene, x) -> tuple[float, str, float, str]:
+    """(compression, who, stretch, who): the largest travel of a rigid material towards the
+    deformable particles (positions x) and away from them, each as a fraction of the
+    particles' extent along the axis, and the rigid material that makes it. The side a rigid
+    material is on along an axis is that of its particles' centroid against the deformable
+    particles' centroid; moving towards that centroid compresses, moving away stretches; on
+    neither side (centroids level on that axis) either way counts as compression."""
+    mats, rigid = scene.materials, scene.rigid
+    extent = np.maximum(x.max(axis=0) - x.min(axis=0), 1e-300)
+    centre = x.mean(axis=0)
+    found = [0.0, "", 0.0, ""]
+    for k, (name, motion) in enumerate(zip(mats.rigid, mats.motions)):
+        dmin, dmax = motion.displacement_envelope(scene.deck.time.end)
+        own = rigid.x[rigid.mat == k]
+        side = np.sign(own.mean(axis=0) - centre) if len(own) else np.zeros_like(centre)
+        # towards the material: against the side it is on; away: along it
+        toward = np.where(side > 0, -dmin, np.where(side < 0, dmax, np.maximum(-dmin, dmax)))
+        away = np.where(side > 0, dmax, np.where(side < 0, -dmin, 0.0))
+        for slot, travel in ((0, toward), (2, away)):
+            fraction = float(np.max(np.maximum(travel, 0.0) / extent))
+            if fraction > found[slot]:
+                found[slot], found[slot + 1] = fraction, name
+    return found[0], found[1], found[2], found[3]
+
+
 def compaction_warnings(scene, x) -> list[str]:
-    """Warnings for a deck whose rigid bodies travel more than COMPACTION_WARN_STRAIN of the
-    deformable particles' (positions x) extent with a method measured to let the particle
-    volumes J V0 drift from the space the material fills (docs/stability.md, "High-rate
-    compaction"; docs/contact.md, "Ellipses in a box"): any scheme but PIC where three or more
-    deformable materials meet in contact; FLIP, XPIC or FMPM with the midpoint position
-    updates; uGIMP with PIC; a rigid *contact* material meeting two or more deformable
+    """Warnings for a deck whose rigid bodies travel towards the deformable particles
+    (positions x) by more than COMPACTION_WARN_STRAIN of their extent with a method measured to
+    let the particle volumes J V0 drift from the space the material fills (docs/stability.md,
+    "High-rate compaction"; docs/contact.md, "Ellipses in a box"): any scheme but PIC where
+    three or more deformable materials meet in contact; FLIP, XPIC or FMPM with the midpoint
+    position updates; uGIMP with PIC; a rigid *contact* material meeting two or more deformable
     materials in contact (the rigid material takes the node, so the others are not kept apart
-    there)."""
+    there). A rigid body travelling away from the material stretches it: there only FLIP is
+    warned about (docs/stability.md, "FLIP ringing in long quasi-static compressions": a bar
+    pulled to 100% strain with FLIP tears for every shape function; XPIC(5) with CPDI,
+    inputs/stretch.yaml, ends within 0.16% of the analytic stress)."""
     deck, mats = scene.deck, scene.materials
     upd = deck.update
     if not mats.rigid or len(x) == 0:
         return []
-    extent = x.max(axis=0) - x.min(axis=0)
-    worst, who = 0.0, ""
-    for name, motion in zip(mats.rigid, mats.motions):
-        dmin, dmax = motion.displacement_envelope(deck.time.end)
-        travel = np.maximum(np.abs(dmin), np.abs(dmax))
-        strain = float(np.max(travel / np.maximum(extent, 1e-300)))
-        if strain > worst:
-            worst, who = strain, name
-    if worst < COMPACTION_WARN_STRAIN:
-        return []
-    moves = f"rigid '{who}' travels {100 * worst:.0f}% of the material's extent"
+    worst, who, stretch, puller = rigid_travel(scene, x)
     out = []
+    if stretch >= COMPACTION_WARN_STRAIN and upd.scheme == "flip":
+        out.append(f"rigid '{puller}' pulls the material {100 * stretch:.0f}% of its extent with update.scheme flip: "
+                   "in large stretches FLIP's ringing grows until the body tears (a bar pulled to 100% strain tore "
+                   "with every shape function); use update.scheme: xpic with shape_function: cpdi "
+                   "(docs/stability.md, \"FLIP ringing in long quasi-static compressions\")")
+    if worst < COMPACTION_WARN_STRAIN:
+        return out
+    moves = f"rigid '{who}' travels {100 * worst:.0f}% of the material's extent towards it"
     in_contact = len(mats.deformable) >= 2 and scene.contact.default.law != "none"
     if in_contact and len(mats.deformable) >= 3 and upd.scheme != "pic":
         out.append(f"{moves} with update.scheme {upd.scheme} and {len(mats.deformable)} deformable materials in "

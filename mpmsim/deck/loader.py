@@ -9,6 +9,7 @@ from __future__ import annotations
 import difflib
 import hashlib
 import json
+import re
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -216,8 +217,9 @@ def _clean_loc(loc, data) -> tuple:
     node = data
     for i, key in enumerate(loc):
         is_last = i == len(loc) - 1
-        if isinstance(key, str) and not is_last and (key in branches or "[" in key):
-            continue
+        if isinstance(key, str) and (key in branches or "[" in key) and (
+                not is_last or not (isinstance(node, dict) and key in node)):
+            continue  # a union branch's name (last: the branch of a plain value, `float`, `list[float]`)
         if isinstance(key, str) and not is_last and key in known and not (isinstance(node, dict) and key in node):
             continue
         if (isinstance(key, str) and not is_last and isinstance(node, dict) and key not in node
@@ -271,18 +273,73 @@ def _message(err) -> str:
     return msg[0].lower() + msg[1:] if msg else kind
 
 
+# what a union's plain branches accept, in words (a model branch: a mapping of its keys)
+_BRANCH_WORDS = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true or false",
+                 "list[float]": "a list of numbers (one per axis)", "list[int]": "a list of integers",
+                 "list[list[float]]": "a list of lists of numbers"}
+
+
+def _branch(loc, path: tuple) -> str | None:
+    """The union branch an error's location went through at the end of its deck path: the first
+    location entry after the path's keys that names a branch (pydantic's `float`, `list[float]`,
+    a model's name), or None."""
+    _, branches, _ = _names()
+    keys = [k for k in loc]
+    for key in path:  # walk the deck keys; what is left after the last one is pydantic's
+        if key in keys:
+            keys = keys[keys.index(key) + 1:]
+    for key in keys:
+        if isinstance(key, str) and (key in branches or "[" in key):
+            return key
+    return None
+
+
+def _accepted(branch: str) -> str:
+    if branch in _BRANCH_WORDS:
+        return _BRANCH_WORDS[branch]
+    model = next((c for c in _all_models() if c.__name__ == branch), None)
+    return f"a mapping with keys {', '.join(deck_keys(model))}" if model is not None else branch
+
+
+def _union_message(value, branches: list[str]) -> str:
+    """One message for a value no branch of a union accepts: what it is, what is accepted; for
+    a number written with a unit, that the deck's numbers are plain."""
+    shown = repr(value) if isinstance(value, str) else yaml.safe_dump(value, default_flow_style=True).strip()
+    words = [_accepted(b) for b in branches]
+    accepted = ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else words[0]
+    hint = ""
+    number = re.match(r"^\s*([-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?)\s*[A-Za-z]", value) if isinstance(value, str) \
+        else None
+    if number:
+        hint = f" (numbers are plain, in the units the deck's `units:` sets: write {number.group(1)})"
+    return f"{shown} is not {accepted}{hint}"
+
+
 def _problems_from_validation(exc: ValidationError, root) -> list[tuple[tuple, str]]:
     data = yaml.safe_load(yaml.serialize(root)) if root is not None else {}
     merged: dict[tuple, list[str]] = {}
+    unions: dict[tuple, tuple] = {}  # path -> (the value, the union branches that refused it)
     for err in exc.errors():
         path = _clean_loc(err["loc"], data)
         msg = _message(err)
         msgs = merged.setdefault(path, [])
         if msg not in msgs:
             msgs.append(msg)
+        branch = _branch(err["loc"], path)
+        if branch is not None and err["type"] not in ("extra_forbidden", "missing"):
+            value, seen = unions.setdefault(path, (err.get("input"), []))
+            if branch not in seen:
+                seen.append(branch)
     problems = []
     for path, msgs in merged.items():
-        problems.append((path, msgs[0] if len(msgs) == 1 else "does not match any allowed form: " + "; or ".join(msgs)))
+        value, seen = unions.get(path, (None, []))
+        if len(seen) == 1 and any(len(q) > len(path) and q[:len(path)] == path for q in merged):
+            continue  # one branch refused the value whole where another found a fault inside it: that one speaks
+        if len(seen) >= 2:  # every branch of a union refused the value: say what is accepted
+            problems.append((path, _union_message(value, seen)))
+        else:
+            problems.append((path, msgs[0] if len(msgs) == 1 else
+                             "does not match any allowed form: " + "; or ".join(msgs)))
     return problems
 
 
