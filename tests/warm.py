@@ -33,12 +33,15 @@ def run_part(k: int) -> int:
     from tests.architecture.fingerprint import run_case
 
     failed = 0
+    t0 = time.perf_counter()
     for name, deck, overrides in part(k):
         try:
             run_case(deck, overrides, steps=1, columns=[])
         except Exception as exc:  # noqa: BLE001 (the case's own test reports it)
             failed += 1
             print(f"warm: {name}: {type(exc).__name__}: {str(exc)[:200]}", file=sys.stderr)
+    print(f"warm: half {k} ({'FEM and implicit decks' if k == 0 else 'particle decks'}, half the variants) in "
+          f"{time.perf_counter() - t0:.0f} s")
     return failed
 
 
