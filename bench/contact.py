@@ -227,8 +227,8 @@ def plot_tradeoff(curves: dict, costs: dict) -> None:
     print(f"wrote {FIGURES / 'contact_accuracy_vs_cost.png'}")
 
 
-ENERGY = ("external_work", "kinetic_energy", "strain_energy", "transfer_loss", "contact_loss", "condition_loss",
-          "force_gap_loss", "energy_residual")
+ENERGY = ("external_work", "kinetic_energy", "strain_energy", "transfer_loss", "contact_loss", "friction_loss",
+          "condition_loss", "force_gap_loss", "energy_residual")
 
 
 def ellipse_to_end(job):

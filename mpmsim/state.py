@@ -31,6 +31,8 @@ from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
 
+N_LOSSES = 5  # the energy ledger's totals (state.ledger), named by mpmsim/tasks/ledger.py LOSSES
+
 
 @dataclass
 class GridFields:
@@ -208,7 +210,7 @@ class State:
         state.reaction = np.zeros((6 + nr, dim))
         state.impulse = np.zeros_like(state.reaction)
         if run.output.energy_ledger:
-            state.ledger = np.zeros(4)  # tasks/ledger.py LOSSES
+            state.ledger = np.zeros(N_LOSSES)  # tasks/ledger.py LOSSES
         state.particle_bounds = scene.grid.particle_bounds
         mass = particles.mass
         state.energy0 = 0.5 * float(np.sum(mass[:, None] * particles.v**2))

@@ -105,7 +105,8 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
     ledger = None
     if run.output.energy_ledger:
-        ledger = EnergyLedger(upd.stress, upd.reextrapolate, contact is not None and contact.passes == 2)
+        friction = None if contact is None else "dp1" if ct.pass_1_counts else "hold" if ct.hold_force else None
+        ledger = EnergyLedger(upd.stress, upd.reextrapolate, contact is not None and contact.passes == 2, friction)
         tasks.append(Task("energy ledger: update", ledger.updated,
                           "output.energy_ledger: keep the update's velocities; transfer and pass 1 losses"))
     else:

@@ -18,14 +18,21 @@ this gives the balance
 
   external_work + E0 = kinetic + strain (+ internal + interface) energy
                        (+ energy dissipated in materials: plastic work)
-                       + transfer_loss + contact_loss + condition_loss + force_gap_loss + R
+                       + transfer_loss + contact_loss + friction_loss + condition_loss
+                       + force_gap_loss + R
 
-with the four losses (cumulative, energy units; history columns of the same names):
+with the five losses (cumulative, energy units; history columns of the same names):
 - transfer_loss: kinetic energy lost between particles and grid, P2G (sum 1/2 m V^2 minus the
   grid's) plus G2P (the grid's at vc minus the particles' after their update);
 - contact_loss: kinetic energy removed by contact pass 1, minus the work of pass 2's contact
   changes at v_bar, plus the work a rigid contact material does there (booked in
-  external_work); energy stored by imperfect interfaces is in it (also in interface_energy);
+  external_work), less friction_loss; energy stored by imperfect interfaces is in it (also in
+  interface_energy);
+- friction_loss: what Coulomb's law took (friction_work): minus the work of the tangential
+  part of each coulomb target's contact change at its slip velocity (pass 2 at v_bar; pass 1
+  at the mean of its velocities before and after, where pass 1's change reaches the
+  particles: not under FLIP, whose particles add only dt a, except the held pairs' change,
+  which FLIP takes as a force). Where the pair slides this is mu |f_n| |slip| dt;
 - condition_loss: the work booked for the velocity conditions minus what reaches the grid:
   1/2 m (v_bc - v1)^2 where a condition lands a field on its velocity (an inelastic impact);
 - force_gap_loss: minus the internal forces' work f . (v_bar - v_s) dt at free components:
@@ -44,11 +51,14 @@ import numpy as np
 from numba import njit
 
 from ..bodies import INTERNAL, KINETIC, STRAIN
+from ..contact.grid.spec import COULOMB
 from ..stability import total_sums
+from ..state import N_LOSSES
 
-# order of the ledger's totals (state.ledger) and of their history columns
-LOSSES = ("transfer_loss", "contact_loss", "condition_loss", "force_gap_loss")
-TRANSFER, CONTACT, CONDITION, FORCE_GAP = range(4)
+# order of the ledger's totals (state.ledger: mpmsim/state.py sizes it by N_LOSSES) and of
+# their history columns
+LOSSES = ("transfer_loss", "contact_loss", "friction_loss", "condition_loss", "force_gap_loss")
+TRANSFER, CONTACT, FRICTION, CONDITION, FORCE_GAP = range(N_LOSSES)
 
 
 @njit(cache=True)
@@ -98,6 +108,45 @@ def pass_1_drop(nn, n_slots, slot_group, n_def, mass, mom, dp1):
 
 
 @njit(cache=True)
+def friction_work(nn, n_slots, slot_group, n_def, role, partner, normal, law, mass, dp, v_start, v_end, v_rigid):
+    """Work of Coulomb's law at the step's contact nodes: over the target slots whose law is
+    coulomb, the tangential part (to the target's contact normal) of its contact change dp[s]
+    (momentum) at the slip velocity, the mean of the slot's velocities v_start[s] and v_end[s]
+    before and after the change, less its partner's: a deformable partner's mean (the partner
+    took the opposite change), a rigid partner's velocity v_rigid[b]; against the lumped rest
+    (three or more materials) each target's own velocity. Negative where friction takes
+    energy. Sliding targets (tangential change at mu |normal change|) and stuck ones (below it:
+    the change that lands the pair on one tangential velocity) both count: a slab that a block
+    slides on has a third of the contact nodes under the block stuck in a step, their share of
+    the dissipation a third (docs/validation.md, "Energy ledger"). Slots as in
+    mpmsim/contact/grid/workspace.py and plan.plan_node."""
+    w = 0.0
+    dim = dp.shape[1]
+    for s in range(n_slots):
+        if slot_group[s] >= n_def or role[s] == 0 or law[s] != COULOMB or mass[nn + s] <= 0.0:
+            continue
+        dn = 0.0
+        for d in range(dim):
+            dn += dp[s, d] * normal[s, d]
+        b = partner[s]
+        for d in range(dim):
+            v = 0.5 * (v_start[s, d] + v_end[s, d])
+            if b >= 0 and slot_group[b] >= n_def:
+                v -= v_rigid[b, d]
+            elif b >= 0:
+                v -= 0.5 * (v_start[b, d] + v_end[b, d])
+            w += (dp[s, d] - dn * normal[s, d]) * v
+    return w
+
+
+def slot_friction(cs, nn: int, mass: np.ndarray, dp: np.ndarray, v_start: np.ndarray, v_end: np.ndarray,
+                  v_rigid: np.ndarray) -> float:
+    """friction_work over the contact workspace cs's slots."""
+    return friction_work(nn, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, cs.role, cs.partner, cs.normal, cs.law,
+                         mass, dp, v_start, v_end, v_rigid)
+
+
+@njit(cache=True)
 def step_sums(fields, skip, mass, force, vnew, vlast, v1, vfirst, vplus, w_first, w_last, dt, out):
     """End of the step, over live active fields: out = (grid kinetic energy at vc, work of the
     conditions' forces at v_bar, of pass 2's contact forces at v_bar, the forces' work on
@@ -130,7 +179,13 @@ class EnergyLedger:
     """The ledger's three tasks (after the momentum update, after contact pass 2, at the end of
     the step) and the snapshots they pass on; the totals go into state.ledger (LOSSES order)."""
 
-    def __init__(self, stress: str, reextrapolate: bool, pass_1: bool):
+    def __init__(self, stress: str, reextrapolate: bool, pass_1: bool, pass_1_friction: str | None = None):
+        """pass_1_friction: which part of contact pass 1's change reaches the particles, so that
+        Coulomb's share of it is friction: "dp1" (all of it: schemes whose particles take the
+        grid velocity), "hold" (the held pairs' change, a force under FLIP), None (none: FLIP's
+        particles add only dt a, so pass 1's change shows as equal and opposite contact and
+        transfer losses)."""
+        self.pass_1_friction = pass_1_friction
         self.w_first = {"usf": 1.0, "usavg": 0.5, "usl": 0.0}[stress]
         self.w_last = 1.0 - self.w_first
         self.last_from_vel = reextrapolate and stress != "usf"  # re-extrapolated velocities
@@ -138,6 +193,8 @@ class EnergyLedger:
         self.ke_start = -1.0  # particles' kinetic energy at the start of the step (< 0: not yet)
         self.marks = np.zeros(2)  # external_work at the step's start (a run starts at 0) and after the update
         self.v1 = self.vfirst = self.vplus = np.zeros((0, 0))
+        # contact slots' v1 (p/m after pass 1; a rigid slot's: its velocity) and v+ (friction in pass 2)
+        self.slot_v1 = self.slot_vplus = np.zeros((0, 0))
         self.sums = np.zeros(5)
 
     def updated(self, state) -> None:
@@ -150,19 +207,34 @@ class EnergyLedger:
         if self.v1.shape != (n, dim):
             self.v1, self.vfirst, self.vplus = (np.zeros((n, dim)) for _ in range(3))
         ke_grid = keep_update(box.fields, box.skip, f.mass, f.mom, f.vel, f.vnew, self.v1, self.vfirst, self.vplus)
-        drop = 0.0
-        if self.pass_1 and state.contact is not None:
-            cs = state.contact
-            drop = pass_1_drop(state.grid.n_nodes, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, f.mass, f.mom,
-                               cs.dp1)
+        drop = friction = 0.0
+        if state.contact is not None:
+            cs, nn = state.contact, state.grid.n_nodes
+            m = f.mass[nn:nn + cs.n_slots, None]
+            self.slot_v1 = np.divide(f.mom[nn:nn + cs.n_slots], m, out=np.zeros((cs.n_slots, state.dim)), where=m > 0.0)
+            self.slot_vplus = f.vnew[nn:nn + cs.n_slots].copy()
+            if self.pass_1:
+                dp1 = cs.dp1[:cs.n_slots]
+                drop = pass_1_drop(nn, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, f.mass, f.mom, cs.dp1)
+                before = np.divide(f.mom[nn:nn + cs.n_slots] - dp1, m, out=np.zeros((cs.n_slots, state.dim)),
+                                   where=m > 0.0)
+                if self.pass_1_friction is not None:
+                    dpf = dp1 if self.pass_1_friction == "dp1" else cs.hold[:cs.n_slots]
+                    friction = -slot_friction(cs, nn, f.mass, dpf, before, self.slot_v1, self.slot_v1)
         state.ledger[TRANSFER] += self.ke_start - (ke_grid + drop)
-        state.ledger[CONTACT] += drop
+        state.ledger[CONTACT] += drop - friction
+        state.ledger[FRICTION] += friction
         self.marks[1] = state.work_in
 
     def contact(self, state) -> None:
         """After contact pass 2: the work a rigid contact material did there is part of its
-        exchange (booked in external_work)."""
-        state.ledger[CONTACT] += state.work_in - self.marks[1]
+        exchange (booked in external_work); the frictional laws' share of pass 2's work."""
+        cs, f, nn = state.contact, state.fields, state.grid.n_nodes
+        vc = f.vnew[nn:nn + cs.n_slots]
+        dp = f.mass[nn:nn + cs.n_slots, None] * (vc - self.slot_vplus)
+        friction = -slot_friction(cs, nn, f.mass, dp, self.slot_v1, vc, self.slot_v1)
+        state.ledger[CONTACT] += state.work_in - self.marks[1] - friction
+        state.ledger[FRICTION] += friction
 
     def step_end(self, state) -> None:
         """End of the step: the G2P loss, pass 2's contact work, the conditions' losses and the
@@ -184,7 +256,7 @@ class EnergyLedger:
 
 
 def energy_residual(state) -> float:
-    """external_work + E0 minus the energies and the four losses (LOSSES) at this state."""
+    """external_work + E0 minus the energies and the losses (LOSSES) at this state."""
     s = total_sums(state)
     stored = s[KINETIC] + s[STRAIN] + s[INTERNAL] + state.interface_energy if s is not None else 0.0
     dissipated = dissipation(state)

@@ -93,6 +93,6 @@ def test_run_prints_where_the_energy_went(tmp_path):
     assert result.exit_code == 0, result.output
     line = next(ln for ln in result.output.splitlines() if ln.startswith("energy ledger:"))
     parts = {k.strip(): float(v) for k, v in re.findall(r"([a-z ]+) (-?[0-9.]+)%", line.split(";")[1])}
-    assert set(parts) == {"kinetic", "strain", "transfer", "contact", "condition", "force gap", "residual"}
+    assert set(parts) == {"kinetic", "strain", "transfer", "contact", "friction", "condition", "force gap", "residual"}
     assert sum(parts.values()) == pytest.approx(100.0, abs=0.05)
     assert parts["condition"] > 1.0  # the wall stops the block: an inelastic impact on the grid

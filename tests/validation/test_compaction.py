@@ -94,7 +94,7 @@ def assert_follows_confined_compression(lam, syy, ratio):
 
 def assert_energy_balances(history, limit=0.02):
     """The energy ledger closes: wherever the work put in exceeds 1% of its final value, the
-    residual external_work + E0 - (kinetic + strain energy + the four losses) is within `limit`
+    residual external_work + E0 - (kinetic + strain energy + the losses) is within `limit`
     of the work."""
     W = history["external_work"].to_numpy()
     later = W > 0.01 * W[-1]
