@@ -1,21 +1,34 @@
-"""A converged reference for the oblique impact (inputs/oblique_impact.yaml): the same steel
-cylinder and aluminium block as finite elements, stepped implicitly, meeting through the barrier
-contact with IPC's smoothed Coulomb friction (docs/bfemp.md), refined until the cylinder's
-rebound stops moving.
+"""The continuum of an oblique impact of a cylinder on a block (plane strain), converged.
+
+Both bodies as finite elements, stepped implicitly, meeting through the barrier contact with
+IPC's smoothed Coulomb friction (docs/bfemp.md), refined until the cylinder's rebound stops
+moving.
 
     python bench/oblique_fem.py run [--levels 0 1 2 3] [--mu 0 0.3] [--gap 0.0005] [--lags 3] [--hmax 1]
                                     [--material linear_elastic|compressible_neo_hookean]
+                                    [--radius 10] [--velocity 1 -1] [--x0 -8] [--end 0.05]
+                                    [--cylinder E nu density] [--block E nu density] [--block-size 50 15]
     python bench/oblique_fem.py table       # results/bench_oblique_fem/*.json
+    python bench/oblique_fem.py mpm [--rh 10 20] [--mu 0 0.3] [the scene arguments]
 
-The scene is the MPM deck's: a steel disk (R = 10 mm, E = 200 GPa, nu = 0.3, 7.85 g/cm^3) at
-(1, -1) m/s onto an aluminium block [-25, 25] x [0, 15] mm (E = 70 GPa, nu = 0.33, 2.7 g/cm^3)
-held on y = 0, plane strain, both `linear_elastic` (small strain; the cylinder turns by under
-0.005 rad in the run) or, with `--material`, `compressible_neo_hookean` of the same moduli. The
-disk starts `--gap` above the block at x = -8 mm (0.5 um: a touching start, as the continuum has
-no other; a longer gap is only a longer flight) and the run ends 0.05 ms after it would touch,
-well after it has left (the contact lasts about 0.036 ms).
+`mpm` runs the same scene as a plainly written MPM deck (`plain_deck`: the defaults, the cylinder
+seeded to its surface, its centre R above the block: a touching start) and prints the rebound
+beside the finest stored level of the continuum for that scene and mu, with the energy at the
+end and what friction took (the ledger's friction_loss), both over the initial energy; the
+continuum's friction share is 1 - E end / E0 (elastic bodies lose nothing else).
 
-Meshes: linear triangles, graded towards the first contact point (-8, 15): element size
+The default scene is inputs/oblique_impact.yaml's: a steel disk (R = 10 mm, E = 200 GPa,
+nu = 0.3, 7.85 g/cm^3) at (1, -1) m/s onto an aluminium block [-25, 25] x [0, 15] mm (E = 70 GPa,
+nu = 0.33, 2.7 g/cm^3) held on y = 0. The arguments make any other (`Scene`): the disk's radius,
+impact velocity and centre x, both materials (E in MPa, density in g/mm^3: the deck units
+mm-g-ms) and the block's width and height (centred on x = 0, its bottom on y = 0); both
+`linear_elastic` (small strain; the default cylinder turns by under 0.005 rad in the run) or,
+with `--material`, `compressible_neo_hookean` of the same moduli. The disk starts `--gap` above
+the block (0.5 um: a touching start, as the continuum has no other; a longer gap is only a longer
+flight) and the run ends `--end` after it would touch (0.05 ms: the default cylinder's contact
+lasts about 0.036 ms; choose it past the contact, which the run's `duration` reports).
+
+Meshes: linear triangles, graded towards the first contact point (x0, top): element size
 h(x) = min(hmax, hmin + 0.25 |x - c|), from a quadtree of the body's box refined until each cell
 is no larger than h at its point nearest c; the quadtree's corners inside the body (the disk's
 at least 0.6 h inside its circle) and points on its boundary h apart, triangulated by scipy's
@@ -27,16 +40,19 @@ about 0.01 mm), friction velocity eps_v = 1e-3 m/s, `--lags` friction lags per s
 
 Measured per run: the cylinder's velocity (momentum over mass) and spin at the end, the contact
 duration (rows where the cylinder's momentum changes), kinetic plus strain energy at the end
-over the initial, the node counts and the wall time; JSON under results/bench_oblique_fem/.
+over the initial, the node counts and the wall time; JSON under results/bench_oblique_fem/ (a
+scene other than the default adds its tag to the file name and its arguments to the record).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import tempfile
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import meshio
 import numpy as np
@@ -44,29 +60,56 @@ from scipy.spatial import Delaunay
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results" / "bench_oblique_fem"
-R, CX, TOP = 10.0, -8.0, 15.0  # disk radius, its centre's x, the block's top
-BLOCK = ((-25.0, 0.0), (25.0, 15.0))
 GRADE = 0.25
+ROOT_CELL = 2.5  # the quadtrees' root cells (mm), at most
+
+
+class Scene(NamedTuple):
+    """A cylinder (disk) striking a block held on its bottom, plane strain, deck units mm-g-ms."""
+
+    radius: float = 10.0
+    velocity: tuple[float, float] = (1.0, -1.0)  # m/s (= mm/ms)
+    x0: float = -8.0  # the disk centre's x
+    cylinder: tuple[float, float, float] = (200000.0, 0.3, 0.00785)  # E (MPa), nu, density (g/mm^3)
+    block: tuple[float, float, float] = (70000.0, 0.33, 0.0027)
+    size: tuple[float, float] = (50.0, 15.0)  # the block's width (centred on x = 0) and height
+    end: float = 0.05  # run time after the touch (ms)
+
+    @property
+    def top(self) -> float:
+        return self.size[1]
+
+    def tag(self) -> str:
+        """'' for the default scene, else its arguments in a file name."""
+        if self == Scene():
+            return ""
+        f = "_".join
+        return ("_scene_R{:g}_v{}_x{:g}_cyl{}_blk{}_size{}_end{:g}".format(
+            self.radius, f(f"{v:g}" for v in self.velocity), self.x0, f(f"{v:g}" for v in self.cylinder),
+            f(f"{v:g}" for v in self.block), f(f"{v:g}" for v in self.size), self.end))
 
 
 def sizing(p: np.ndarray, c: np.ndarray, hmin: float, hmax: float) -> np.ndarray:
     return np.minimum(hmax, hmin + GRADE * np.linalg.norm(p - c, axis=-1))
 
 
-def quadtree_corners(lo, roots, size: float, c: np.ndarray, hmin: float, hmax: float) -> np.ndarray:
-    """Corners of a quadtree over roots[0] x roots[1] square cells of `size` from `lo`, each
-    leaf no larger than the element size at its point nearest c."""
-    cells = [(lo[0] + i * size, lo[1] + j * size, size) for i in range(roots[0]) for j in range(roots[1])]
+def quadtree_corners(lo, extent, c: np.ndarray, hmin: float, hmax: float) -> np.ndarray:
+    """Corners of a quadtree over the box lo + [0, extent] (root cells of at most ROOT_CELL a
+    side, as many as fit exactly), each leaf no larger than the element size at its point
+    nearest c."""
+    n = [max(1, math.ceil(e / ROOT_CELL - 1e-9)) for e in extent]
+    sx, sy = extent[0] / n[0], extent[1] / n[1]
+    cells = [(lo[0] + i * sx, lo[1] + j * sy, sx, sy) for i in range(n[0]) for j in range(n[1])]
     points = set()
     while cells:
         finer = []
-        for x, y, s in cells:
-            near = np.array([min(max(c[0], x), x + s), min(max(c[1], y), y + s)])
-            if s > 1.0001 * sizing(near, c, hmin, hmax):
-                t = s / 2
-                finer += [(x, y, t), (x + t, y, t), (x, y + t, t), (x + t, y + t, t)]
+        for x, y, a, b in cells:
+            near = np.array([min(max(c[0], x), x + a), min(max(c[1], y), y + b)])
+            if max(a, b) > 1.0001 * sizing(near, c, hmin, hmax):
+                u, w = a / 2, b / 2
+                finer += [(x, y, u, w), (x + u, y, u, w), (x, y + w, u, w), (x + u, y + w, u, w)]
             else:
-                points.update((round(x + dx, 12), round(y + dy, 12)) for dx in (0.0, s) for dy in (0.0, s))
+                points.update((round(x + dx, 12), round(y + dy, 12)) for dx in (0.0, a) for dy in (0.0, b))
         cells = finer
     return np.array(sorted(points))
 
@@ -87,9 +130,10 @@ def triangulate(points: np.ndarray, interior: np.ndarray, c: np.ndarray, hmin: f
     return len(points)
 
 
-def disk_mesh(path: Path, yc: float, hmin: float, hmax: float) -> int:
-    centre, c = np.array([CX, yc]), np.array([CX, yc - R])
-    inner = quadtree_corners(centre - R, (8, 8), 2.5, c, hmin, hmax)
+def disk_mesh(path: Path, scene: Scene, yc: float, hmin: float, hmax: float) -> int:
+    R = scene.radius
+    centre, c = np.array([scene.x0, yc]), np.array([scene.x0, yc - R])
+    inner = quadtree_corners(centre - R, (2 * R, 2 * R), c, hmin, hmax)
     inner = inner[np.linalg.norm(inner - centre, axis=1) < R - 0.6 * sizing(inner, c, hmin, hmax)]
     rim, t = [], -np.pi / 2  # h apart round the circle from its lowest point
     while t < 1.5 * np.pi - 1e-12:
@@ -103,62 +147,65 @@ def disk_mesh(path: Path, yc: float, hmin: float, hmax: float) -> int:
     return triangulate(points, interior, c, hmin, hmax, path)
 
 
-def block_mesh(path: Path, hmin: float, hmax: float) -> int:
-    (x0, y0), (x1, y1) = BLOCK
-    c = np.array([CX, TOP])
-    points = quadtree_corners((x0, y0), (20, 6), 2.5, c, hmin, hmax)
+def block_mesh(path: Path, scene: Scene, hmin: float, hmax: float) -> int:
+    (x0, y0), (x1, y1) = (-scene.size[0] / 2, 0.0), (scene.size[0] / 2, scene.top)
+    c = np.array([scene.x0, scene.top])
+    points = quadtree_corners((x0, y0), scene.size, c, hmin, hmax)
     edge = np.isclose(points[:, 0], x0) | np.isclose(points[:, 0], x1) | np.isclose(points[:, 1], y0) \
         | np.isclose(points[:, 1], y1)
     return triangulate(points, ~edge, c, hmin, hmax, path)
 
 
 def deck(folder: Path, level: int, mu: float, gap: float, lags: int, hmax: float = 1.0,
-         material: str = "linear_elastic") -> tuple[dict, dict]:
+         material: str = "linear_elastic", scene: Scene = Scene()) -> tuple[dict, dict]:
     hmin, dt = 0.2 / 2**level, 5e-4 / 2**level
-    yc = TOP + R + gap
-    nodes = {"disk": disk_mesh(folder / "disk.msh", yc, hmin, hmax),
-             "block": block_mesh(folder / "block.msh", hmin, hmax)}
+    yc = scene.top + scene.radius + gap
+    nodes = {"disk": disk_mesh(folder / "disk.msh", scene, yc, hmin, hmax),
+             "block": block_mesh(folder / "block.msh", scene, hmin, hmax)}
+    (Ec, nuc, rhoc), (Eb, nub, rhob) = scene.cylinder, scene.block
+    half = scene.size[0] / 2
     law = {"law": "frictionless"} if mu == 0.0 else {"law": "coulomb", "friction": mu}
     data = {
         "title": f"oblique impact, FEM level {level}",
         "units": "mm-g-ms",
         "analysis": "plane_strain",
         "materials": {
-            "steel": {"type": material, "E": 200000.0, "nu": 0.3, "density": 0.00785},
-            "alu": {"type": material, "E": 70000.0, "nu": 0.33, "density": 0.0027},
+            "cylinder": {"type": material, "E": Ec, "nu": nuc, "density": rhoc},
+            "block": {"type": material, "E": Eb, "nu": nub, "density": rhob},
         },
         "bodies": [
-            {"name": "block", "shape": "mesh", "file": "block.msh", "material": "alu", "discretization": "fem",
-             "constraints": [{"region": {"min": [-30.0, -0.1], "max": [30.0, 0.1]}}]},
-            {"name": "cylinder", "shape": "mesh", "file": "disk.msh", "material": "steel", "discretization": "fem",
-             "velocity": [1.0, -1.0]},
+            {"name": "block", "shape": "mesh", "file": "block.msh", "material": "block", "discretization": "fem",
+             "constraints": [{"region": {"min": [-half - 5.0, -0.1], "max": [half + 5.0, 0.1]}}]},
+            {"name": "cylinder", "shape": "mesh", "file": "disk.msh", "material": "cylinder", "discretization": "fem",
+             "velocity": list(scene.velocity)},
         ],
         "contact": {"default": law},
         "integrator": "implicit",
         "implicit": {"scheme": "newmark", "dhat": 1e-4, "friction_velocity": 1e-3, "friction_lags": lags},
-        "time": {"end": gap + 0.05, "dt": dt},
+        "time": {"end": gap + scene.end, "dt": dt},
         "output": {"vtu_interval": 1.0, "history_interval": dt},
     }
     return data, {"hmin": hmin, "hmax": hmax, "dt": dt, "material": material, "nodes": nodes}
 
 
 def run(level: int, mu: float, gap: float = 5e-4, lags: int = 3, hmax: float = 1.0, material: str = "linear_elastic",
-        threads: int = 1) -> dict:
-    """One FEM run: the cylinder's rebound and the run's figures."""
+        threads: int = 1, scene: Scene = Scene()) -> dict:
+    """One FEM run: the cylinder's rebound (vx, vy: its momentum over mass at the end, in m/s)
+    and the run's figures."""
     from mpmsim.deck.loader import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        data, info = deck(folder, level, mu, gap, lags, hmax, material)
+        data, info = deck(folder, level, mu, gap, lags, hmax, material, scene)
         sim = Simulation(build_scene(as_loaded_deck(data, "oblique_fem", folder)), out_dir=None, threads=threads)
         t0 = time.perf_counter()
         sim.run()
         wall = time.perf_counter() - t0
     col = sim.recorder.column
     px, py = col("px_cylinder"), col("py_cylinder")
-    mass = px[0]
+    mass = float(np.hypot(px[0], py[0]) / np.hypot(*scene.velocity))  # (the default scene: px[0], vx = 1)
     energy = col("kinetic_energy") + col("strain_energy")
     moving = np.nonzero(np.abs(np.diff(py)) > 1e-6 * mass)[0]
     duration = float(col("time")[moving[-1] + 1] - col("time")[moving[0]]) if len(moving) else 0.0
@@ -167,13 +214,87 @@ def run(level: int, mu: float, gap: float = 5e-4, lags: int = 3, hmax: float = 1
             "duration": duration, "energy_ratio": float(energy[-1] / energy[0]), "wall_s": wall}
 
 
+def plain_deck(scene: Scene, h: float, mu: float) -> dict:
+    """The scene as a user writes it for MPM: particles with every default (the cylinder seeded
+    to its surface), the cylinder's centre R above the block (its particle domains touching),
+    cell size h, run to twice `end`."""
+    w, top, r = scene.size[0], scene.top, scene.radius
+    (Ec, nuc, rhoc), (Eb, nub, rhob) = scene.cylinder, scene.block
+    law = {"law": "frictionless"} if mu == 0.0 else {"law": "coulomb", "friction": mu}
+    return {"title": "oblique impact, plain MPM deck", "units": "mm-g-ms", "analysis": "plane_strain",
+            "grid": {"cell_size": h, "domain": {"min": [-w / 2 - 2.0, 0.0], "max": [w / 2 + 2.0, top + 2 * r + 3.0]},
+                     "boundaries": {"ymin": "fixed"}},
+            "materials": {"cylinder": {"type": "linear_elastic", "E": Ec, "nu": nuc, "density": rhoc},
+                          "block": {"type": "linear_elastic", "E": Eb, "nu": nub, "density": rhob}},
+            "bodies": [{"name": "block", "shape": "rectangle", "min": [-w / 2, 0.0], "max": [w / 2, top],
+                        "material": "block"},
+                       {"name": "cylinder", "shape": "circle", "center": [scene.x0, top + r], "radius": r,
+                        "material": "cylinder", "velocity": list(scene.velocity)}],
+            "contact": {"default": law},
+            "time": {"end": 2 * scene.end}, "output": {"energy_ledger": True}}
+
+
+def run_mpm(scene: Scene, rh: float, mu: float) -> dict:
+    """The plain MPM deck at R/h = rh: the cylinder's rebound, energy and friction share."""
+    from mpmsim.deck.loader import as_loaded_deck
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    sim = Simulation(build_scene(as_loaded_deck(plain_deck(scene, scene.radius / rh, mu), "oblique_mpm", ROOT)),
+                     out_dir=None, threads=1)
+    sim.run()
+    col = sim.recorder.column
+    px, py = col("px_cylinder"), col("py_cylinder")
+    mass = float(np.hypot(px[0], py[0]) / np.hypot(*scene.velocity))
+    energy = col("kinetic_energy") + col("strain_energy")
+    return {"vx": float(px[-1] / mass), "vy": float(py[-1] / mass), "energy_ratio": float(energy[-1] / energy[0]),
+            "friction": float(col("friction_loss")[-1] / energy[0])}
+
+
+def mpm_table(scene: Scene, rhs: list[float], mus: list[float]) -> None:
+    rows = [r for r in continuum_runs() if Scene(**scene_args(r)) == scene
+            and r.get("material", "linear_elastic") == "linear_elastic"]
+    print("| mu | run | vx | vy | E end / E0 | friction / E0 |")
+    print("|---|---|---|---|---|---|")
+    for mu in mus:
+        fem = [r for r in rows if r["mu"] == mu]
+        if fem:
+            f = max(fem, key=lambda r: r["level"])
+            print(f"| {mu:g} | continuum (level {f['level']}) | {f['vx']:.4f} | {f['vy']:.4f} | {f['energy_ratio']:.4f} "
+                  f"| {1 - f['energy_ratio']:.4f} |")  # (elastic bodies: all the continuum loses is friction's)
+        for rh in rhs:
+            m = run_mpm(scene, rh, mu)
+            cmp = (f" ({100 * (m['vx'] / f['vx'] - 1):+.1f}%)", f" ({100 * (m['vy'] / f['vy'] - 1):+.1f}%)") if fem \
+                else ("", "")
+            print(f"| {mu:g} | MPM, R/h = {rh:g} | {m['vx']:.4f}{cmp[0]} | {m['vy']:.4f}{cmp[1]} | "
+                  f"{m['energy_ratio']:.4f} | {m['friction']:.4f} |", flush=True)
+
+
+STORED = [ROOT / "tests" / "validation" / "data" / f for f in ("oblique_fem_reference.json", "oblique_fem_scene2.json")]
+
+
+def continuum_runs() -> list[dict]:
+    """The stored continua (tests/validation/data: the default scene and a second one), then
+    this machine's results/bench_oblique_fem/*.json, each run with its scene."""
+    runs = []
+    for path in STORED:
+        data = json.loads(path.read_text())
+        runs += [{**r, "scene": data["scene"]} if "scene" in data else r for r in data["runs"]]
+    return runs + [json.loads(p.read_text()) for p in sorted(RESULTS.glob("*.json"))]
+
+
+def scene_args(record: dict) -> dict:
+    """A result's Scene arguments (none for the default scene), tuples as Scene has them."""
+    return {k: tuple(v) if isinstance(v, list) else v for k, v in record.get("scene", {}).items()}
+
+
 def table() -> None:
     rows = [json.loads(p.read_text()) for p in sorted(RESULTS.glob("*.json"))]
-    print("| mu | level | hmin (mm) | hmax | lags | material | dt (us) | nodes | vx | vy | duration (ms) "
+    print("| scene | mu | level | hmin (mm) | hmax | lags | material | dt (us) | nodes | vx | vy | duration (ms) "
           "| E end / E0 | wall (s) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for r in sorted(rows, key=lambda r: (r["mu"], r["lags"], -r["hmax"], r["level"])):
-        print(f"| {r['mu']:g} | {r['level']} | {r['hmin']:g} | {r['hmax']:g} | {r['lags']} | "
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in sorted(rows, key=lambda r: (Scene(**scene_args(r)).tag(), r["mu"], r["lags"], -r["hmax"], r["level"])):
+        print(f"| {Scene(**scene_args(r)).tag().removeprefix('_scene_') or 'default'} | {r['mu']:g} | {r['level']} | {r['hmin']:g} | {r['hmax']:g} | {r['lags']} | "
               f"{r.get('material', 'linear_elastic')} | {1e3 * r['dt']:g} | "
               f"{r['nodes']['disk'] + r['nodes']['block']} | {r['vx']:.4f} | {r['vy']:.4f} | "
               f"{r['duration']:.4f} | {r['energy_ratio']:.4f} | {r['wall_s']:.0f} |")
@@ -181,22 +302,42 @@ def table() -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("command", choices=["run", "table"])
+    parser.add_argument("command", choices=["run", "table", "mpm"])
+    parser.add_argument("--rh", type=float, nargs="+", default=[10.0, 20.0], help="mpm: R/h of the MPM runs")
     parser.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2, 3])
     parser.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.3])
     parser.add_argument("--gap", type=float, default=5e-4)
     parser.add_argument("--lags", type=int, default=3)
     parser.add_argument("--hmax", type=float, default=1.0)
     parser.add_argument("--material", choices=["linear_elastic", "compressible_neo_hookean"], default="linear_elastic")
+    d = Scene()
+    parser.add_argument("--radius", type=float, default=d.radius, help="the cylinder's radius (mm)")
+    parser.add_argument("--velocity", type=float, nargs=2, default=d.velocity, metavar=("VX", "VY"),
+                        help="impact velocity (m/s)")
+    parser.add_argument("--x0", type=float, default=d.x0, help="the cylinder centre's x (mm; the block spans -w/2..w/2)")
+    parser.add_argument("--cylinder", type=float, nargs=3, default=d.cylinder, metavar=("E", "NU", "DENSITY"),
+                        help="the cylinder's material (MPa, -, g/mm^3)")
+    parser.add_argument("--block", type=float, nargs=3, default=d.block, metavar=("E", "NU", "DENSITY"),
+                        help="the block's material (MPa, -, g/mm^3)")
+    parser.add_argument("--block-size", type=float, nargs=2, default=d.size, metavar=("WIDTH", "HEIGHT"),
+                        help="the block's width and height (mm)")
+    parser.add_argument("--end", type=float, default=d.end, help="run time after the touch (ms), past the contact")
     args = parser.parse_args()
+    scene = Scene(args.radius, tuple(args.velocity), args.x0, tuple(args.cylinder), tuple(args.block),
+                  tuple(args.block_size), args.end)
     if args.command == "table":
         table()
+        return
+    if args.command == "mpm":
+        mpm_table(scene, args.rh, args.mu)
         return
     RESULTS.mkdir(parents=True, exist_ok=True)
     for mu in args.mu:
         for level in args.levels:
-            r = run(level, mu, args.gap, args.lags, args.hmax, args.material)
-            tag = "" if args.material == "linear_elastic" else "_" + args.material
+            r = run(level, mu, args.gap, args.lags, args.hmax, args.material, scene=scene)
+            if scene != Scene():
+                r["scene"] = scene._asdict()
+            tag = ("" if args.material == "linear_elastic" else "_" + args.material) + scene.tag()
             name = f"mu{mu:g}_level{level}_lags{args.lags}_hmax{args.hmax:g}{tag}.json"
             (RESULTS / name).write_text(json.dumps(r, indent=1))
             print(f"mu {mu:g} level {level}: vx {r['vx']:.4f} vy {r['vy']:.4f} duration {r['duration']:.4f} ms "

@@ -287,6 +287,31 @@ def test_a_touching_start_rebounds_as_the_continuum_with_the_default_seeding():
     assert vy_lattice > 1.05 * vy_continuum  # (the staircase's flat punch; 1.080 measured)
 
 
+SCENE2 = json.loads((DATA / "oblique_fem_scene2.json").read_text())
+
+
+@pytest.mark.contact_continuum
+def test_a_second_scene_gets_its_continuum_from_the_bench_arguments():
+    """Any oblique scene gets its continuum with one command (bench/oblique_fem.py's scene
+    arguments): a second one, an aluminium cylinder (R = 6 mm) at (0.5, -1) m/s onto a copper
+    block, stored with five levels (tests/validation/data/oblique_fem_scene2.json, six with
+    mu = 0.3). Its finest two levels agree within 0.5% in vx and vy, frictionless and with
+    mu = 0.3 (measured 0.06% / 0.02% and 0.14% / 0.02%); level 0 with mu = 0.3, rerun here from
+    the stored scene, gives the stored rebound (to 1e-5: the scene's arguments reach the meshes,
+    materials and velocity; the default scene's level 0 is 0.4974, 0.9963)."""
+    scene = oblique_fem.Scene(**{k: tuple(v) if isinstance(v, list) else v for k, v in SCENE2["scene"].items()})
+    assert scene != oblique_fem.Scene()
+    for mu in (0.0, 0.3):
+        runs = sorted((r for r in SCENE2["runs"] if r["mu"] == mu), key=lambda r: r["level"])
+        assert len(runs) >= 5
+        for v in ("vx", "vy"):
+            assert runs[-1][v] == pytest.approx(runs[-2][v], rel=0.005), (mu, v)
+    stored = next(r for r in SCENE2["runs"] if r["mu"] == 0.3 and r["level"] == 0)
+    run = oblique_fem.run(0, 0.3, scene=scene)
+    assert run["vx"] == pytest.approx(stored["vx"], rel=1e-5)
+    assert run["vy"] == pytest.approx(stored["vy"], rel=1e-5)
+
+
 # --------------------------------------------------------------- the law itself
 vectors = st.lists(st.floats(-10.0, 10.0), min_size=3, max_size=3)
 
