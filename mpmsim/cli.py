@@ -749,11 +749,32 @@ def paraview(
 
 
 def main() -> None:
+    """The console entry point. Click's usage errors (a missing argument, a value an option does
+    not take, a command that does not exist) end in one line naming the command, as the deck
+    errors do, not in click's three (Usage, Try, Error)."""
+    # the classes of the click that typer runs on (recent typer vendors its own): typer exports
+    # BadParameter, a UsageError, a ClickException
+    usage_error, click_error = (next(c for c in typer.BadParameter.__mro__ if c.__name__ == name)
+                                for name in ("UsageError", "ClickException"))
     try:
-        app()
-    except KeyboardInterrupt:
-        print("interrupted; output written so far is kept", file=sys.stderr)
-        sys.exit(130)
+        code = app(standalone_mode=False)
+    except usage_error as exc:
+        where = exc.ctx.command_path if exc.ctx is not None else "mpmsim"
+        if type(exc).__name__ == "NoArgsIsHelpError":  # `mpmsim` alone: its help, as click prints it
+            print(exc.format_message(), file=sys.stderr)
+        else:
+            print(f"{where}: {exc.format_message()} ('{where} --help' shows the usage)", file=sys.stderr)
+        sys.exit(exc.exit_code)
+    except click_error as exc:
+        print(f"mpmsim: {exc.format_message()}", file=sys.stderr)
+        sys.exit(exc.exit_code)
+    except (KeyboardInterrupt, typer.Abort) as exc:
+        if isinstance(exc, KeyboardInterrupt) or isinstance(exc.__cause__, KeyboardInterrupt):
+            print("interrupted; output written so far is kept", file=sys.stderr)
+            sys.exit(130)
+        print("mpmsim: aborted", file=sys.stderr)
+        sys.exit(1)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":

@@ -7,6 +7,9 @@ from __future__ import annotations
 
 import inspect
 import re
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 import typer
@@ -175,3 +178,42 @@ def test_a_bracketed_word_in_a_deck_error_is_shown(tmp_path):
     """Deck errors go through rich: a value such as '[bold]' is text, not a style tag."""
     line = one_line_error(invoke("check", deck(tmp_path, cell_size="'[bold]'")), "grid.cell_size:")
     assert "'[bold]' is not a number" in line
+
+
+def console(*args: str) -> subprocess.CompletedProcess:
+    """`mpmsim ARGS` as a shell runs it: the installed console script (pyproject's
+    [project.scripts], mpmsim.cli.main) beside this Python."""
+    script = Path(sys.executable).with_name("mpmsim")
+    assert script.exists(), f"{script}: the package is not installed (make test installs it)"
+    return subprocess.run([str(script), *args], capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize("args, names", [
+    (("run",), ("mpmsim run", "deck")),
+    (("run", "--threads", "abc", "d.yaml"), ("mpmsim run", "--threads")),
+    (("frobnicate",), ("mpmsim", "frobnicate")),
+], ids=["missing-argument", "bad-option-value", "unknown-command"])
+def test_a_usage_error_is_one_line(args, names):
+    """Click's usage errors (a missing argument, a value an option does not take, a command
+    that does not exist) end in one line on stderr naming the command and what is wrong, exit
+    2, as the deck errors do; without the entry point's handling they are click's three lines
+    (Usage, Try, Error)."""
+    done = console(*args)
+    assert done.returncode == 2, done
+    assert done.stdout == "", done.stdout
+    lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, done.stderr
+    assert "Usage:" not in lines[0] and "Traceback" not in lines[0]
+    for name in names:
+        assert name in lines[0], (name, lines[0])
+
+
+def test_help_version_and_no_command_as_before():
+    """The entry point's own handling leaves --help and --version as they were (exit 0), and
+    `mpmsim` alone prints its help whole (exit 2)."""
+    done = console("run", "--help")
+    assert done.returncode == 0 and "Usage: mpmsim run" in done.stdout, done
+    done = console("--version")
+    assert done.returncode == 0 and done.stdout.strip(), done
+    done = console()
+    assert done.returncode == 2 and done.stderr.startswith("Usage: mpmsim") and "Commands" in done.stderr, done
