@@ -11,6 +11,7 @@ The explicit integrator (mpmsim/integrators/explicit.py) runs the list each step
 from __future__ import annotations
 
 from ..contact.grid import ContactTasks, material_fields
+from ..contact.grid.spec import COULOMB
 from .extrapolate import extrapolate, reextrapolate
 from .forces import forces
 from .grid_update import grid_update
@@ -105,8 +106,10 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     tasks.append(Task("grid update", grid_update, f"momentum update; velocity conditions: {bc}"))
     ledger = None
     if run.output.energy_ledger:
-        friction = None if contact is None else "dp1" if ct.pass_1_counts else "hold" if ct.hold_force else None
-        ledger = EnergyLedger(upd.stress, upd.reextrapolate, contact is not None and contact.passes == 2, friction)
+        coulomb = contact is not None and bool((contact.law == COULOMB).any())
+        pass_1_friction = None if contact is None else "dp1" if ct.pass_1_counts else "hold" if ct.hold_force else None
+        ledger = EnergyLedger(upd.stress, upd.reextrapolate, contact is not None and contact.passes == 2, coulomb,
+                              pass_1_friction)
         tasks.append(Task("energy ledger: update", ledger.updated,
                           "output.energy_ledger: keep the update's velocities; transfer and pass 1 losses"))
     else:

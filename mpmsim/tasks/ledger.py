@@ -179,13 +179,16 @@ class EnergyLedger:
     """The ledger's three tasks (after the momentum update, after contact pass 2, at the end of
     the step) and the snapshots they pass on; the totals go into state.ledger (LOSSES order)."""
 
-    def __init__(self, stress: str, reextrapolate: bool, pass_1: bool, pass_1_friction: str | None = None):
-        """pass_1_friction: which part of contact pass 1's change reaches the particles, so that
+    def __init__(self, stress: str, reextrapolate: bool, pass_1: bool, friction: bool = False,
+                 pass_1_friction: str | None = None):
+        """friction: the scene has a coulomb law (else friction_loss stays zero, uncomputed).
+        pass_1_friction: which part of contact pass 1's change reaches the particles, so that
         Coulomb's share of it is friction: "dp1" (all of it: schemes whose particles take the
         grid velocity), "hold" (the held pairs' change, a force under FLIP), None (none: FLIP's
         particles add only dt a, so pass 1's change shows as equal and opposite contact and
         transfer losses)."""
-        self.pass_1_friction = pass_1_friction
+        self.friction = friction
+        self.pass_1_friction = pass_1_friction if friction else None
         self.w_first = {"usf": 1.0, "usavg": 0.5, "usl": 0.0}[stress]
         self.w_last = 1.0 - self.w_first
         self.last_from_vel = reextrapolate and stress != "usf"  # re-extrapolated velocities
@@ -208,19 +211,20 @@ class EnergyLedger:
             self.v1, self.vfirst, self.vplus = (np.zeros((n, dim)) for _ in range(3))
         ke_grid = keep_update(box.fields, box.skip, f.mass, f.mom, f.vel, f.vnew, self.v1, self.vfirst, self.vplus)
         drop = friction = 0.0
-        if state.contact is not None:
-            cs, nn = state.contact, state.grid.n_nodes
-            m = f.mass[nn:nn + cs.n_slots, None]
-            self.slot_v1 = np.divide(f.mom[nn:nn + cs.n_slots], m, out=np.zeros((cs.n_slots, state.dim)), where=m > 0.0)
-            self.slot_vplus = f.vnew[nn:nn + cs.n_slots].copy()
-            if self.pass_1:
-                dp1 = cs.dp1[:cs.n_slots]
-                drop = pass_1_drop(nn, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, f.mass, f.mom, cs.dp1)
-                before = np.divide(f.mom[nn:nn + cs.n_slots] - dp1, m, out=np.zeros((cs.n_slots, state.dim)),
-                                   where=m > 0.0)
-                if self.pass_1_friction is not None:
-                    dpf = dp1 if self.pass_1_friction == "dp1" else cs.hold[:cs.n_slots]
-                    friction = -slot_friction(cs, nn, f.mass, dpf, before, self.slot_v1, self.slot_v1)
+        cs = state.contact
+        if cs is not None and self.pass_1:
+            drop = pass_1_drop(state.grid.n_nodes, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, f.mass, f.mom,
+                               cs.dp1)
+        if cs is not None and self.friction:
+            nn, ns = state.grid.n_nodes, cs.n_slots
+            m = f.mass[nn:nn + ns, None]
+            self.slot_v1 = np.divide(f.mom[nn:nn + ns], m, out=np.zeros((ns, state.dim)), where=m > 0.0)
+            self.slot_vplus = f.vnew[nn:nn + ns].copy()
+            if self.pass_1 and self.pass_1_friction is not None:
+                dp1 = cs.dp1[:ns]
+                before = np.divide(f.mom[nn:nn + ns] - dp1, m, out=np.zeros((ns, state.dim)), where=m > 0.0)
+                dpf = dp1 if self.pass_1_friction == "dp1" else cs.hold[:ns]
+                friction = -slot_friction(cs, nn, f.mass, dpf, before, self.slot_v1, self.slot_v1)
         state.ledger[TRANSFER] += self.ke_start - (ke_grid + drop)
         state.ledger[CONTACT] += drop - friction
         state.ledger[FRICTION] += friction
@@ -229,10 +233,12 @@ class EnergyLedger:
     def contact(self, state) -> None:
         """After contact pass 2: the work a rigid contact material did there is part of its
         exchange (booked in external_work); the frictional laws' share of pass 2's work."""
-        cs, f, nn = state.contact, state.fields, state.grid.n_nodes
-        vc = f.vnew[nn:nn + cs.n_slots]
-        dp = f.mass[nn:nn + cs.n_slots, None] * (vc - self.slot_vplus)
-        friction = -slot_friction(cs, nn, f.mass, dp, self.slot_v1, vc, self.slot_v1)
+        friction = 0.0
+        if self.friction:
+            cs, f, nn = state.contact, state.fields, state.grid.n_nodes
+            vc = f.vnew[nn:nn + cs.n_slots]
+            dp = f.mass[nn:nn + cs.n_slots, None] * (vc - self.slot_vplus)
+            friction = -slot_friction(cs, nn, f.mass, dp, self.slot_v1, vc, self.slot_v1)
         state.ledger[CONTACT] += state.work_in - self.marks[1] - friction
         state.ledger[FRICTION] += friction
 
