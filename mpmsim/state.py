@@ -118,6 +118,8 @@ class State:
     impulse: np.ndarray = None  # (6 + n_rigid, dim) the same, integrated over the steps since t = 0
     energy0: float = 0.0  # mechanical energy at the start of the run
     interface_energy: float = 0.0  # imperfect interfaces, end of the last step
+    fracture_energy: float = 0.0  # cohesive interfaces: energy their damage dissipated, so far
+    debonded_area: float = 0.0  # cohesive interfaces: the interface area failed so far
     work_in: float = 0.0  # signed work done on the material by walls, rigid materials, gravity
     ledger: np.ndarray | None = None  # the energy ledger's losses (tasks/ledger.py LOSSES), when the deck asks
     energy_floor: float = 0.0  # round-off scale of energy (sum m c^2 x 1e-12)

@@ -52,6 +52,9 @@ class Particles(BodySet):
     # plasticity's elastic left Cauchy-Green tensor and plastic strain; mpmsim/materials/model.py):
     # k is the widest row the scene's models ask for, 0 when none does
     mstate: np.ndarray = None
+    interface_damage: np.ndarray = None  # (n,) cohesive interfaces' damage the particle carries
+    # (contact/cohesive_history.py); None in scenes without cohesive laws
+    interface_bonded: np.ndarray = None  # (n,) bool: the particle was on a bonded cohesive interface at the start
 
     kind = "particles"
     device_sums = None  # the energy check's sums from a GPU's arrays (mpmsim/gpu/step.py), when on one
@@ -162,6 +165,8 @@ class Particles(BodySet):
             on = mats.energy[self.mat]
             data["internal_energy"] = np.where(on, self.U, 0.0)
             data["pressure"] = np.where(on, self.pressure, 0.0)
+        if self.interface_damage is not None:
+            data["interface_damage"] = self.interface_damage
         for name, slots in mats.state_slots("output").items():  # zero on particles of models without them
             data[name] = self.state_values(slots)
         return [("particles", {"points": pad3(self.x), "point_data": data})]

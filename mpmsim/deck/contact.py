@@ -53,6 +53,7 @@ def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
         if len(set(pair.between)) == 1:
             problems.append((("contact", "pairs", i, "between"), "a pair needs two different materials"))
     for path, law in [(("contact", "default"), c.default)] + [(("contact", "pairs", i), p) for i, p in enumerate(c.pairs)]:
+        problems += cohesive_problems(path, law)
         if law.static_friction is not None and law.static_friction < law.friction:
             problems.append(((*path, "static_friction"), f"static friction {law.static_friction} is below the "
                                                          f"kinetic friction {law.friction}"))
@@ -87,3 +88,25 @@ def check_contact(deck: Deck, deformable: list[str]) -> list[tuple[tuple, str]]:
                                                       "law none must share one law with each other material"))
         seen.setdefault(key, (i, val))
     return problems
+
+
+def cohesive_problems(path: tuple, law) -> list[tuple[tuple, str]]:
+    """A cohesive law's block present exactly with law cohesive; the bilinear law's finite
+    stiffnesses, stiff enough for its triangle (K > peak^2 / (2 G_c))."""
+    c = law.cohesive
+    if law.law != "cohesive":
+        return [((*path, "cohesive"), f"a cohesive block needs law: cohesive (the law is {law.law})")] if c else []
+    if c is None:
+        return [((*path, "cohesive"), "law cohesive needs a cohesive block {peak_traction, G_Ic, ...}")]
+    out = []
+    if c.shape == "bilinear":
+        for key, peak, G in (("Dn", c.peak_traction, c.G_Ic), ("Dt", c.shear_peak_traction, c.G_IIc)):
+            K = getattr(law, key)
+            if K == "perfect":
+                out.append(((*path, key), "a bilinear cohesive law needs a finite intact stiffness (stress/length)"))
+            elif float(K) <= peak * peak / (2.0 * G):
+                out.append(((*path, key), f"{K:g} is too soft for the law: the peak traction {peak:g} and toughness "
+                                          f"{G:g} need a stiffness above peak^2 / (2 G_c) = {peak * peak / (2 * G):g}"))
+    if c.after == "frictionless" and c.friction > 0:
+        out.append(((*path, "cohesive", "friction"), "friction after failure needs after: coulomb"))
+    return out

@@ -71,14 +71,46 @@ def _stiffness(value):
 Stiffness = Annotated[Union[float, str], AfterValidator(_stiffness)]
 
 
+class Cohesive(Strict):
+    """A cohesive law with damage (law: cohesive; docs/interfaces.md "Cohesive interfaces"):
+    the interface carries Dn [u_n], Dt [u_t] until a peak traction, softens to failure after
+    dissipating its toughness, unloads to the origin, never heals, and, failed, is handed to
+    the contact law `after`. Compression never softens."""
+
+    shape: Literal["bilinear", "exponential"] = Field(
+        default="bilinear", description="bilinear (triangular; intact stiffness Dn, Dt) or exponential (Xu-Needleman "
+        "in the effective opening; its stiffness follows from the peak and the toughness).")
+    peak_traction: float = Field(gt=0, description="Mode I peak traction sigma_c (stress).")
+    shear_peak_traction: float | None = Field(default=None, gt=0,
+                                              description="Mode II peak traction tau_c (stress); default sigma_c.")
+    G_Ic: float = Field(gt=0, description="Mode I toughness (energy per area).")
+    G_IIc: float | None = Field(default=None, gt=0, description="Mode II toughness; default G_Ic.")
+    mixed_mode: Literal["bk", "power_law"] = Field(
+        default="bk", description="Mixed-mode toughness: bk (Benzeggagh-Kenane, G_c = G_Ic + (G_IIc - G_Ic) B^exponent) "
+        "or power_law ((G_I/G_Ic)^exponent + (G_II/G_IIc)^exponent = 1).")
+    exponent: float = Field(default=2.0, gt=0, description="BK's eta or the power law's exponent.")
+    after: Literal["frictionless", "coulomb"] = Field(
+        default="frictionless", description="The contact law of a failed interface.")
+    friction: float = Field(default=0.0, ge=0.0, description="Friction after failure (after: coulomb).")
+
+    @model_validator(mode="after")
+    def _defaults(self):
+        if self.shear_peak_traction is None:
+            self.shear_peak_traction = self.peak_traction
+        if self.G_IIc is None:
+            self.G_IIc = self.G_Ic
+        return self
+
+
 class ContactLaw(Strict):
     """A contact law: `stick` (bonded: always moves with the centre of mass, never separates),
     `frictionless`, `coulomb` (kinetic `friction`, optional `static_friction`), `none`
     (perfect interface: the materials share one velocity field, exactly single-material MPM), or
     `interface` (imperfect interface: tractions Dn [u_n] and Dt [u_t] in tension and
-    compression alike; docs/interfaces.md)."""
+    compression alike; docs/interfaces.md), or `cohesive` (an interface that softens and fails
+    by its `cohesive` block, then touches and slides)."""
 
-    law: str = Field(description="stick, frictionless, coulomb, none, interface, or a law registered with "
+    law: str = Field(description="stick, frictionless, coulomb, none, interface, cohesive, or a law registered with "
                      "mpmsim.contact.grid.laws.register_law.")
 
     @field_validator("law")
@@ -98,6 +130,7 @@ class ContactLaw(Strict):
     Dnc: Stiffness | None = Field(
         default=None, description="Interface normal stiffness in compression (bilinear law); default Dn.")
     Dt: Stiffness = Field(default="perfect", description="Interface tangential stiffness, or perfect.")
+    cohesive: Cohesive | None = Field(default=None, description="The cohesive law (law: cohesive).")
 
 
 class ContactPair(ContactLaw):

@@ -106,6 +106,9 @@ class History:
         self._interface = state.contact is not None and state.contact.spec.has_interface
         if self._interface:
             self.columns += [("interface_energy", u.energy)]
+        self._cohesive = self._interface and state.contact.spec.cohesive is not None
+        if self._cohesive:  # per radian in r-z, per thickness in plane strain (as the contact areas)
+            self.columns += [("fracture_energy", u.energy), ("debonded_area", f"{u.length}^2")]
         self._noise = state.particles.n > 0
         if self._noise:
             self.columns += [("velocity_noise", "-")]
@@ -184,6 +187,8 @@ class History:
         row += self._spin(s, dim)
         if self._interface:
             row.append(state.interface_energy)
+        if self._cohesive:
+            row += [state.fracture_energy, state.debonded_area]
         if self._noise:
             row.append(velocity_noise(state))
         if self._null_space:

@@ -23,6 +23,8 @@ from .. import linalg
 from ..contact.augury.transfers import FRICTION, KERNELS, STICK_SEPARATE, AuguryGrid
 from ..contact.grid.spec import (FIRST_PLUGIN_LAW, INTEGRATION_CODES, LAW_CODES, NORMAL_CODES, PERFECT,
                                  SEPARATION_CODES, ContactSpec)
+from ..contact.cohesive import law_parameters, stiffnesses
+from ..contact.cohesive_history import cohesive_table
 from ..deck.contact import material_groups
 from ..deck.schema import Implicit, Rigid
 
@@ -35,6 +37,7 @@ class PairLaw:
     friction: float  # kinetic friction (coulomb)
     static_friction: float  # -1 when not given
     stiffness: tuple  # interface [Dn tension, Dn compression, Dt], PERFECT = -1
+    cohesive: object = None  # the deck's Cohesive block (law: cohesive)
 
     @property
     def code(self) -> int:
@@ -106,9 +109,12 @@ class ContactModel:
 
 def pair_law(law) -> PairLaw:
     code = lambda v: PERFECT if v == "perfect" else float(v)  # noqa: E731
-    dn = code(law.Dn)
+    dn, dt = code(law.Dn), code(law.Dt)
+    c = law.cohesive if law.law == "cohesive" else None
+    if c is not None and c.shape == "exponential":  # its intact stiffness follows from the law
+        dn, dt = stiffnesses(law_parameters("exponential", c.peak_traction, c.shear_peak_traction, c.G_Ic, c.G_IIc))
     return PairLaw(law.law, float(law.friction), -1.0 if law.static_friction is None else float(law.static_friction),
-                   (dn, dn if law.Dnc is None else code(law.Dnc), code(law.Dt)))
+                   (dn, dn if law.Dnc is None else code(law.Dnc), dt), c)
 
 
 def build_contact_model(deck, materials, fem=None, particle_mats=()) -> ContactModel:
@@ -197,6 +203,12 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
             mu[i, j] = pl.friction
             mus[i, j] = pl.static_friction
             stiff[i, j] = pl.stiffness
+    cohesive = []  # (group a, group b, the Cohesive block, Dn, Dt) of each cohesive group pair
+    if default.cohesive is not None:
+        cohesive += [(i, j, default.cohesive, *default.stiffness[::2]) for i in range(n_def) for j in range(i + 1, n_def)]
+    for a_name, b_name, pl in pairs:
+        if pl.cohesive is not None:
+            cohesive.append((group_of[a_name], group_of[b_name], pl.cohesive, *pl.stiffness[::2]))
     sep = c.separation or ("logistic_regression" if c.normal == "logistic_regression" else "displacement")
     nv = np.zeros(3)
     if c.normal_vector is not None and any(c.normal_vector):
@@ -213,4 +225,5 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
                        INTEGRATION_CODES[c.interface_integration], c.area_correction, c.h_perp,
                        c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface",
                        sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)),
-                       deck.output.contact_traction, c.pass_3 == "persist")
+                       deck.output.contact_traction, c.pass_3 == "persist",
+                       cohesive_table(n_groups, cohesive) if cohesive else None)

@@ -10,6 +10,7 @@ The explicit integrator (mpmsim/integrators/explicit.py) runs the list each step
 
 from __future__ import annotations
 
+from ..contact.cohesive_history import CohesiveInterfaces
 from ..contact.grid import ContactTasks, material_fields
 from ..contact.grid.spec import COULOMB
 from .extrapolate import extrapolate, reextrapolate
@@ -72,7 +73,8 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
     if contact is not None:
         ct = ContactTasks(contact, scene.grid, shape_function(run.shape_function).grid_kind >= 2, scene.thickness,
                           pass_1_moves_particles=upd.scheme in ("pic", "apic", "fmpm")
-                          or (upd.scheme == "xpic" and contact.xpic_term), axisymmetric=run.axisymmetric)
+                          or (upd.scheme == "xpic" and contact.xpic_term), axisymmetric=run.axisymmetric,
+                          history=CohesiveInterfaces(contact.cohesive) if contact.cohesive is not None else None)
         tasks.append(Task("material fields", material_fields,
                           f"{contact.n_groups} material groups: own velocity fields where they meet"))
     else:
@@ -82,7 +84,9 @@ def mpm_tasks(scene) -> tuple[list[Task], list[tuple[str, str]]]:
                       "mass and momentum to the grid" + (f"; volumes of {n_rigid} rigid material(s)" if n_rigid else "")))
     if contact is not None:
         tasks.append(Task("contact geometry", ct.geometry,
-                          f"{contact.normal_name} normals, {contact.describe_separation()}, contact areas"))
+                          f"{contact.normal_name} normals, {contact.describe_separation()}, contact areas"
+                          + ("; cohesive damage read from the particles, grown by the openings, carried back"
+                             if contact.cohesive is not None else "")))
     if contact is not None and contact.passes == 2:
         tasks.append(Task("contact pass 1", ct.pass_1, "contact laws on the extrapolated momenta"))
     elif contact is not None:

@@ -139,11 +139,13 @@ class ContactTasks:
     """The contact tasks of one scene, with the scene's settings bound."""
 
     def __init__(self, spec, grid, spline: bool, thickness: float, pass_1_moves_particles: bool = True,
-                 axisymmetric: bool = False):
+                 axisymmetric: bool = False, history=None):
         """pass_1_moves_particles: the particle update takes the particles' new velocity from
         the grid velocity, so pass 1's change of the extrapolated momenta reaches the particles
         and counts in the contact force between materials (FLIP adds only dt a: it does not).
-        axisymmetric: contact volumes are r-z areas and contact areas per radian (docs/axisymmetric.md)."""
+        axisymmetric: contact volumes are r-z areas and contact areas per radian (docs/axisymmetric.md).
+        history: interfaces whose history the particles carry (cohesive laws,
+        contact/cohesive_history.py): its after_geometry(state, grow) runs after each geometry."""
         self.spec = spec
         self.pass_1_counts = pass_1_moves_particles
         h_min = float(grid.h.min())
@@ -160,13 +162,17 @@ class ContactTasks:
         self.hold_code = hold_rule(spec, self.pass_1_counts)
         self.holds, self.hold_force = self.hold_code != HOLD_NONE, self.hold_code == HOLD_FORCE
         self.plan = plan_geometry(int(self.method.normal), int(self.method.separation), bool(spec.has_interface))
+        self.history = history
         self.pass_2_kernel = contact_pass_2(bool(spec.has_interface), spec.plugin_laws)
 
-    def geometry(self, state) -> None:
-        """Plan the contact nodes: normals, separations, areas (and the consistent bond)."""
+    def geometry(self, state, grow: bool = True) -> None:
+        """Plan the contact nodes: normals, separations, areas, cohesive damage (grow: it may
+        grow; pass 3's geometry only reads it), and the consistent bond."""
         cs, spec, g, f = state.contact, self.spec, state.grid, state.fields
         self.plan(cs.nodes(g.n_nodes), g.view, f.mass, cs.sums(), cs.clouds(state.particles, state.rigid), self.laws,
                   self.method, cs.warm_phi, state.dt_rule, state.nchunk, cs.targets())
+        if self.history is not None:
+            self.history.after_geometry(state, grow)
         cs.n_con = 0
         if spec.consistent_bond and spec.has_interface:
             held = RigidHold(f.rigid_vol, state.materials.constrain, state.rigid.v_end)
@@ -222,7 +228,7 @@ class ContactTasks:
         approach (persist: the geometry recomputed)."""
         cs, f, nn = state.contact, state.fields, state.grid.n_nodes
         if self.recheck:
-            self.geometry(state)
+            self.geometry(state, grow=False)
         exchange = law_kernels(self.spec.plugin_laws).exchange_pass
         exchange(self.pass_3_mode, cs.nodes(nn), f.mass, f.mom, cs.targets(), cs.decisions(), self.sep_velocity,
                  self.touch, NO_HOLD, state.nchunk, cs.dp1)

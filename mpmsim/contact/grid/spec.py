@@ -14,7 +14,8 @@ from typing import NamedTuple
 import numpy as np
 
 STICK, FRICTIONLESS, COULOMB, INTERFACE = 0, 1, 2, 3
-LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK, "interface": INTERFACE}
+LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "none": STICK, "interface": INTERFACE,
+             "cohesive": INTERFACE}
 BUILT_IN_LAWS = tuple(LAW_CODES)
 FIRST_PLUGIN_LAW = 16  # codes of laws registered outside mpmsim (contact/grid/laws.register_law)
 PERFECT = -1.0  # interface stiffness code for a perfect direction
@@ -111,6 +112,7 @@ class ContactSpec:
     traction: bool = False  # record each slot's contact force for the traction output (output.contact_traction)
     persist: bool = False  # pass_3: persist (pass 2 advances where contact persists; pass 3 keeps its contacts
     # unless they separate)
+    cohesive: object = None  # CohesiveTable of the cohesive pairs (contact/cohesive_history.py), None: none
 
     @property
     def normal_name(self) -> str:
