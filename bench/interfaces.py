@@ -202,13 +202,51 @@ def cost(steps: int = 300):
         print(f"{label:38s} {steps * sim.state.particles.n / total / 1e6:18.3f} {contact / total:14.1%}")
 
 
+def cohesive_cost(steps: int = 300, rounds: int = 5):
+    """A step of the two-layer specimen (0.25 mm cells, one thread) with a cohesive law against
+    the same step with the elastic interface of the same stiffnesses (Dn = Dt = 5 MPa/mm; the
+    cohesive peak, 10 MPa, is never reached under the 0.5 MPa load, so both runs are the same
+    mechanics), alternated `rounds` times: the median time per step of each and their ratio."""
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    import statistics
+
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+    from tests.conftest import ROOT as TROOT, deck_from
+    from tests.validation.specimens import two_layer
+
+    elastic = {"contact.default.Dn": 5.0}
+    cohesive = {"contact.default.Dn": 5.0, "contact.default.law": "cohesive",
+                "contact.default.cohesive": {"peak_traction": 10.0, "G_Ic": 1.0}}
+    sims = {k: Simulation(build_scene(deck_from(two_layer(0.25, 5.0, **o), TROOT / "inputs")))
+            for k, o in (("elastic", elastic), ("cohesive", cohesive))}
+    for sim in sims.values():
+        for _ in range(20):  # compile and warm up
+            sim.step()
+    per_step = {k: [] for k in sims}
+    for _ in range(rounds):
+        for k, sim in sims.items():
+            t0 = time.perf_counter()
+            for _ in range(steps):
+                sim.step()
+            per_step[k].append((time.perf_counter() - t0) / steps)
+    med = {k: statistics.median(v) for k, v in per_step.items()}
+    n = sims["elastic"].state.particles.n
+    print(f"two-layer specimen, {n} particles, 1 thread, {rounds} alternated rounds of {steps} steps")
+    for k, v in med.items():
+        print(f"{k:9s} {1e3 * v:8.3f} ms/step")
+    print(f"cohesive / elastic: {med['cohesive'] / med['elastic']:.3f}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["two_layer", "dls", "sphere", "all", "chart", "cost"])
+    ap.add_argument("what", choices=["two_layer", "dls", "sphere", "all", "chart", "cost", "cohesive_cost"])
     ap.add_argument("--workers", type=int, default=1)
     a = ap.parse_args()
     if a.what == "cost":
         return cost()
+    if a.what == "cohesive_cost":
+        return cohesive_cost()
     sets = {"two_layer": two_layer_jobs, "dls": dls_jobs, "sphere": sphere_jobs}
     for name in (sets if a.what == "all" else [a.what] if a.what != "chart" else []):
         run_all(sets[name](), a.workers)

@@ -9,13 +9,17 @@ moving.
                                     [--radius 10] [--velocity 1 -1] [--x0 -8] [--end 0.05]
                                     [--cylinder E nu density] [--block E nu density] [--block-size 50 15]
     python bench/oblique_fem.py table       # results/bench_oblique_fem/*.json
-    python bench/oblique_fem.py mpm [--rh 10 20] [--mu 0 0.3] [the scene arguments]
+    python bench/oblique_fem.py mpm [--rh 10 20] [--mu 0 0.3] [--contact KEY=VALUE ...] [--body KEY=VALUE ...]
+                                    [--block-body KEY=VALUE ...] [the scene arguments]
 
 `mpm` runs the same scene as a plainly written MPM deck (`plain_deck`: the defaults, the cylinder
 seeded to its surface, its centre R above the block: a touching start) and prints the rebound
 beside the finest stored level of the continuum for that scene and mu, with the energy at the
-end and what friction took (the ledger's friction_loss), both over the initial energy; the
-continuum's friction share is 1 - E end / E0 (elastic bodies lose nothing else).
+end and what friction took (the ledger's friction_loss), both over the initial energy, and the
+run's wall time; the continuum's friction share is 1 - E end / E0 (elastic bodies lose nothing
+else). `--contact KEY=VALUE` (repeatable; VALUE read as YAML) adds a key to the deck's `contact`
+section, `--body KEY=VALUE` to the cylinder (e.g. `--body seeding=lattice`) and `--block-body KEY=VALUE`
+to the block (a rectangle: it takes no `seeding`, its particles are always the lattice's).
 
 The default scene is inputs/oblique_impact.yaml's: a steel disk (R = 10 mm, E = 200 GPa,
 nu = 0.3, 7.85 g/cm^3) at (1, -1) m/s onto an aluminium block [-25, 25] x [0, 15] mm (E = 70 GPa,
@@ -214,10 +218,12 @@ def run(level: int, mu: float, gap: float = 5e-4, lags: int = 3, hmax: float = 1
             "duration": duration, "energy_ratio": float(energy[-1] / energy[0]), "wall_s": wall}
 
 
-def plain_deck(scene: Scene, h: float, mu: float) -> dict:
+def plain_deck(scene: Scene, h: float, mu: float, contact: dict | None = None, body: dict | None = None,
+               block_body: dict | None = None) -> dict:
     """The scene as a user writes it for MPM: particles with every default (the cylinder seeded
     to its surface), the cylinder's centre R above the block (its particle domains touching),
-    cell size h, run to twice `end`."""
+    cell size h, run to twice `end`; `contact`, `body` and `block_body` add keys to the contact
+    section, the cylinder and the block."""
     w, top, r = scene.size[0], scene.top, scene.radius
     (Ec, nuc, rhoc), (Eb, nub, rhob) = scene.cylinder, scene.block
     law = {"law": "frictionless"} if mu == 0.0 else {"law": "coulomb", "friction": mu}
@@ -227,47 +233,52 @@ def plain_deck(scene: Scene, h: float, mu: float) -> dict:
             "materials": {"cylinder": {"type": "linear_elastic", "E": Ec, "nu": nuc, "density": rhoc},
                           "block": {"type": "linear_elastic", "E": Eb, "nu": nub, "density": rhob}},
             "bodies": [{"name": "block", "shape": "rectangle", "min": [-w / 2, 0.0], "max": [w / 2, top],
-                        "material": "block"},
+                        "material": "block", **(block_body or {})},
                        {"name": "cylinder", "shape": "circle", "center": [scene.x0, top + r], "radius": r,
-                        "material": "cylinder", "velocity": list(scene.velocity)}],
-            "contact": {"default": law},
+                        "material": "cylinder", "velocity": list(scene.velocity), **(body or {})}],
+            "contact": {"default": law, **(contact or {})},
             "time": {"end": 2 * scene.end}, "output": {"energy_ledger": True}}
 
 
-def run_mpm(scene: Scene, rh: float, mu: float) -> dict:
-    """The plain MPM deck at R/h = rh: the cylinder's rebound, energy and friction share."""
+def run_mpm(scene: Scene, rh: float, mu: float, contact: dict | None = None, body: dict | None = None,
+            block_body: dict | None = None) -> dict:
+    """The plain MPM deck at R/h = rh: the cylinder's rebound, energy and friction share, and the
+    run's wall time (s)."""
     from mpmsim.deck.loader import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
 
-    sim = Simulation(build_scene(as_loaded_deck(plain_deck(scene, scene.radius / rh, mu), "oblique_mpm", ROOT)),
-                     out_dir=None, threads=1)
+    data = plain_deck(scene, scene.radius / rh, mu, contact, body, block_body)
+    sim = Simulation(build_scene(as_loaded_deck(data, "oblique_mpm", ROOT)), out_dir=None, threads=1)
+    t0 = time.perf_counter()
     sim.run()
+    wall = time.perf_counter() - t0
     col = sim.recorder.column
     px, py = col("px_cylinder"), col("py_cylinder")
     mass = float(np.hypot(px[0], py[0]) / np.hypot(*scene.velocity))
     energy = col("kinetic_energy") + col("strain_energy")
     return {"vx": float(px[-1] / mass), "vy": float(py[-1] / mass), "energy_ratio": float(energy[-1] / energy[0]),
-            "friction": float(col("friction_loss")[-1] / energy[0])}
+            "friction": float(col("friction_loss")[-1] / energy[0]), "wall_s": wall}
 
 
-def mpm_table(scene: Scene, rhs: list[float], mus: list[float]) -> None:
+def mpm_table(scene: Scene, rhs: list[float], mus: list[float], contact: dict | None = None,
+              body: dict | None = None, block_body: dict | None = None) -> None:
     rows = [r for r in continuum_runs() if Scene(**scene_args(r)) == scene
             and r.get("material", "linear_elastic") == "linear_elastic"]
-    print("| mu | run | vx | vy | E end / E0 | friction / E0 |")
-    print("|---|---|---|---|---|---|")
+    print("| mu | run | vx | vy | E end / E0 | friction / E0 | wall (s) |")
+    print("|---|---|---|---|---|---|---|")
     for mu in mus:
         fem = [r for r in rows if r["mu"] == mu]
         if fem:
             f = max(fem, key=lambda r: r["level"])
             print(f"| {mu:g} | continuum (level {f['level']}) | {f['vx']:.4f} | {f['vy']:.4f} | {f['energy_ratio']:.4f} "
-                  f"| {1 - f['energy_ratio']:.4f} |")  # (elastic bodies: all the continuum loses is friction's)
+                  f"| {1 - f['energy_ratio']:.4f} | |")  # (elastic bodies: all the continuum loses is friction's)
         for rh in rhs:
-            m = run_mpm(scene, rh, mu)
+            m = run_mpm(scene, rh, mu, contact, body, block_body)
             cmp = (f" ({100 * (m['vx'] / f['vx'] - 1):+.1f}%)", f" ({100 * (m['vy'] / f['vy'] - 1):+.1f}%)") if fem \
                 else ("", "")
             print(f"| {mu:g} | MPM, R/h = {rh:g} | {m['vx']:.4f}{cmp[0]} | {m['vy']:.4f}{cmp[1]} | "
-                  f"{m['energy_ratio']:.4f} | {m['friction']:.4f} |", flush=True)
+                  f"{m['energy_ratio']:.4f} | {m['friction']:.4f} | {m['wall_s']:.0f} |", flush=True)
 
 
 STORED = [ROOT / "tests" / "validation" / "data" / f for f in ("oblique_fem_reference.json", "oblique_fem_scene2.json")]
@@ -300,6 +311,19 @@ def table() -> None:
               f"{r['duration']:.4f} | {r['energy_ratio']:.4f} | {r['wall_s']:.0f} |")
 
 
+def key_values(parser: argparse.ArgumentParser, items: list[str], option: str) -> dict:
+    """KEY=VALUE arguments as a dict, each VALUE read as YAML."""
+    import yaml
+
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            parser.error(f"{option} takes KEY=VALUE, not {item!r}")
+        out[key.strip()] = yaml.safe_load(value)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("command", choices=["run", "table", "mpm"])
@@ -322,6 +346,12 @@ def main() -> None:
     parser.add_argument("--block-size", type=float, nargs=2, default=d.size, metavar=("WIDTH", "HEIGHT"),
                         help="the block's width and height (mm)")
     parser.add_argument("--end", type=float, default=d.end, help="run time after the touch (ms), past the contact")
+    parser.add_argument("--contact", action="append", default=[], metavar="KEY=VALUE",
+                        help="mpm: a key of the deck's contact section (VALUE read as YAML); repeatable")
+    parser.add_argument("--body", action="append", default=[], metavar="KEY=VALUE",
+                        help="mpm: a key added to the cylinder (VALUE read as YAML), e.g. seeding=lattice; repeatable")
+    parser.add_argument("--block-body", action="append", default=[], metavar="KEY=VALUE",
+                        help="mpm: a key added to the block (VALUE read as YAML); repeatable")
     args = parser.parse_args()
     scene = Scene(args.radius, tuple(args.velocity), args.x0, tuple(args.cylinder), tuple(args.block),
                   tuple(args.block_size), args.end)
@@ -329,7 +359,8 @@ def main() -> None:
         table()
         return
     if args.command == "mpm":
-        mpm_table(scene, args.rh, args.mu)
+        mpm_table(scene, args.rh, args.mu, key_values(parser, args.contact, "--contact"),
+                  key_values(parser, args.body, "--body"), key_values(parser, args.block_body, "--block-body"))
         return
     RESULTS.mkdir(parents=True, exist_ok=True)
     for mu in args.mu:

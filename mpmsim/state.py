@@ -31,7 +31,7 @@ from .scene import Scene
 from .scene.grid import GridSpec
 from .shapes import ShapeData, ShapeFunction, shape_function
 
-N_LOSSES = 5  # the energy ledger's totals (state.ledger), named by mpmsim/tasks/ledger.py LOSSES
+N_LOSSES = 6  # the energy ledger's totals (state.ledger), named by mpmsim/tasks/ledger.py LOSSES
 
 
 @dataclass

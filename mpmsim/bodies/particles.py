@@ -165,8 +165,8 @@ class Particles(BodySet):
             on = mats.energy[self.mat]
             data["internal_energy"] = np.where(on, self.U, 0.0)
             data["pressure"] = np.where(on, self.pressure, 0.0)
-        if self.interface_damage is not None:
-            data["interface_damage"] = self.interface_damage
+        if state.contact is not None and state.contact.spec.cohesive is not None:  # (zero before the first step)
+            data["interface_damage"] = self.interface_damage if self.interface_damage is not None else np.zeros(n)
         for name, slots in mats.state_slots("output").items():  # zero on particles of models without them
             data[name] = self.state_values(slots)
         return [("particles", {"points": pad3(self.x), "point_data": data})]

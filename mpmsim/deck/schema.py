@@ -744,7 +744,7 @@ class Output(Strict):
         "transfers' lumped S+ instead and has a floor (docs/shape-functions.md).")
     energy_ledger: bool = Field(
         default=False, description="Add the history columns transfer_loss, contact_loss, friction_loss, "
-        "condition_loss, force_gap_loss and energy_residual: where the work put in goes besides kinetic and strain energy, "
+        "condition_loss, force_gap_loss, fracture_loss and energy_residual: where the work put in goes besides kinetic and strain energy, "
         "booked where it happens in each step (explicit particle runs; three extra tasks per step; "
         "docs/validation.md, \"Energy ledger\").")
     contact_traction: bool = Field(

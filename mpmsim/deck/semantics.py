@@ -73,6 +73,12 @@ def check_deck(deck: Deck, base_dir: Path) -> list[tuple[tuple, str]]:
             if law not in FIELD_LAWS:
                 add(path, f"augury contact by method field takes the laws {', '.join(FIELD_LAWS)}, not '{law}'")
     problems += _check_fem_bodies(deck, fem, base_dir)
+    if fem or deck.integrator == "implicit":
+        for path, law in [(["contact", "default", "law"], deck.contact.default.law)] + \
+                [(["contact", "pairs", k, "law"], p.law) for k, p in enumerate(deck.contact.pairs)]:
+            if law == "cohesive":
+                add(path, "cohesive interfaces act between particle bodies in the explicit step (no FEM bodies, "
+                          "integrator: explicit)")
     if deck.integrator == "implicit":
         if particle_bodies:
             if deck.update.scheme not in ("pic", "flip", "apic"):

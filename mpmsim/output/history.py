@@ -15,8 +15,8 @@ history adds them up and adds the run's accounts. Columns, in order:
   Ly, Lz in 3D; with APIC's affine part), spin (angular momentum about the centre of mass,
   L - c x p: spin, or spinx, spiny, spinz in 3D), interface energy;
 - particle velocity noise (and its null-space part when asked for);
-- with output.energy_ledger: transfer_loss, contact_loss, friction_loss, condition_loss, force_gap_loss and
-  energy_residual (mpmsim/tasks/ledger.py);
+- with output.energy_ledger: transfer_loss, contact_loss, friction_loss, condition_loss, force_gap_loss,
+  fracture_loss and energy_residual (mpmsim/tasks/ledger.py);
 - reaction forces of constrained faces (what the face exerts on the material, from the last
   step: instantaneous, not averaged), F_<face>_<axis>, each followed by its impulse since t = 0,
   J_<face>_<axis> (the sum of force x dt over every step: a body's momentum balance closes with it);

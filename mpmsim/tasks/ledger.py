@@ -19,9 +19,9 @@ this gives the balance
   external_work + E0 = kinetic + strain (+ internal + interface) energy
                        (+ energy dissipated in materials: plastic work)
                        + transfer_loss + contact_loss + friction_loss + condition_loss
-                       + force_gap_loss + R
+                       + force_gap_loss + fracture_loss + R
 
-with the five losses (cumulative, energy units; history columns of the same names):
+with the six losses (cumulative, energy units; history columns of the same names):
 - transfer_loss: kinetic energy lost between particles and grid, P2G (sum 1/2 m V^2 minus the
   grid's) plus G2P (the grid's at vc minus the particles' after their update);
 - contact_loss: kinetic energy removed by contact pass 1, minus the work of pass 2's contact
@@ -37,7 +37,10 @@ with the five losses (cumulative, energy units; history columns of the same name
   1/2 m (v_bc - v1)^2 where a condition lands a field on its velocity (an inelastic impact);
 - force_gap_loss: minus the internal forces' work f . (v_bar - v_s) dt at free components:
   negative where the forces drive grid velocity that the stress update smooths away
-  (re-extrapolation) and the transfers then take out.
+  (re-extrapolation) and the transfers then take out;
+- fracture_loss: what cohesive interfaces dissipated as they failed (the history's
+  fracture_energy: contact/cohesive_history.py), taken out of contact_loss, where the
+  interface forces' work put it.
 R (history column energy_residual) is what is left: the stress update's time integration
 (stress power at the force's stress against the change of the strain energy W(F)), grid
 damping, and the difference between the external forces' work booked on the particles and
@@ -57,8 +60,8 @@ from ..state import N_LOSSES
 
 # order of the ledger's totals (state.ledger: mpmsim/state.py sizes it by N_LOSSES) and of
 # their history columns
-LOSSES = ("transfer_loss", "contact_loss", "friction_loss", "condition_loss", "force_gap_loss")
-TRANSFER, CONTACT, FRICTION, CONDITION, FORCE_GAP = range(N_LOSSES)
+LOSSES = ("transfer_loss", "contact_loss", "friction_loss", "condition_loss", "force_gap_loss", "fracture_loss")
+TRANSFER, CONTACT, FRICTION, CONDITION, FORCE_GAP, FRACTURE = range(N_LOSSES)
 
 
 @njit(cache=True)
@@ -257,6 +260,9 @@ class EnergyLedger:
         led[CONTACT] -= w_contact
         led[CONDITION] += (self.marks[1] - self.marks[0]) - w_bc - gap_held
         led[FORCE_GAP] -= gap_free
+        fracture = state.fracture_energy - float(np.sum(led[FRACTURE]))  # (zero without cohesive laws)
+        led[CONTACT] -= fracture
+        led[FRACTURE] += fracture
         self.ke_start = ke_particles
         self.marks[0] = state.work_in
 
@@ -290,7 +296,8 @@ def ledger_summary(state, energy_unit: str) -> str:
     if state.interface_energy:
         parts.append(("interfaces", state.interface_energy))
     parts += [(name.replace("_", " "), v) for name, v in dissipation(state).items()]
-    parts += [(name.removesuffix("_loss").replace("_", " "), v) for name, v in zip(LOSSES, state.ledger)]
+    parts += [(name.removesuffix("_loss").replace("_", " "), v) for name, v in zip(LOSSES, state.ledger)
+              if name != "fracture_loss" or v]  # (fracture: only where cohesive interfaces failed)
     parts.append(("residual", energy_residual(state)))
     supplied = state.energy0 + state.work_in
     if supplied == 0.0:

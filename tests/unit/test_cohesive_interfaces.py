@@ -92,11 +92,11 @@ def test_after_failure_the_frictionless_interface_carries_no_shear_and_never_reb
     value (a re-bonded node would pull them back)."""
     col = runs[("II", "bilinear")].recorder.column
     failed = np.nonzero(col("debonded_area") >= 0.999 * col("debonded_area")[-1])[0][0] + 2
-    px_b = col("px_b") if "px_b" in runs[("II", "bilinear")].recorder.names else None
+    px_b = col("px_mat_b")
     e = col("fracture_energy")
     assert e[-1] == e[failed]
-    if px_b is not None:
-        assert np.ptp(px_b[failed:]) <= 1e-9 * abs(px_b[failed])
+    print(f"px of b after failure: {px_b[failed]:.6g} .. spread {np.ptp(px_b[failed:]):.3g}")
+    assert np.ptp(px_b[failed:]) <= 1e-9 * abs(px_b[failed])
 
 
 def test_an_intact_interface_that_never_reaches_its_peak_is_the_elastic_interface():
@@ -134,3 +134,59 @@ def test_bad_cohesive_input_is_one_line_naming_the_key(change, key, words):
         build_scene(as_loaded_deck(data, "cohesive", Path(".")))
     text = str(err.value)
     assert key in text and words in text and "\n" not in text.strip()
+
+
+@pytest.mark.parametrize("analysis", ["3d", "axisymmetric"])
+def test_the_same_blocks_in_3d_and_axisymmetric(analysis):
+    """The mode I blocks as a 3D pair of 4 x 2 x 2 mm boxes (interface area 8 mm^2) and as
+    axisymmetric discs of radius 4 mm (8 mm^2 per radian): fracture energy G_Ic A within 3%
+    (measured 0.974 and 0.978), the interface particles failed, no other one damaged."""
+    data = deck("I")
+    data.pop("thickness")
+    data["analysis"] = analysis
+    data["time"]["end"] = 0.1
+    if analysis == "3d":
+        data["grid"]["domain"] = {"min": [-4.0, -4.0, -1.0], "max": [8.0, 8.0, 3.0]}
+        for body, y, v in zip(data["bodies"], (0.0, 2.0), (-10.0, 10.0)):
+            body.update(shape="box", min=[0.0, y, 0.0], max=[4.0, y + 2.0, 2.0], velocity=[0.0, v, 0.0])
+        data["contact"]["normal_vector"] = [0.0, 1.0, 0.0]
+    else:
+        data["grid"]["domain"] = {"min": [0.0, -4.0], "max": [6.0, 8.0]}
+    sim = run(data)
+    P = sim.state.particles
+    near = np.abs(P.x0[:, 1] - 2.0) < 0.5
+    assert sim.recorder.column("fracture_energy")[-1] == pytest.approx(G_I * 8.0, rel=0.03)
+    assert np.all(P.interface_damage[near] == 1.0) and np.all(P.interface_damage[~near] == 0.0)
+
+
+def test_the_ledger_books_the_fracture_energy_as_its_own_loss(tmp_path):
+    """With output.energy_ledger the fracture energy is the ledger's fracture_loss, row by row,
+    taken out of contact_loss (the ledger's residual unchanged); the VTU carries
+    interface_damage from the first file on."""
+    data = deck("I")
+    data["time"]["end"] = 0.05
+    data["output"].update(energy_ledger=True, vtu_interval=0.025)
+    sim = Simulation(build_scene(as_loaded_deck(data, "cohesive", tmp_path)), out_dir=tmp_path, threads=1)
+    sim.run()
+    col = sim.recorder.column
+    assert np.array_equal(col("fracture_loss"), col("fracture_energy"))
+    assert col("fracture_loss")[-1] == pytest.approx(G_I * AREA, rel=0.03)
+    import meshio
+    files = sorted(tmp_path.rglob("*.vtu"))
+    assert len(files) >= 2
+    for f in files:
+        pts = meshio.read(f).point_data
+        if "interface_damage" in pts or "material" in pts:
+            assert "interface_damage" in pts
+
+
+def test_a_cohesive_law_in_the_implicit_step_is_refused_naming_the_key():
+    """Cohesive interfaces are the explicit step's (the implicit barrier and FEM bodies have
+    none): one line naming contact.default.law."""
+    data = deck("I")
+    data["integrator"] = "implicit"
+    data["time"] = {"end": 0.01, "dt": 1e-4}
+    data["update"] = {"scheme": "flip"}
+    with pytest.raises(DeckError) as err:
+        build_scene(as_loaded_deck(data, "cohesive", Path(".")))
+    assert "contact.default.law" in str(err.value) and "explicit step" in str(err.value)
