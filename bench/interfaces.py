@@ -217,7 +217,7 @@ def cohesive_cost(steps: int = 300, rounds: int = 5):
 
     elastic = {"contact.default.Dn": 5.0}
     cohesive = {"contact.default.Dn": 5.0, "contact.default.law": "cohesive",
-                "contact.default.cohesive": {"peak_traction": 10.0, "G_Ic": 1.0}}
+                "contact.default.cohesive": {"peak_traction": 10.0, "G_Ic": 100.0}}
     sims = {k: Simulation(build_scene(deck_from(two_layer(0.25, 5.0, **o), TROOT / "inputs")))
             for k, o in (("elastic", elastic), ("cohesive", cohesive))}
     for sim in sims.values():
