@@ -190,3 +190,32 @@ def test_a_cohesive_law_in_the_implicit_step_is_refused_naming_the_key():
     with pytest.raises(DeckError) as err:
         build_scene(as_loaded_deck(data, "cohesive", Path(".")))
     assert "contact.default.law" in str(err.value) and "explicit step" in str(err.value)
+
+
+def tilted(deg: float, shift: float = 0.0) -> dict:
+    """The mode I blocks rotated by deg about the origin (polygons, velocities and the
+    specified normal rotated), the interface moved by shift along its normal."""
+    import math
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    rot = lambda x, y: [c * x - s * y, s * x + c * y]  # noqa: E731
+    data = deck("I")
+    y = 2.0 + shift
+    data["bodies"][0] = {"shape": "polygon", "vertices": [rot(0, 0), rot(4, 0), rot(4, y), rot(0, y)],
+                         "material": "a", "velocity": rot(0, -10.0)}
+    data["bodies"][1] = {"shape": "polygon", "vertices": [rot(0, y), rot(4, y), rot(4, 4), rot(0, 4)],
+                         "material": "b", "velocity": rot(0, 10.0)}
+    data["contact"]["normal_vector"] = rot(0, 1.0)
+    data["grid"]["domain"] = {"min": [-6.0, -4.0], "max": [8.0, 8.0]}
+    data["time"]["end"] = 0.1
+    return data
+
+
+def test_the_fracture_energy_does_not_depend_on_where_the_interface_lies():
+    """The mode I blocks with the interface on a grid line, mid-cell (moved by a particle
+    spacing, 0.25 mm: the seeding moves in particle spacings), and tilted 1 and 10 degrees to
+    the grid: fracture energy within 1% of the grid-line value (measured -0.62%, -0.03%,
+    +0.37%). At 30 degrees it is +6.8% (the contact areas sum to 4.07 mm, not 4: open)."""
+    ref = run(tilted(0.0)).recorder.column("fracture_energy")[-1]
+    for deg, shift in ((0.0, 0.25), (1.0, 0.0), (10.0, 0.0)):
+        e = run(tilted(deg, shift)).recorder.column("fracture_energy")[-1]
+        assert e == pytest.approx(ref, rel=0.01), (deg, shift, e / ref)
