@@ -55,6 +55,7 @@ class Particles(BodySet):
     interface_damage: np.ndarray = None  # (n,) cohesive interfaces' damage the particle carries
     # (contact/cohesive_history.py); None in scenes without cohesive laws
     interface_bonded: np.ndarray = None  # (n,) bool: the particle was on a bonded cohesive interface at the start
+    interface_opening: np.ndarray = None  # (n,) the size of the cohesive opening at its nodes when last measured
 
     kind = "particles"
     device_sums = None  # the energy check's sums from a GPU's arrays (mpmsim/gpu/step.py), when on one
@@ -166,7 +167,9 @@ class Particles(BodySet):
             data["internal_energy"] = np.where(on, self.U, 0.0)
             data["pressure"] = np.where(on, self.pressure, 0.0)
         if state.contact is not None and state.contact.spec.cohesive is not None:  # (zero before the first step)
-            data["interface_damage"] = self.interface_damage if self.interface_damage is not None else np.zeros(n)
+            started = self.interface_damage is not None
+            data["interface_damage"] = self.interface_damage if started else np.zeros(n)
+            data["interface_opening"] = self.interface_opening if started else np.zeros(n)
         for name, slots in mats.state_slots("output").items():  # zero on particles of models without them
             data[name] = self.state_values(slots)
         return [("particles", {"points": pad3(self.x), "point_data": data})]

@@ -103,11 +103,12 @@ def bond_start(order, fidx, S, n_nodes, cn_ptr, n_cn, slot_group, row, bonded):
 
 @njit(cache=True)
 def node_damage(n_cn, cn_ptr, slot_group, role, partner, delta, open_t, area, law, mu, stiff, bonded, table, params,
-                after, after_mu, num, den, grow, trial, slot_area, slot_mix):
+                after, after_mu, num, den, grow, trial, slot_area, slot_mix, slot_open):
     """Each cohesive target's node damage (the read, raised by the law where grow), applied to
     its stiffnesses or, failed, its law. Where grow, at each cohesive pair's two slots: trial,
     the law's damage from the opening (-1 elsewhere); slot_area, half the contact area (each
-    side's particles share it); slot_mix, the mode mixity."""
+    side's particles share it); slot_mix, the mode mixity; slot_open, the opening's size
+    (|(<dn>, dt)|)."""
     dim = open_t.shape[1]
     for c in range(n_cn):
         for a in range(cn_ptr[c], cn_ptr[c + 1]):
@@ -136,6 +137,7 @@ def node_damage(n_cn, cn_ptr, slot_group, role, partner, delta, open_t, area, la
                         trial[s] = d_law
                         slot_area[s] = 0.5 * area[a]
                         slot_mix[s] = B
+                        slot_open[s] = np.sqrt(max(delta[a], 0.0) ** 2 + dt_mag * dt_mag)
             bonded[a] = 0
             if d_node >= 1.0:
                 law[a] = after[r]
@@ -146,11 +148,13 @@ def node_damage(n_cn, cn_ptr, slot_group, role, partner, delta, open_t, area, la
 
 
 @njit(cache=True)
-def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix, damage, bonded, law_of, params):
+def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix, slot_open, damage, opening, bonded,
+                 law_of, params):
     """Each particle with cohesive slots: damage = max(damage, the shape-function mean of
     their law damage). Its share of the interface (each slot's half area by its mass weight
     there) times what its damage growth dissipates is the fracture energy; where it fails, its
-    share is debonded. Returns (fracture energy, debonded area) of the step."""
+    share is debonded; its opening is the shape-function mean of those nodes' openings (kept
+    where it has none). Returns (fracture energy, debonded area) of the step."""
     K = S.shape[1]
     energy = 0.0
     failed = 0.0
@@ -162,6 +166,7 @@ def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix
         sd = 0.0
         share = 0.0
         mix = 0.0
+        op = 0.0
         r = -1
         for k in range(K):
             f = fidx[p, k]
@@ -173,8 +178,11 @@ def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix
             sw += S[p, k]
             sd += S[p, k] * trial[s]
             mix += S[p, k] * slot_mix[s]
+            op += S[p, k] * slot_open[s]
             share += S[p, k] * pmass[p] / den[s] * slot_area[s]
             r = law_of[s]
+        if sw > 0.0:
+            opening[p] = op / sw
         if sw > 0.0 and sd / sw > damage[p]:
             new = min(sd / sw, 1.0)
             energy += share * dissipation(damage[p], new, mix / sw, params[r])
@@ -211,16 +219,19 @@ class CohesiveInterfaces:
         nn, ns = state.grid.n_nodes, cs.n_slots
         t = self.table
         if P.interface_damage is None or P.interface_damage.size != P.n:
-            P.interface_damage, P.interface_bonded = np.zeros(P.n), np.zeros(P.n, dtype=np.bool_)
+            P.interface_damage, P.interface_opening = np.zeros(P.n), np.zeros(P.n)
+            P.interface_bonded = np.zeros(P.n, dtype=np.bool_)
             bond_start(cs.slot_order, cs.fidx, sd.S, nn, cs.cn_ptr, cs.n_cn, cs.slot_group, t.row, P.interface_bonded)
         num, den = np.zeros(ns), np.zeros(ns)
         slot_damage(cs.slot_order, cs.fidx, sd.S, P.mass, P.interface_damage, P.interface_bonded, nn, num, den)
-        trial, slot_area, slot_mix = np.full(ns, -1.0), np.zeros(ns), np.zeros(ns)
+        trial, slot_area, slot_mix, slot_open = np.full(ns, -1.0), np.zeros(ns), np.zeros(ns), np.zeros(ns)
         node_damage(cs.n_cn, cs.cn_ptr, cs.slot_group, cs.role, cs.partner, cs.delta, cs.open, cs.area, cs.law, cs.mu,
-                    cs.stiff, cs.bonded, t.row, t.params, t.after, t.after_mu, num, den, grow, trial, slot_area, slot_mix)
+                    cs.stiff, cs.bonded, t.row, t.params, t.after, t.after_mu, num, den, grow, trial, slot_area, slot_mix,
+                    slot_open)
         if grow:
             law_of = law_rows(cs.cn_ptr, cs.n_cn, cs.slot_group, t.row, trial)
             energy, failed = carry_damage(cs.slot_order, cs.fidx, sd.S, P.mass, nn, den, trial, slot_area, slot_mix,
-                                          P.interface_damage, P.interface_bonded, law_of, t.params)
+                                          slot_open, P.interface_damage, P.interface_opening, P.interface_bonded,
+                                          law_of, t.params)
             state.fracture_energy += energy
             state.debonded_area += failed

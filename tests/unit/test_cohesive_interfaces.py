@@ -81,6 +81,9 @@ def test_the_damage_is_on_the_interface_particles_and_stays_with_them(runs, mode
     near = np.abs(y0 - 2.0) < 0.5
     assert np.all(P.interface_damage[near] == 1.0)
     assert np.all(P.interface_damage[~near] == 0.0)
+    # the opening each interface particle last saw is past the law's failure opening 2 G / peak
+    G = G_I if mode == "I" else G_II
+    assert np.all(P.interface_opening[near] > 2 * G / 5.0) and np.all(P.interface_opening[~near] == 0.0)
     if mode == "II":
         slid = (P.x[:, 0] - P.x0[:, 0])[P.mat == 1].mean() - (P.x[:, 0] - P.x0[:, 0])[P.mat == 0].mean()
         assert slid > 3 * 0.5
@@ -177,7 +180,7 @@ def test_the_ledger_books_the_fracture_energy_as_its_own_loss(tmp_path):
     for f in files:
         pts = meshio.read(f).point_data
         if "interface_damage" in pts or "material" in pts:
-            assert "interface_damage" in pts
+            assert "interface_damage" in pts and "interface_opening" in pts
 
 
 def test_a_cohesive_law_in_the_implicit_step_is_refused_naming_the_key():
