@@ -222,3 +222,19 @@ def test_the_fracture_energy_does_not_depend_on_where_the_interface_lies():
     for deg, shift in ((0.0, 0.25), (1.0, 0.0), (10.0, 0.0)):
         e = run(tilted(deg, shift)).recorder.column("fracture_energy")[-1]
         assert e == pytest.approx(ref, rel=0.01), (deg, shift, e / ref)
+
+
+def test_a_cohesive_pair_that_never_touches_is_refused_naming_the_key():
+    """Blocks 3 mm apart (six cells) bonded by a cohesive pair: refused before the run, one
+    line naming contact.pairs.0.between; as a default law, contact.default.law."""
+    apart = deck("I")
+    for end in ("min", "max"):
+        apart["bodies"][1][end][1] += 3.0
+    law = apart["contact"]["default"]
+    as_pair = copy.deepcopy(apart)
+    as_pair["contact"].update(default={"law": "frictionless"}, pairs=[dict(law, between=["a", "b"])])
+    for data, key in ((as_pair, "contact.pairs.0.between"), (apart, "contact.default.law")):
+        with pytest.raises(DeckError) as err:
+            Simulation(build_scene(as_loaded_deck(data, "cohesive", Path("."))), out_dir=None)
+        text = str(err.value).strip()
+        assert key in text and "within two cells" in text and len(text.splitlines()) == 1
