@@ -160,7 +160,7 @@ class Simulation:
         self.check_budget(max_steps, max_frames)
         grid_contact = scene.contact.grid
         if grid_contact is not None and grid_contact.cohesive is not None and self.state.particles.n:
-            from .contact.cohesive_history import untouched_pairs
+            from .scene.contact import untouched_pairs
             from .deck.loader import raise_at
 
             problems = untouched_pairs(scene.deck, list(scene.materials.deformable), self.state.particles.mat,

@@ -207,35 +207,6 @@ def law_rows(cn_ptr, n_cn, slot_group, row, trial):
     return out
 
 
-def untouched_pairs(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray, h: float) -> list[tuple[tuple, str]]:
-    """Deck problems: a cohesive law on a pair of materials whose particles lie nowhere within
-    two cells of each other at the start (it would never bond, never act): one per `pairs`
-    entry, and for a cohesive `default` only when none of its pairs touches."""
-    from scipy.spatial import cKDTree
-
-    def touch(a: str, b: str) -> bool:
-        ia, ib = deformable.index(a), deformable.index(b)
-        xa, xb = x[mat == ia], x[mat == ib]
-        return len(xa) > 0 and len(xb) > 0 and bool(cKDTree(xb).query(xa, k=1, distance_upper_bound=2.0 * h)[0].min()
-                                                      < 2.0 * h)
-
-    c, out = deck.contact, []
-    listed = set()
-    for i, pair in enumerate(c.pairs):
-        a, b = pair.between
-        listed.add(frozenset((a, b)))
-        if pair.law == "cohesive" and a in deformable and b in deformable and not touch(a, b):
-            out.append((("contact", "pairs", i, "between"), f"'{a}' and '{b}' are bonded by a cohesive law but their "
-                        "particles are nowhere within two cells of each other at the start"))
-    if c.default.law == "cohesive":
-        pairs = [(a, b) for k, a in enumerate(deformable) for b in deformable[k + 1:]
-                 if frozenset((a, b)) not in listed]
-        if pairs and not any(touch(a, b) for a, b in pairs):
-            out.append((("contact", "default", "law"), "a cohesive default law, but no two materials' particles are "
-                        "within two cells of each other at the start"))
-    return out
-
-
 class CohesiveInterfaces:
     """The seam: ContactTasks.geometry calls `after_geometry(state, grow)` between the planned
     geometry and the consistent bond (grow: the step's first geometry; pass 3's only reads)."""

@@ -227,3 +227,32 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
                        sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)),
                        deck.output.contact_traction, c.pass_3 == "persist",
                        cohesive_table(n_groups, cohesive) if cohesive else None)
+
+
+def untouched_pairs(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray, h: float) -> list[tuple[tuple, str]]:
+    """Deck problems: a cohesive law on a pair of materials whose particles lie nowhere within
+    two cells of each other at the start (it would never bond, never act): one per `pairs`
+    entry, and for a cohesive `default` only when none of its pairs touches."""
+    from scipy.spatial import cKDTree
+
+    def touch(a: str, b: str) -> bool:
+        ia, ib = deformable.index(a), deformable.index(b)
+        xa, xb = x[mat == ia], x[mat == ib]
+        return len(xa) > 0 and len(xb) > 0 and bool(cKDTree(xb).query(xa, k=1, distance_upper_bound=2.0 * h)[0].min()
+                                                      < 2.0 * h)
+
+    c, out = deck.contact, []
+    listed = set()
+    for i, pair in enumerate(c.pairs):
+        a, b = pair.between
+        listed.add(frozenset((a, b)))
+        if pair.law == "cohesive" and a in deformable and b in deformable and not touch(a, b):
+            out.append((("contact", "pairs", i, "between"), f"'{a}' and '{b}' are bonded by a cohesive law but their "
+                        "particles are nowhere within two cells of each other at the start"))
+    if c.default.law == "cohesive":
+        pairs = [(a, b) for k, a in enumerate(deformable) for b in deformable[k + 1:]
+                 if frozenset((a, b)) not in listed]
+        if pairs and not any(touch(a, b) for a, b in pairs):
+            out.append((("contact", "default", "law"), "a cohesive default law, but no two materials' particles are "
+                        "within two cells of each other at the start"))
+    return out
