@@ -103,12 +103,12 @@ def bond_start(order, fidx, S, n_nodes, cn_ptr, n_cn, slot_group, row, bonded):
 
 @njit(cache=True)
 def node_damage(n_cn, cn_ptr, slot_group, role, partner, delta, open_t, area, law, mu, stiff, bonded, table, params,
-                after, after_mu, num, den, grow, trial, slot_area, slot_mix, slot_open):
+                after, after_mu, num, den, grow, trial, slot_area, slot_mix, slot_open, slot_row):
     """Each cohesive target's node damage (the read, raised by the law where grow), applied to
     its stiffnesses or, failed, its law. Where grow, at each cohesive pair's two slots: trial,
     the law's damage from the opening (-1 elsewhere); slot_area, half the contact area (each
     side's particles share it); slot_mix, the mode mixity; slot_open, the opening's size
-    (|(<dn>, dt)|)."""
+    (|(<dn>, dt)|); slot_row, the pair's law row."""
     dim = open_t.shape[1]
     for c in range(n_cn):
         for a in range(cn_ptr[c], cn_ptr[c + 1]):
@@ -138,6 +138,7 @@ def node_damage(n_cn, cn_ptr, slot_group, role, partner, delta, open_t, area, la
                         slot_area[s] = 0.5 * area[a]
                         slot_mix[s] = B
                         slot_open[s] = np.sqrt(max(delta[a], 0.0) ** 2 + dt_mag * dt_mag)
+                        slot_row[s] = r
             bonded[a] = 0
             if d_node >= 1.0:
                 law[a] = after[r]
@@ -192,21 +193,6 @@ def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix
     return energy, failed
 
 
-@njit(cache=True)
-def law_rows(cn_ptr, n_cn, slot_group, row, trial):
-    """The cohesive law row of each slot with a trial damage (its node's other slot's pair;
-    -1 elsewhere)."""
-    out = np.full(trial.size, -1, dtype=np.int64)
-    for c in range(n_cn):
-        for s in range(cn_ptr[c], cn_ptr[c + 1]):
-            if trial[s] < 0.0:
-                continue
-            for o in range(cn_ptr[c], cn_ptr[c + 1]):
-                if o != s and row[slot_group[s], slot_group[o]] >= 0 and trial[o] >= 0.0:
-                    out[s] = row[slot_group[s], slot_group[o]]
-    return out
-
-
 class CohesiveInterfaces:
     """The seam: ContactTasks.geometry calls `after_geometry(state, grow)` between the planned
     geometry and the consistent bond (grow: the step's first geometry; pass 3's only reads)."""
@@ -225,13 +211,13 @@ class CohesiveInterfaces:
         num, den = np.zeros(ns), np.zeros(ns)
         slot_damage(cs.slot_order, cs.fidx, sd.S, P.mass, P.interface_damage, P.interface_bonded, nn, num, den)
         trial, slot_area, slot_mix, slot_open = np.full(ns, -1.0), np.zeros(ns), np.zeros(ns), np.zeros(ns)
+        slot_row = np.full(ns, -1, dtype=np.int64)
         node_damage(cs.n_cn, cs.cn_ptr, cs.slot_group, cs.role, cs.partner, cs.delta, cs.open, cs.area, cs.law, cs.mu,
                     cs.stiff, cs.bonded, t.row, t.params, t.after, t.after_mu, num, den, grow, trial, slot_area, slot_mix,
-                    slot_open)
+                    slot_open, slot_row)
         if grow:
-            law_of = law_rows(cs.cn_ptr, cs.n_cn, cs.slot_group, t.row, trial)
             energy, failed = carry_damage(cs.slot_order, cs.fidx, sd.S, P.mass, nn, den, trial, slot_area, slot_mix,
                                           slot_open, P.interface_damage, P.interface_opening, P.interface_bonded,
-                                          law_of, t.params)
+                                          slot_row, t.params)
             state.fracture_energy += energy
             state.debonded_area += failed
