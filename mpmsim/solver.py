@@ -158,15 +158,6 @@ class Simulation:
         self.check.sync = lambda state: self.integrator.to_host(state)  # (its messages read the particles)
         self.loop_timers = {CHECK: 0.0, OUTPUT: 0.0}
         self.check_budget(max_steps, max_frames)
-        grid_contact = scene.contact.grid
-        if grid_contact is not None and grid_contact.cohesive is not None and self.state.particles.n:
-            from .scene.contact import untouched_pairs
-            from .deck.loader import raise_at
-
-            problems = untouched_pairs(scene.deck, list(scene.materials.deformable), self.state.particles.mat,
-                                       self.state.particles.x, float(scene.grid.h.max()))
-            if problems:
-                raise_at(problems, scene.loaded)
         self.out_dir = Path(out_dir) if out_dir is not None else None
         stem = scene.loaded.stem
         if self.out_dir is not None:

@@ -56,6 +56,7 @@ class Particles(BodySet):
     # (contact/cohesive_history.py); None in scenes without cohesive laws
     interface_bonded: np.ndarray = None  # (n,) bool: the particle was on a bonded cohesive interface at the start
     interface_opening: np.ndarray = None  # (n,) the size of the cohesive opening at its nodes when last measured
+    interface_area: np.ndarray = None  # (n,) its share of the cohesive interface's area when bonded (the first step)
 
     kind = "particles"
     device_sums = None  # the energy check's sums from a GPU's arrays (mpmsim/gpu/step.py), when on one

@@ -48,12 +48,14 @@ class CohesiveTable(NamedTuple):
     params: np.ndarray  # (n_laws, N_PARAMS)
     after: np.ndarray  # (n_laws,) int64 law code
     after_mu: np.ndarray  # (n_laws,)
+    group_of_mat: np.ndarray  # (deformable materials,) int64 contact group
+    precracks: tuple  # ((group a, group b, lower corner (3,), upper corner (3,)), ...): boxes that start debonded
 
 
-def cohesive_table(n_groups: int, entries: list) -> CohesiveTable:
+def cohesive_table(n_groups: int, entries: list, group_of_mat) -> CohesiveTable:
     """entries: (group a, group b, the deck's Cohesive block, Dn, Dt)."""
     row = np.full((n_groups, n_groups), -1, dtype=np.int64)
-    params, after, mu = [], [], []
+    params, after, mu, cracks = [], [], [], []
     for ga, gb, c, Dn, Dt in entries:
         row[ga, gb] = row[gb, ga] = len(params)
         params.append(law_parameters(c.shape, c.peak_traction, c.shear_peak_traction, c.G_Ic, c.G_IIc,
@@ -61,7 +63,22 @@ def cohesive_table(n_groups: int, entries: list) -> CohesiveTable:
                                      c.mixed_mode, c.exponent))
         after.append(AFTER_CODES[c.after])
         mu.append(c.friction)
-    return CohesiveTable(row, np.array(params), np.array(after, dtype=np.int64), np.array(mu))
+        for box in c.precrack:
+            lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+            lo[: len(box.min)], hi[: len(box.max)] = box.min, box.max
+            cracks.append((ga, gb, lo, hi))
+    return CohesiveTable(row, np.array(params), np.array(after, dtype=np.int64), np.array(mu),
+                         np.asarray(group_of_mat, dtype=np.int64), tuple(cracks))
+
+
+def unbond_precracks(x, mat, bonded, table: CohesiveTable) -> None:
+    """The first step, after the bond: the pair's particles inside a pre-crack box were never
+    bonded (they read as failed from the start)."""
+    dim = x.shape[1]
+    group = table.group_of_mat[mat]
+    for ga, gb, lo, hi in table.precracks:
+        inside = np.all((x >= lo[:dim]) & (x <= hi[:dim]), axis=1) & ((group == ga) | (group == gb))
+        bonded[inside] = False
 
 
 @njit(cache=True)
@@ -150,12 +167,14 @@ def node_damage(n_cn, cn_ptr, slot_group, role, partner, delta, open_t, area, la
 
 @njit(cache=True)
 def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix, slot_open, damage, opening, bonded,
-                 law_of, params):
+                 area, law_of, params):
     """Each particle with cohesive slots: damage = max(damage, the shape-function mean of
     their law damage). Its share of the interface (each slot's half area by its mass weight
-    there) times what its damage growth dissipates is the fracture energy; where it fails, its
-    share is debonded; its opening is the shape-function mean of those nodes' openings (kept
-    where it has none). Returns (fracture energy, debonded area) of the step."""
+    there) when it was bonded (`area`, set in the first step: the reference area, which a crack
+    whose nodes leave contact one by one, or bodies sliding off each other, do not shrink)
+    times what its damage growth dissipates is the fracture energy; where it fails, that share
+    is debonded; its opening is the shape-function mean of those nodes' openings (kept where it
+    has none). Returns (fracture energy, debonded area) of the step."""
     K = S.shape[1]
     energy = 0.0
     failed = 0.0
@@ -184,11 +203,13 @@ def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix
             r = law_of[s]
         if sw > 0.0:
             opening[p] = op / sw
+            if area[p] == 0.0:
+                area[p] = share
         if sw > 0.0 and sd / sw > damage[p]:
             new = min(sd / sw, 1.0)
-            energy += share * dissipation(damage[p], new, mix / sw, params[r])
+            energy += area[p] * dissipation(damage[p], new, mix / sw, params[r])
             if new >= 1.0:
-                failed += share
+                failed += area[p]
             damage[p] = new
     return energy, failed
 
@@ -207,7 +228,9 @@ class CohesiveInterfaces:
         if P.interface_damage is None or P.interface_damage.size != P.n:
             P.interface_damage, P.interface_opening = np.zeros(P.n), np.zeros(P.n)
             P.interface_bonded = np.zeros(P.n, dtype=np.bool_)
+            P.interface_area = np.zeros(P.n)
             bond_start(cs.slot_order, cs.fidx, sd.S, nn, cs.cn_ptr, cs.n_cn, cs.slot_group, t.row, P.interface_bonded)
+            unbond_precracks(P.x, P.mat, P.interface_bonded, t)
         num, den = np.zeros(ns), np.zeros(ns)
         slot_damage(cs.slot_order, cs.fidx, sd.S, P.mass, P.interface_damage, P.interface_bonded, nn, num, den)
         trial, slot_area, slot_mix, slot_open = np.full(ns, -1.0), np.zeros(ns), np.zeros(ns), np.zeros(ns)
@@ -218,6 +241,6 @@ class CohesiveInterfaces:
         if grow:
             energy, failed = carry_damage(cs.slot_order, cs.fidx, sd.S, P.mass, nn, den, trial, slot_area, slot_mix,
                                           slot_open, P.interface_damage, P.interface_opening, P.interface_bonded,
-                                          slot_row, t.params)
+                                          P.interface_area, slot_row, t.params)
             state.fracture_energy += energy
             state.debonded_area += failed

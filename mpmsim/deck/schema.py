@@ -71,6 +71,14 @@ def _stiffness(value):
 Stiffness = Annotated[Union[float, str], AfterValidator(_stiffness)]
 
 
+class Domain(Strict):
+    """An axis-aligned box (grid.domain: the region material may occupy; particles leaving it
+    stop the run)."""
+
+    min: Vector = Field(description="Lower corner.")
+    max: Vector = Field(description="Upper corner.")
+
+
 class Cohesive(Strict):
     """A cohesive law with damage (law: cohesive; docs/interfaces.md "Cohesive interfaces"):
     the interface carries Dn [u_n], Dt [u_t] until a peak traction, softens to failure after
@@ -92,6 +100,9 @@ class Cohesive(Strict):
     after: Literal["frictionless", "coulomb"] = Field(
         default="frictionless", description="The contact law of a failed interface.")
     friction: float = Field(default=0.0, ge=0.0, description="Friction after failure (after: coulomb).")
+    precrack: list[Domain] = Field(
+        default_factory=list, description="Boxes {min, max}: the pair's particles inside start debonded (a pre-crack; "
+        "they meet through `after` from the start).")
 
     @model_validator(mode="after")
     def _defaults(self):
@@ -286,14 +297,6 @@ class RotationVelocity(Strict):
         description="Angular velocity (rad per time unit): a number in 2D, a vector [wx, wy, wz] in 3D.")
     center: Vector = Field(description="A point on the rotation axis.")
     translation: Vector | None = Field(default=None, description="Added uniform velocity.")
-
-
-class Domain(Strict):
-    """An axis-aligned box (grid.domain: the region material may occupy; particles leaving it
-    stop the run)."""
-
-    min: Vector = Field(description="Lower corner.")
-    max: Vector = Field(description="Upper corner.")
 
 
 class MotionPhase(Strict):

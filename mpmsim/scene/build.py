@@ -20,7 +20,7 @@ from ..materials import MaterialTable
 from .materials import build_material_table
 from .geometry import bbox, body_materials, inside
 from ..shapes import shape_function
-from .contact import ContactModel, build_contact_model
+from .contact import ContactModel, build_contact_model, untouched_pairs
 from .fem import FemSeed, build_fem
 from .settings import RunSettings, run_settings
 from .grid import FACE_CODES, FACES, FREE, ROLLER, GridSpec, plan_grid
@@ -111,6 +111,10 @@ def build_scene(loaded: LoadedDeck) -> Scene:
     infos = lambda seed, kind: [BodyInfo(int(i), body_name(deck.bodies[i], int(i)), kind,  # noqa: E731
                                          deck.bodies[i].material) for i in np.unique(seed.body)]
     contact = build_contact_model(deck, mats, fem, np.unique(deformable.mat))
+    if contact.grid is not None and contact.grid.cohesive is not None and len(deformable.x):
+        problems = untouched_pairs(deck, list(mats.deformable), deformable.mat, deformable.x, float(grid.h.max()))
+        if problems:
+            raise_at(problems, loaded)
     return Scene(loaded, grid, mats, deformable, rigid, semi, deck.thickness, contact,
                  infos(deformable, "particles"), infos(rigid, "rigid particles"), fem, settings,
                  deck_digest(deck), deck.model_dump(mode="json"), tuple(notices), seedings)

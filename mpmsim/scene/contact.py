@@ -24,7 +24,6 @@ from ..contact.augury.transfers import FRICTION, KERNELS, STICK_SEPARATE, Augury
 from ..contact.grid.spec import (FIRST_PLUGIN_LAW, INTEGRATION_CODES, LAW_CODES, NORMAL_CODES, PERFECT,
                                  SEPARATION_CODES, ContactSpec)
 from ..contact.cohesive import law_parameters, stiffnesses
-from ..contact.cohesive_history import cohesive_table
 from ..deck.contact import material_groups
 from ..deck.schema import Implicit, Rigid
 
@@ -203,6 +202,8 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
             mu[i, j] = pl.friction
             mus[i, j] = pl.static_friction
             stiff[i, j] = pl.stiffness
+    from ..contact.cohesive_history import cohesive_table  # (here: that module's package imports the scene's)
+
     cohesive = []  # (group a, group b, the Cohesive block, Dn, Dt) of each cohesive group pair
     if default.cohesive is not None:
         cohesive += [(i, j, default.cohesive, *default.stiffness[::2]) for i in range(n_def) for j in range(i + 1, n_def)]
@@ -226,7 +227,7 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
                        c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface",
                        sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)),
                        deck.output.contact_traction, c.pass_3 == "persist",
-                       cohesive_table(n_groups, cohesive) if cohesive else None)
+                       cohesive_table(n_groups, cohesive, groups) if cohesive else None)
 
 
 def untouched_pairs(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray, h: float) -> list[tuple[tuple, str]]:

@@ -77,14 +77,15 @@ def particle_kinetic(mass, v):
 
 
 @njit(cache=True)
-def keep_update(fields, skip, mass, mom, vel, vnew, v1, vfirst, vplus):
+def keep_update(fields, skip, mass, mom, vel, vnew, v1, vfirst, vplus, light):
     """After the momentum update: per active field (in box order) v1 = p/m, the velocity the
-    first stress update used and v+; returns the grid's kinetic energy at v1."""
+    first stress update used and v+; returns the grid's kinetic energy at v1. Fields of mass
+    <= light are left out of every account (`light_mass`)."""
     e = 0.0
     for q in range(fields.size):
         fid = fields[q]
         m = mass[fid]
-        live = m > 0.0 and not skip[q]
+        live = m > light and not skip[q]
         for d in range(mom.shape[1]):
             v1[q, d] = mom[fid, d] / m if live else 0.0
             vfirst[q, d] = vel[fid, d]
@@ -95,13 +96,13 @@ def keep_update(fields, skip, mass, mom, vel, vnew, v1, vfirst, vplus):
 
 
 @njit(cache=True)
-def pass_1_drop(nn, n_slots, slot_group, n_def, mass, mom, dp1):
+def pass_1_drop(nn, n_slots, slot_group, n_def, mass, mom, dp1, light):
     """Kinetic energy contact pass 1 removed (dp1: its change of each deformable slot's
     momentum; rigid slots keep theirs, and their dp1 rows are not written)."""
     e = 0.0
     for s in range(n_slots):
         m = mass[nn + s]
-        if m <= 0.0 or slot_group[s] >= n_def:
+        if m <= light or slot_group[s] >= n_def:
             continue
         for d in range(mom.shape[1]):
             p = mom[nn + s, d]
@@ -111,7 +112,8 @@ def pass_1_drop(nn, n_slots, slot_group, n_def, mass, mom, dp1):
 
 
 @njit(cache=True)
-def friction_work(nn, n_slots, slot_group, n_def, role, partner, normal, law, mass, dp, v_start, v_end, v_rigid):
+def friction_work(nn, n_slots, slot_group, n_def, role, partner, normal, law, mass, dp, v_start, v_end, v_rigid,
+                  light=0.0):
     """Work of Coulomb's law at the step's contact nodes: over the target slots whose law is
     coulomb, the tangential part (to the target's contact normal) of its contact change dp[s]
     (momentum) at the slip velocity, the mean of the slot's velocities v_start[s] and v_end[s]
@@ -122,16 +124,19 @@ def friction_work(nn, n_slots, slot_group, n_def, role, partner, normal, law, ma
     the change that lands the pair on one tangential velocity) both count: a slab that a block
     slides on has a third of the contact nodes under the block stuck in a step, their share of
     the dissipation a third (docs/validation.md, "Energy ledger"). Slots as in
-    mpmsim/contact/grid/workspace.py and plan.plan_node."""
+    mpmsim/contact/grid/workspace.py and plan.plan_node. Targets of mass <= light, or whose
+    deformable partner's is, are left out (`light_mass`)."""
     w = 0.0
     dim = dp.shape[1]
     for s in range(n_slots):
-        if slot_group[s] >= n_def or role[s] == 0 or law[s] != COULOMB or mass[nn + s] <= 0.0:
+        if slot_group[s] >= n_def or role[s] == 0 or law[s] != COULOMB or mass[nn + s] <= light:
+            continue
+        b = partner[s]
+        if b >= 0 and slot_group[b] < n_def and mass[nn + b] <= light:
             continue
         dn = 0.0
         for d in range(dim):
             dn += dp[s, d] * normal[s, d]
-        b = partner[s]
         for d in range(dim):
             v = 0.5 * (v_start[s, d] + v_end[s, d])
             if b >= 0 and slot_group[b] >= n_def:
@@ -143,14 +148,28 @@ def friction_work(nn, n_slots, slot_group, n_def, role, partner, normal, law, ma
 
 
 def slot_friction(cs, nn: int, mass: np.ndarray, dp: np.ndarray, v_start: np.ndarray, v_end: np.ndarray,
-                  v_rigid: np.ndarray) -> float:
+                  v_rigid: np.ndarray, light: float) -> float:
     """friction_work over the contact workspace cs's slots."""
     return friction_work(nn, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, cs.role, cs.partner, cs.normal, cs.law,
-                         mass, dp, v_start, v_end, v_rigid)
+                         mass, dp, v_start, v_end, v_rigid, light)
+
+
+LIGHT = 1e-12  # fields lighter than this fraction of the heaviest are left out of the ledger
+
+
+def light_mass(mass: np.ndarray, fields: np.ndarray) -> float:
+    """The ledger's mass floor: LIGHT times the heaviest active field. A field with a sliver of
+    a particle's shape function (mass ~ S, internal force ~ grad S) gets a velocity ~ 1/S that
+    its particles, weighting it by S, never see; its kinetic energy, exact but huge, would be
+    booked in one loss and taken back in another (the contact and transfer losses swinging by
+    1e8 times the run's energy in one step, friction by 1e2 where such a slot was a target's
+    partner). Left out of every account, such a field leaves its part of the stress power,
+    order S, in the residual."""
+    return LIGHT * float(mass[fields].max()) if fields.size else 0.0
 
 
 @njit(cache=True)
-def step_sums(fields, skip, mass, force, vnew, vlast, v1, vfirst, vplus, w_first, w_last, dt, out):
+def step_sums(fields, skip, mass, force, vnew, vlast, v1, vfirst, vplus, w_first, w_last, dt, light, out):
     """End of the step, over live active fields: out = (grid kinetic energy at vc, work of the
     conditions' forces at v_bar, of pass 2's contact forces at v_bar, the forces' work on
     velocity the stress update does not see at free components, and at held ones)."""
@@ -159,7 +178,7 @@ def step_sums(fields, skip, mass, force, vnew, vlast, v1, vfirst, vplus, w_first
     for q in range(fields.size):
         fid = fields[q]
         m = mass[fid]
-        if m <= 0.0 or skip[q]:
+        if m <= light or skip[q]:
             continue
         for d in range(force.shape[1]):
             vc = vnew[fid, d]
@@ -202,6 +221,7 @@ class EnergyLedger:
         # contact slots' v1 (p/m after pass 1; a rigid slot's: its velocity) and v+ (friction in pass 2)
         self.slot_v1 = self.slot_vplus = np.zeros((0, 0))
         self.sums = np.zeros(5)
+        self.light = 0.0  # the step's light_mass
 
     def updated(self, state) -> None:
         """After the momentum update: keep v1, the first stress velocity and v+; book the
@@ -212,22 +232,24 @@ class EnergyLedger:
         n, dim = box.fields.size, state.dim
         if self.v1.shape != (n, dim):
             self.v1, self.vfirst, self.vplus = (np.zeros((n, dim)) for _ in range(3))
-        ke_grid = keep_update(box.fields, box.skip, f.mass, f.mom, f.vel, f.vnew, self.v1, self.vfirst, self.vplus)
+        self.light = light = light_mass(f.mass, box.fields)
+        ke_grid = keep_update(box.fields, box.skip, f.mass, f.mom, f.vel, f.vnew, self.v1, self.vfirst, self.vplus,
+                              light)
         drop = friction = 0.0
         cs = state.contact
         if cs is not None and self.pass_1:
             drop = pass_1_drop(state.grid.n_nodes, cs.n_slots, cs.slot_group, cs.spec.n_def_groups, f.mass, f.mom,
-                               cs.dp1)
+                               cs.dp1, light)
         if cs is not None and self.friction:
             nn, ns = state.grid.n_nodes, cs.n_slots
             m = f.mass[nn:nn + ns, None]
-            self.slot_v1 = np.divide(f.mom[nn:nn + ns], m, out=np.zeros((ns, state.dim)), where=m > 0.0)
+            self.slot_v1 = np.divide(f.mom[nn:nn + ns], m, out=np.zeros((ns, state.dim)), where=m > light)
             self.slot_vplus = f.vnew[nn:nn + ns].copy()
             if self.pass_1 and self.pass_1_friction is not None:
                 dp1 = cs.dp1[:ns]
-                before = np.divide(f.mom[nn:nn + ns] - dp1, m, out=np.zeros((ns, state.dim)), where=m > 0.0)
+                before = np.divide(f.mom[nn:nn + ns] - dp1, m, out=np.zeros((ns, state.dim)), where=m > light)
                 dpf = dp1 if self.pass_1_friction == "dp1" else cs.hold[:ns]
-                friction = -slot_friction(cs, nn, f.mass, dpf, before, self.slot_v1, self.slot_v1)
+                friction = -slot_friction(cs, nn, f.mass, dpf, before, self.slot_v1, self.slot_v1, light)
         state.ledger[TRANSFER] += self.ke_start - (ke_grid + drop)
         state.ledger[CONTACT] += drop - friction
         state.ledger[FRICTION] += friction
@@ -241,7 +263,7 @@ class EnergyLedger:
             cs, f, nn = state.contact, state.fields, state.grid.n_nodes
             vc = f.vnew[nn:nn + cs.n_slots]
             dp = f.mass[nn:nn + cs.n_slots, None] * (vc - self.slot_vplus)
-            friction = -slot_friction(cs, nn, f.mass, dp, self.slot_v1, vc, self.slot_v1)
+            friction = -slot_friction(cs, nn, f.mass, dp, self.slot_v1, vc, self.slot_v1, self.light)
         state.ledger[CONTACT] += state.work_in - self.marks[1] - friction
         state.ledger[FRICTION] += friction
 
@@ -252,7 +274,7 @@ class EnergyLedger:
         vlast = f.vel if self.last_from_vel else f.vnew
         s = self.sums
         step_sums(box.fields, box.skip, f.mass, f.force, f.vnew, vlast, self.v1, self.vfirst, self.vplus,
-                  self.w_first, self.w_last, state.dt, s)
+                  self.w_first, self.w_last, state.dt, self.light, s)
         ke_grid_end, w_bc, w_contact, gap_free, gap_held = s
         ke_particles = particle_kinetic(P.mass, P.v)
         led = state.ledger

@@ -1,0 +1,154 @@
+"""Cohesive beam specimens (issue 78): the double cantilever beam (DCB) opened by prescribed end
+displacements, and its beam theory.
+
+The DCB: two arms of one elastic material (E, nu; plane strain, unit thickness), each h thick and
+L long, bonded by a bilinear cohesive law on y = 0 except over a pre-crack of length a0 from the
+load line (`cohesive.precrack`). Each arm is pulled at its end through a soft tab (E / 20, one
+cell wide, 2h tall) whose far end a rigid grip moves at +-V (velocity ramped over `ramp`): the
+tab passes the force and leaves the arm's end free to rotate (its bending stiffness is 0.4% of
+the arm's). The opening is the load line's arm particles' mean displacement, top less bottom.
+
+Beam theory (plane strain: E' = E / (1 - nu^2)), with the root rotation correction of the arm
+a -> a + chi h, chi = sqrt(E'/(11 G)) (3 - 2 (g / (1 + g))^2), g = 1.18 E'/G (Williams 1989,
+doi:10.1016/0266-3538(89)90058-4; G the shear modulus; isotropic: chi = 0.92):
+compliance delta / P = 8 (a + chi h)^3 / (E' B h^3); energy release rate
+G_I = 12 P^2 (a + chi h)^2 / (E' B^2 h^3). Propagation (G_I = G_Ic): P (a + chi h) = M,
+M = sqrt(G_Ic E' B^2 h^3 / 12), so P = sqrt(8 M^3 / (E' B h^3 delta)) on the propagation branch,
+and the peak (initiation) load is M / (a0 + chi h)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import math
+
+import numpy as np
+
+from mpmsim.deck.loader import as_loaded_deck
+from mpmsim.errors import InstabilityError
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+
+
+@dataclass
+class DCB:
+    E: float = 3000.0  # MPa
+    nu: float = 0.3
+    density: float = 0.0012  # g/mm^3
+    h: float = 2.0  # arm thickness (mm)
+    length: float = 40.0
+    a0: float = 20.0  # pre-crack from the load line
+    cell: float = 0.5
+    peak: float = 22.0  # MPa
+    G_c: float = 0.3  # N/mm
+    D: float = 5000.0  # intact stiffness (MPa/mm)
+    V: float = 0.5  # grip speed (mm/ms), each arm
+    ramp: float = 1.5  # ms
+    end: float = 8.2  # ms
+    offset: float = 0.0  # the interface's height above a grid line (cells)
+    extra: dict = field(default_factory=dict)  # deck entries replaced
+
+    @property
+    def E_prime(self) -> float:
+        return self.E / (1.0 - self.nu ** 2)
+
+    @property
+    def chi(self) -> float:
+        shear = self.E / (2.0 * (1.0 + self.nu))
+        g = 1.18 * self.E_prime / shear
+        return float(np.sqrt(self.E_prime / (11.0 * shear)) * (3.0 - 2.0 * (g / (1.0 + g)) ** 2))
+
+    @property
+    def M(self) -> float:
+        return float(np.sqrt(self.G_c * self.E_prime * self.h ** 3 / 12.0))
+
+    def compliance(self, a: float) -> float:
+        return 8.0 * (a + self.chi * self.h) ** 3 / (self.E_prime * self.h ** 3)
+
+    @property
+    def peak_load(self) -> float:
+        return self.M / (self.a0 + self.chi * self.h)
+
+    def propagation_load(self, delta):
+        return np.sqrt(8.0 * self.M ** 3 / (self.E_prime * self.h ** 3 * np.asarray(delta)))
+
+    @property
+    def load_line(self) -> float:
+        return 0.5 * self.cell
+
+    def deck(self) -> dict:
+        c, h, y0 = self.cell, self.h, self.offset * self.cell
+        tab = 2.0 * h
+        elastic = {"type": "linear_elastic", "E": self.E, "nu": self.nu, "density": self.density}
+        soft = dict(elastic, E=self.E / 20.0)
+        table = lambda s: {"times": [0.0, self.ramp], "values": [[0.0, 0.0], [0.0, s * self.V]]}  # noqa: E731
+        tip = self.load_line + self.a0
+        top = c * math.ceil((h + tab + 3.0 * c + self.V * self.end + 1.0) / c)  # the grips' travel; grid lines on y = 0
+        law = {"between": ["upper", "lower"], "law": "cohesive", "Dn": self.D, "Dt": self.D,
+               "cohesive": {"peak_traction": self.peak, "G_Ic": self.G_c,
+                            "precrack": [{"min": [-1.0, y0 - 0.5 * h], "max": [tip, y0 + 0.5 * h]}]}}
+        data = {
+            "title": "double cantilever beam", "units": "mm-g-ms", "analysis": "plane_strain", "thickness": 1.0,
+            "grid": {"cell_size": c, "domain": {"min": [-2.0 * c, -top], "max": [self.length + 2.0 * c, top]}},
+            "materials": {"upper": elastic, "lower": elastic, "tab_u": soft, "tab_l": soft,
+                          "grip_u": {"type": "rigid", "constrain": ["y"], "velocity": table(1.0)},
+                          "grip_l": {"type": "rigid", "constrain": ["y"], "velocity": table(-1.0)}},
+            "bodies": [{"shape": "rectangle", "min": [0.0, y0], "max": [self.length, y0 + h], "material": "upper"},
+                       {"shape": "rectangle", "min": [0.0, y0 - h], "max": [self.length, y0], "material": "lower"},
+                       {"shape": "rectangle", "min": [0.0, y0 + h], "max": [c, y0 + h + tab], "material": "tab_u"},
+                       {"shape": "rectangle", "min": [0.0, y0 - h - tab], "max": [c, y0 - h], "material": "tab_l"},
+                       {"shape": "rectangle", "min": [0.0, y0 + h + tab], "max": [c, y0 + h + tab + c],
+                        "material": "grip_u"},
+                       {"shape": "rectangle", "min": [0.0, y0 - h - tab - c], "max": [c, y0 - h - tab],
+                        "material": "grip_l"}],
+            "contact": {"normal": "specified", "normal_vector": [0.0, -1.0], "default": {"law": "frictionless"},
+                        "pairs": [law, {"between": ["upper", "tab_u"], "law": "none"},
+                                  {"between": ["lower", "tab_l"], "law": "none"}]},
+            "time": {"end": self.end, "cfl": 0.5},
+            "output": {"history_interval": self.end / 400.0},
+        }
+        data.update(self.extra)
+        return data
+
+
+@dataclass
+class Curve:
+    t: np.ndarray
+    load: np.ndarray  # the upper grip's force on the specimen (per unit thickness)
+    opening: np.ndarray  # load-line opening
+    fracture_energy: np.ndarray
+    debonded: np.ndarray  # debonded area (per unit thickness: crack length)
+    lost: np.ndarray  # the grips' work less kinetic and strain energy
+    sim: Simulation
+
+
+def run_dcb(spec: DCB, every: int = 20, threads: int | None = 1, keep_going: bool = False) -> Curve:
+    sim = Simulation(build_scene(as_loaded_deck(spec.deck(), "dcb", Path("."))), out_dir=None, threads=threads)
+    P = sim.state.particles
+    near = np.abs(P.x0[:, 0] - spec.load_line) < 0.5 * spec.cell
+    y0 = spec.offset * spec.cell
+    top = near & (P.x0[:, 1] > y0) & (P.x0[:, 1] < y0 + spec.h)
+    bottom = near & (P.x0[:, 1] < y0) & (P.x0[:, 1] > y0 - spec.h)
+    rows = []
+
+    def record(st) -> None:
+        if st.step % every == 0:
+            x = st.particles.x
+            u = (x[top, 1] - P.x0[top, 1]).mean() - (x[bottom, 1] - P.x0[bottom, 1]).mean()
+            rows.append((st.t, u))
+
+    try:
+        sim.run(progress=record)
+    except InstabilityError as err:
+        if not keep_going:
+            raise
+        print(err)
+    col = sim.recorder.column
+    t_h = col(sim.recorder.names[0])
+    rows = np.array(rows)
+    load = np.interp(rows[:, 0], t_h, np.abs(col("F_grip_u_y")))
+    fe = np.interp(rows[:, 0], t_h, col("fracture_energy"))
+    debonded = np.interp(rows[:, 0], t_h, col("debonded_area"))
+    lost = np.interp(rows[:, 0], t_h, col("external_work") - col("kinetic_energy") - col("strain_energy"))
+    return Curve(rows[:, 0], load, rows[:, 1], fe, debonded, lost, sim)
