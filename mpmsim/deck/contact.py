@@ -109,4 +109,8 @@ def cohesive_problems(path: tuple, law) -> list[tuple[tuple, str]]:
                                           f"{G:g} need a stiffness above peak^2 / (2 G_c) = {peak * peak / (2 * G):g}"))
     if c.after == "frictionless" and c.friction > 0:
         out.append(((*path, "cohesive", "friction"), "friction after failure needs after: coulomb"))
+    for k, box in enumerate(c.precrack):
+        if len(box.min) != len(box.max) or any(lo >= hi for lo, hi in zip(box.min, box.max)):
+            out.append(((*path, "cohesive", "precrack", k), "a pre-crack box needs as many components in min as in "
+                        "max, each below its max"))
     return out

@@ -129,6 +129,8 @@ def test_an_intact_interface_that_never_reaches_its_peak_is_the_elastic_interfac
     (lambda law: law["cohesive"].update(G_Ic=-1.0), "contact.default.cohesive.G_Ic", "greater than 0"),
     (lambda law: law["cohesive"].update(peak_traction=0.0), "contact.default.cohesive.peak_traction", "greater than 0"),
     (lambda law: law["cohesive"].update(friction=0.3), "contact.default.cohesive.friction", "after: coulomb"),
+    (lambda law: law["cohesive"].update(precrack=[{"min": [2.0, 1.5], "max": [1.0, 2.5]}]),
+     "contact.default.cohesive.precrack.0", "each below its max"),
 ])
 def test_bad_cohesive_input_is_one_line_naming_the_key(change, key, words):
     data = deck("I")
