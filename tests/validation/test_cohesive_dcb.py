@@ -5,7 +5,8 @@ tests/validation/cohesive_beams.py builds it and states the theory. make validat
 The specimen: arms 2 mm thick, a 12 mm pre-crack (a0 = 6h), 26 mm long, E = 3000 MPa, nu = 0.3,
 plane strain; bilinear cohesive law, peak 8 MPa, G_Ic = 0.3 N/mm, intact stiffness 2000 MPa/mm,
 on a grid line; 0.5 mm cells (four across an arm), XPIC(2); the grips open at 0.8 mm/ms after a
-0.5 ms ramp, some seven periods of the arms' first mode to the peak. The crack grows 8 mm."""
+0.5 ms ramp, some seven periods of the arms' first mode to the peak. The crack grows about
+7 mm."""
 
 from __future__ import annotations
 
