@@ -48,11 +48,10 @@ class CohesiveTable(NamedTuple):
     params: np.ndarray  # (n_laws, N_PARAMS)
     after: np.ndarray  # (n_laws,) int64 law code
     after_mu: np.ndarray  # (n_laws,)
-    group_of_mat: np.ndarray  # (deformable materials,) int64 contact group
     precracks: tuple  # ((group a, group b, lower corner (3,), upper corner (3,)), ...): boxes that start debonded
 
 
-def cohesive_table(n_groups: int, entries: list, group_of_mat) -> CohesiveTable:
+def cohesive_table(n_groups: int, entries: list) -> CohesiveTable:
     """entries: (group a, group b, the deck's Cohesive block, Dn, Dt)."""
     row = np.full((n_groups, n_groups), -1, dtype=np.int64)
     params, after, mu, cracks = [], [], [], []
@@ -67,15 +66,13 @@ def cohesive_table(n_groups: int, entries: list, group_of_mat) -> CohesiveTable:
             lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
             lo[: len(box.min)], hi[: len(box.max)] = box.min, box.max
             cracks.append((ga, gb, lo, hi))
-    return CohesiveTable(row, np.array(params), np.array(after, dtype=np.int64), np.array(mu),
-                         np.asarray(group_of_mat, dtype=np.int64), tuple(cracks))
+    return CohesiveTable(row, np.array(params), np.array(after, dtype=np.int64), np.array(mu), tuple(cracks))
 
 
-def unbond_precracks(x, mat, bonded, table: CohesiveTable) -> None:
-    """The first step, after the bond: the pair's particles inside a pre-crack box were never
-    bonded (they read as failed from the start)."""
+def unbond_precracks(x, group, bonded, table: CohesiveTable) -> None:
+    """The first step, after the bond: the pair's particles (group: each one's contact group)
+    inside a pre-crack box were never bonded (they read as failed from the start)."""
     dim = x.shape[1]
-    group = table.group_of_mat[mat]
     for ga, gb, lo, hi in table.precracks:
         inside = np.all((x >= lo[:dim]) & (x <= hi[:dim]), axis=1) & ((group == ga) | (group == gb))
         bonded[inside] = False
@@ -230,7 +227,7 @@ class CohesiveInterfaces:
             P.interface_bonded = np.zeros(P.n, dtype=np.bool_)
             P.interface_area = np.zeros(P.n)
             bond_start(cs.slot_order, cs.fidx, sd.S, nn, cs.cn_ptr, cs.n_cn, cs.slot_group, t.row, P.interface_bonded)
-            unbond_precracks(P.x, P.mat, P.interface_bonded, t)
+            unbond_precracks(P.x, cs.spec.mat_group[P.mat], P.interface_bonded, t)
         num, den = np.zeros(ns), np.zeros(ns)
         slot_damage(cs.slot_order, cs.fidx, sd.S, P.mass, P.interface_damage, P.interface_bonded, nn, num, den)
         trial, slot_area, slot_mix, slot_open = np.full(ns, -1.0), np.zeros(ns), np.zeros(ns), np.zeros(ns)

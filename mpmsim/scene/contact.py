@@ -227,7 +227,7 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
                        c.edge_screening or 0.0, c.interface_bond == "consistent", c.interface_opening == "interface",
                        sep, tuple(sorted(int(k) for k in np.unique(law) if k >= FIRST_PLUGIN_LAW)),
                        deck.output.contact_traction, c.pass_3 == "persist",
-                       cohesive_table(n_groups, cohesive, groups) if cohesive else None)
+                       cohesive_table(n_groups, cohesive) if cohesive else None)
 
 
 def untouched_pairs(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray, h: float) -> list[tuple[tuple, str]]:
