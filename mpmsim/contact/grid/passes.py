@@ -323,6 +323,10 @@ class Pass2Settings(NamedTuple):
     # its holding change is a force, into a (FLIP, whose particles add only dt a)
 
 
+# an interface target whose reduced mass is below this fraction of the pair's mass (one side
+# reaches the node with a sliver of a particle's shape function) is held bonded: that side's
+# velocity is round-off over a vanishing mass, and a spring on it books noise as energy
+SLIVER = 1e-12
 HAS_INTERFACE = True  # a constant of pass_2_node, bound by pass_2_node_of (never compiled with this value)
 PASS_2_NODE = None  # pass_2_kernel's per-node function, bound by contact_pass_2
 
@@ -383,7 +387,10 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
                 delta += dt * (dotn - 0.5 * dfn * dt) / mred
         dec.delta2[a] = delta
         if HAS_INTERFACE and interface:
-            energy += interface_impulse(geo.stiff[a], geo.bonded[a], imp, df, n, geo.delta[a], geo.open[a],
+            bond = geo.bonded[a]
+            if b >= 0 and not rigid_b and mred <= SLIVER * (mass[nn + a] + mass[nn + b]):
+                bond = 3  # one side has a sliver of mass here: its velocity is noise, it moves with the pair
+            energy += interface_impulse(geo.stiff[a], bond, imp, df, n, geo.delta[a], geo.open[a],
                                         geo.area[a], mred, dt, integration, dim, out)
             applied = True
         else:
@@ -400,7 +407,7 @@ def pass_2_node(c, nodes, grid, held, rigid_of_group, mass, vnew, acc, geo, dec,
             dec.stick2[a, d] = imp[d]
             dec.applied2[a, d] = out[d] if applied else 0.0
         if HAS_INTERFACE and interface:  # XPIC increments re-impose only the bonded directions
-            apply_law(INTERFACE, 0.0, 0.0, geo.bonded[a], imp, n, dotn, True, dim, df)
+            apply_law(INTERFACE, 0.0, 0.0, bond, imp, n, dotn, True, dim, df)
             for d in range(dim):
                 dec.applied2[a, d] = df[d]
         dec.contact2[a] = 1 if applied else 0
