@@ -47,6 +47,7 @@ class DCB:
     ramp: float = 1.5  # ms
     end: float = 8.2  # ms
     offset: float = 0.0  # the interface's height above a grid line (cells)
+    tab: float | None = None  # the tabs' (and grips') width; default one cell
     extra: dict = field(default_factory=dict)  # deck entries replaced
 
     @property
@@ -74,11 +75,15 @@ class DCB:
         return np.sqrt(8.0 * self.M ** 3 / (self.E_prime * self.h ** 3 * np.asarray(delta)))
 
     @property
+    def tab_width(self) -> float:
+        return self.cell if self.tab is None else self.tab
+
+    @property
     def load_line(self) -> float:
-        return 0.5 * self.cell
+        return 0.5 * self.tab_width
 
     def deck(self) -> dict:
-        c, h, y0 = self.cell, self.h, self.offset * self.cell
+        c, h, y0, w = self.cell, self.h, self.offset * self.cell, self.tab_width
         tab = 2.0 * h
         elastic = {"type": "linear_elastic", "E": self.E, "nu": self.nu, "density": self.density}
         soft = dict(elastic, E=self.E / 20.0)
@@ -96,11 +101,11 @@ class DCB:
                           "grip_l": {"type": "rigid", "constrain": ["y"], "velocity": table(-1.0)}},
             "bodies": [{"shape": "rectangle", "min": [0.0, y0], "max": [self.length, y0 + h], "material": "upper"},
                        {"shape": "rectangle", "min": [0.0, y0 - h], "max": [self.length, y0], "material": "lower"},
-                       {"shape": "rectangle", "min": [0.0, y0 + h], "max": [c, y0 + h + tab], "material": "tab_u"},
-                       {"shape": "rectangle", "min": [0.0, y0 - h - tab], "max": [c, y0 - h], "material": "tab_l"},
-                       {"shape": "rectangle", "min": [0.0, y0 + h + tab], "max": [c, y0 + h + tab + c],
+                       {"shape": "rectangle", "min": [0.0, y0 + h], "max": [w, y0 + h + tab], "material": "tab_u"},
+                       {"shape": "rectangle", "min": [0.0, y0 - h - tab], "max": [w, y0 - h], "material": "tab_l"},
+                       {"shape": "rectangle", "min": [0.0, y0 + h + tab], "max": [w, y0 + h + tab + c],
                         "material": "grip_u"},
-                       {"shape": "rectangle", "min": [0.0, y0 - h - tab - c], "max": [c, y0 - h - tab],
+                       {"shape": "rectangle", "min": [0.0, y0 - h - tab - c], "max": [w, y0 - h - tab],
                         "material": "grip_l"}],
             "contact": {"normal": "specified", "normal_vector": [0.0, -1.0], "default": {"law": "frictionless"},
                         "pairs": [law, {"between": ["upper", "tab_u"], "law": "none"},
@@ -126,7 +131,7 @@ class Curve:
 def run_dcb(spec: DCB, every: int = 20, threads: int | None = 1) -> Curve:
     sim = Simulation(build_scene(as_loaded_deck(spec.deck(), "dcb", Path("."))), out_dir=None, threads=threads)
     P = sim.state.particles
-    near = np.abs(P.x0[:, 0] - spec.load_line) < 0.5 * spec.cell
+    near = np.abs(P.x0[:, 0] - spec.load_line) < 0.5 * spec.tab_width
     y0 = spec.offset * spec.cell
     top = near & (P.x0[:, 1] > y0) & (P.x0[:, 1] < y0 + spec.h)
     bottom = near & (P.x0[:, 1] < y0) & (P.x0[:, 1] > y0 - spec.h)

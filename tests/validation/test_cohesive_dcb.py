@@ -1,4 +1,6 @@
-"""The double cantilever beam against corrected beam theory (issue 78, Must show 2):
+"""The double cantilever beam against the converged solution of the same specimen and law
+(bench/cohesive_fem.py, stored in data/dcb_fem_reference.json) and corrected beam theory, which
+that solution is within 0.1% on the propagation branch (issue 78, Must show 2):
 tests/validation/cohesive_beams.py builds it and states the theory. make validate (one run of
 5 ms, ~2 minutes on one thread).
 
@@ -9,6 +11,9 @@ on a grid line; 0.5 mm cells (four across an arm), XPIC(2); the grips open at 0.
 7 mm."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +26,7 @@ SPEC = dict(cell=0.5, a0=12.0, length=26.0, peak=8.0, D=2000.0, V=0.4, ramp=0.5,
             extra={"update": {"scheme": "xpic", "order": 2}})
 WINDOW = 0.3  # mm of opening the load is averaged over (the crack front crosses a node at a time)
 LAST = 3.7  # mm: the opening at which beam theory's crack reaches 3h from the far end
+REFERENCE = Path(__file__).parent / "data" / "dcb_fem_reference.json"
 
 
 @pytest.fixture(scope="module")
@@ -34,14 +40,21 @@ def propagating(spec, c):
     return (c.opening > 1.2 * spec.peak_load * spec.compliance(spec.a0)) & (c.opening < LAST)
 
 
-def test_the_peak_load_is_corrected_beam_theory(dcb, measure):
-    """Peak load within 3% of M / (a0 + chi h) (measured +0.05%); the beam without the root
-    rotation (M / a0, 15% higher) fails the bound."""
+@pytest.mark.xfail(strict=True, reason="peak 5.9% above the converged solution of the same law (issue 78)")
+def test_the_peak_load_is_the_converged_solution_of_the_same_law(dcb, measure):
+    """Peak load within 3% of the converged finite-element solution of the same specimen and
+    law (bench/cohesive_fem.py dcb --h-elem 0.0625, stored in data/dcb_fem_reference.json:
+    1.7524 N/mm, 0.945 of beam theory's M / (a0 + chi h): the 3 mm cohesive zone rounds
+    LEFM's corner). Measured 1.0005 of beam theory, 1.059 of the converged peak: this fails
+    (xfail, strict). On 0.25 mm cells the peak is 0.991 of the converged one, but the
+    propagation load is then 6% low (docs/interfaces.md)."""
     spec, c = dcb
     peak = c.load.max()
-    measure("DCB peak load / M (a0 + chi h)", f"{peak / spec.peak_load:.4f}", "within 3%")
-    assert peak == pytest.approx(spec.peak_load, rel=0.03)
-    assert abs(peak / (spec.M / spec.a0) - 1.0) > 0.03
+    converged = json.loads(REFERENCE.read_text())["summary"]["p_peak"]
+    measure("DCB peak load / M (a0 + chi h)", f"{peak / spec.peak_load:.4f}", "none (beam theory's corner)")
+    measure("DCB peak load / converged FE peak", f"{peak / converged:.4f}", "within 3%")
+    assert abs(peak / (spec.M / spec.a0) - 1.0) > 0.03  # (the beam without the root rotation)
+    assert peak == pytest.approx(converged, rel=0.03)
 
 
 def test_the_load_follows_the_propagation_branch(dcb, measure):
