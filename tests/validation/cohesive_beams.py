@@ -182,7 +182,7 @@ class ENF:
     L: float = 25.0  # half span
     a0: float = 19.0
     overhang: float = 2.0
-    roller: float = 1.5  # radius of the nose and the supports
+    roller: float = 1.5  # radius of the rollers
     cell: float = 0.5
     peak: float = 8.0  # mode I peak traction
     shear_peak: float = 15.0
