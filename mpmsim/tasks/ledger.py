@@ -54,7 +54,7 @@ import numpy as np
 from numba import njit
 
 from ..bodies import INTERNAL, KINETIC, STRAIN
-from ..contact.grid.spec import COULOMB
+from ..contact.grid.spec import COULOMB, SLIVER
 from ..stability import total_sums
 from ..state import N_LOSSES
 
@@ -154,18 +154,15 @@ def slot_friction(cs, nn: int, mass: np.ndarray, dp: np.ndarray, v_start: np.nda
                          mass, dp, v_start, v_end, v_rigid, light)
 
 
-LIGHT = 1e-12  # fields lighter than this fraction of the heaviest are left out of the ledger
-
-
 def light_mass(mass: np.ndarray, fields: np.ndarray) -> float:
-    """The ledger's mass floor: LIGHT times the heaviest active field. A field with a sliver of
+    """The ledger's mass floor: SLIVER times the heaviest active field. A field with a sliver of
     a particle's shape function (mass ~ S, internal force ~ grad S) gets a velocity ~ 1/S that
     its particles, weighting it by S, never see; its kinetic energy, exact but huge, would be
     booked in one loss and taken back in another (the contact and transfer losses swinging by
     1e8 times the run's energy in one step, friction by 1e2 where such a slot was a target's
     partner). Left out of every account, such a field leaves its part of the stress power,
     order S, in the residual."""
-    return LIGHT * float(mass[fields].max()) if fields.size else 0.0
+    return SLIVER * float(mass[fields].max()) if fields.size else 0.0
 
 
 @njit(cache=True)

@@ -261,7 +261,7 @@ def test_a_sliver_of_mass_at_an_interface_node_books_no_energy():
     nodes above the interface with a sliver of its shape function (mass 1e-62 of the node's),
     and its round-off velocity made the cohesive spring report 6.7e-4 mJ there, 2e6 times the
     step's true 3e-10; the energy check stopped the run. With the sliver held bonded
-    (mpmsim/contact/grid/passes.py SLIVER), the interface energy grows smoothly."""
+    (mpmsim/contact/grid/spec.py SLIVER), the interface energy grows smoothly."""
     from tests.validation.cohesive_beams import ENF
 
     spec = ENF(end=12.0, extra={"update": {"scheme": "xpic", "order": 2}, "stability": {"energy_tolerance": 1e9}})

@@ -105,7 +105,7 @@ def test_fields_with_a_sliver_of_mass_are_left_out_of_the_losses():
     R/h = 10, Coulomb mu = 0.1) with `separation: fit`, which brings slots of mass down to 1e-41
     (a sliver of a particle's shape function) into contact: their velocity, ~1/S, is huge. Over
     its first 100 steps every loss moves by less than 1% of the initial energy per step and the
-    residual stays below 1e-4 of it. With the ledger's mass floor at zero (LIGHT = 0) the
+    residual stays below 1e-4 of it. With the ledger's mass floor at zero (mpmsim.contact.grid.spec.SLIVER = 0) the
     contact and transfer losses swing by +-1.8e8 E0 in step 66 and friction by -189 E0 in step 75."""
     spec = importlib.util.spec_from_file_location("oblique_fem", ROOT / "bench" / "oblique_fem.py")
     bench = importlib.util.module_from_spec(spec)

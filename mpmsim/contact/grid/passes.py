@@ -55,6 +55,7 @@ from ...gridops import chunk_range, node_ijk
 from ...parallel import BORROWING, chunk_kernel, specialize
 from ...views import GridView
 from .laws import apply_law, interface_impulse, plugin_dispatch
+from .spec import SLIVER
 from .spec import COULOMB, FRICTIONLESS, INTERFACE, STICK
 
 MAX_SLOTS = 64  # groups per node (masks are 64-bit)
@@ -323,10 +324,6 @@ class Pass2Settings(NamedTuple):
     # its holding change is a force, into a (FLIP, whose particles add only dt a)
 
 
-# an interface target whose reduced mass is below this fraction of the pair's mass (one side
-# reaches the node with a sliver of a particle's shape function) is held bonded: that side's
-# velocity is round-off over a vanishing mass, and a spring on it books noise as energy
-SLIVER = 1e-12
 HAS_INTERFACE = True  # a constant of pass_2_node, bound by pass_2_node_of (never compiled with this value)
 PASS_2_NODE = None  # pass_2_kernel's per-node function, bound by contact_pass_2
 

@@ -19,6 +19,11 @@ LAW_CODES = {"stick": STICK, "frictionless": FRICTIONLESS, "coulomb": COULOMB, "
 BUILT_IN_LAWS = tuple(LAW_CODES)
 FIRST_PLUGIN_LAW = 16  # codes of laws registered outside mpmsim (contact/grid/laws.register_law)
 PERFECT = -1.0  # interface stiffness code for a perfect direction
+# a sliver of mass: a field that only the far edge of a particle's shape function reaches
+# (mass ~ S, force ~ grad S) has a velocity that is round-off over a vanishing mass. Below this
+# fraction of the mass it is compared with, an interface target is held bonded (pass 2) and the
+# energy ledger leaves the field out of its accounts
+SLIVER = 1e-12
 OSCILLATOR, FORCE_LIMIT, FIRST_ORDER, TRAPEZOIDAL, BACKWARD_EULER = 0, 1, 2, 3, 4
 INTEGRATION_CODES = {"oscillator": OSCILLATOR, "force_limit": FORCE_LIMIT, "first_order": FIRST_ORDER,
                      "trapezoidal": TRAPEZOIDAL, "backward_euler": BACKWARD_EULER}
