@@ -391,7 +391,7 @@ class DeviceContact:
 
     def sums(self) -> SlotSums:
         d = self.d
-        return SlotSums(d["vol"], d["disp"], d["pos"], d["grad"], d["disp"], d["stiff"])  # (no interfaces: unused)
+        return SlotSums(d["vol"], d["disp"], d["pos"], d["grad"], d["disp"], d["stiff"], d["vol"])  # (no interfaces, no axisymmetry: unused)
 
     # ------------------------------------------------------------------ tasks
     def material_fields(self, state) -> None:

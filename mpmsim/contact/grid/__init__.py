@@ -87,10 +87,10 @@ def extrapolate_contact(state, with_mass: bool) -> None:
     cs, spec, box, sd = state.contact, state.contact.spec, state.box, state.sd
     R, f = state.rigid, state.fields
     nn, ns = state.grid.n_nodes, cs.n_slots
-    wants = spec.wants()
+    wants = spec.wants(state.shape.axisymmetric)
     if with_mass:
         interface_sums = (cs.udisp, cs.ugrad) if spec.has_interface else ()  # read only by interfaces
-        for arr in (cs.vol, cs.disp, cs.pos, cs.grad, *interface_sums):
+        for arr in (cs.vol, cs.rvol, cs.disp, cs.pos, cs.grad, *interface_sums):
             arr[:ns] = 0.0
         scatter_slot_extras(Scatter(cs.slot_order, cs.slot_ptr, cs.fidx, sd.S), sd.G,
                             contact_measure(state.particles, state), state.grid.view, nn, cs.slot_node, wants, cs.sums())

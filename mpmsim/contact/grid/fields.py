@@ -206,7 +206,8 @@ def scatter_slot_extras(sc, G, P, grid, n_nodes, slot_node, wants, sums):
     pmass, pvol, x, x0, F = P.mass, P.vol, P.x, P.x0, P.F
     shape, origin, h = grid.shape, grid.origin, grid.h
     want_disp, want_pos, want_grad, want_open, carry = wants.disp, wants.pos, wants.grad, wants.open, wants.carry
-    vol, disp, pos, grad, udisp, ugrad = sums.vol, sums.disp, sums.pos, sums.grad, sums.udisp, sums.ugrad
+    want_radius = wants.radius
+    vol, disp, pos, grad, udisp, ugrad, rvol = sums.vol, sums.disp, sums.pos, sums.grad, sums.udisp, sums.ugrad, sums.rvol
     K = S.shape[1]
     dim = x.shape[1]
     order, ptr = sc.order, sc.ptr
@@ -224,6 +225,8 @@ def scatter_slot_extras(sc, G, P, grid, n_nodes, slot_node, wants, sums):
                     sl = f - n_nodes
                     w = S[p, k]
                     vol[sl] += w * pvol[p]
+                    if want_radius:  # pvol is the r-z area (contact_measure): times r, the volume per radian
+                        rvol[sl] += w * pvol[p] * x[p, 0]
                     for d in range(dim):
                         if want_disp:
                             disp[sl, d] += w * pmass[p] * (x[p, d] - x0[p, d])
@@ -274,7 +277,7 @@ def scatter_rigid_slots(fidx, rsd, R, n_nodes, with_mass, wants, mass, mom, sums
     momentum is added."""
     S, G, rvol, rv, rx, rx0 = rsd.S, rsd.G, R.vol, R.v, R.x, R.x0
     want_disp, want_pos, want_grad, want_open = wants.disp, wants.pos, wants.grad, wants.open
-    vol, disp, pos, grad, udisp = sums.vol, sums.disp, sums.pos, sums.grad, sums.udisp
+    vol, disp, pos, grad, udisp, vol_r = sums.vol, sums.disp, sums.pos, sums.grad, sums.udisp, sums.rvol
     n, K = S.shape
     dim = rx.shape[1]
     for p in range(n):
@@ -290,6 +293,8 @@ def scatter_rigid_slots(fidx, rsd, R, n_nodes, with_mass, wants, mass, mom, sums
                 continue
             mass[f] += w
             vol[sl] += w
+            if wants.radius:
+                vol_r[sl] += w * rx[p, 0]
             for d in range(dim):
                 if want_disp:
                     disp[sl, d] += w * (rx[p, d] - rx0[p, d])

@@ -156,6 +156,22 @@ def lumped_neighbour(a, s0, s1, nodes, vol):
 
 
 @njit(cache=True, inline="always")
+def mean_radius(s0, s1, sums):
+    """Axisymmetric: the mean radius of the material at a node (its slots' r-weighted over
+    their r-z volumes), which turns an r-z contact area into one per radian. The interface
+    paper's node radius r_i is that mean for a node whose shape function lies whole in the
+    material; on the axis (half a hat, mean radius about h/3) it gave no area, so an interface
+    crossing the axis (an inclusion's pole) carried nothing there, and at a body's outer edge it
+    overstated the area."""
+    v = 0.0
+    rv = 0.0
+    for s in range(s0, s1):
+        v += sums.vol[s]
+        rv += sums.rvol[s]
+    return rv / v if v > 0.0 else 0.0
+
+
+@njit(cache=True, inline="always")
 def reduced_mass(a, b, rigid_b, s0, s1, nodes, mass):
     """m_a m_b / (m_a + m_b) of target a and its partner side (m_a against a rigid one)."""
     nn = nodes.nn
@@ -434,8 +450,8 @@ def target_geometry(a, node, s0, s1, c0, c1, xnode, inp, geo, R, v):
     area = contact_area(omega_a, omega_b, hp, d_edge, use_edge, method.spline)
     if not method.area_correction:
         area = (omega_a + omega_b) / hp
-    if method.axisymmetric:  # per radian: the node's radius (zero on the axis)
-        area *= xnode[0]
+    if method.axisymmetric:  # per radian: times the mean radius of the node's material
+        area *= mean_radius(s0, s1, inp.sums)
     geo.area[a] = area
     # Eq. 20's factor sqrt(2 min / total) is the linear shape function of the node at the
     # interface: 1 on the node, 1/2 half a cell away; the node sits on the side of its larger

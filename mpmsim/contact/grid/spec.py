@@ -54,6 +54,7 @@ class Wants(NamedTuple):
     grad: bool  # volume gradient (gradient normals)
     open: bool  # interface openings
     carry: bool  # openings carried to the interface point (else at the node)
+    radius: bool  # axisymmetric: the slots' r-weighted volumes (contact areas per radian)
 
 
 class Method(NamedTuple):
@@ -138,9 +139,9 @@ class ContactSpec:
                       self.interface_integration, self.area_correction, self.use_h_perp, screen, self.touch * h_min,
                       h_min, axisymmetric, mirror)
 
-    def wants(self) -> Wants:
+    def wants(self, axisymmetric: bool = False) -> Wants:
         return Wants(self.needs_displacement, self.needs_position, self.needs_gradients, self.has_interface,
-                     self.opening_at_interface)
+                     self.opening_at_interface, axisymmetric)
 
     @property
     def has_interface(self) -> bool:

@@ -45,6 +45,7 @@ class SlotSums(NamedTuple):
     grad: np.ndarray  # sum G V (gradient normals)
     udisp: np.ndarray  # interfaces: sum S m u carried to the node
     ugrad: np.ndarray  # interfaces: sum S m H
+    rvol: np.ndarray  # axisymmetric: sum S V r (the slot's mean radius is rvol / vol)
 
 
 class Clouds(NamedTuple):
@@ -155,7 +156,7 @@ class ContactWorkspace:
         self.cn_ptr = z(cap + 1, dtype=np.int64)
         self.slot_group = z(cap, dtype=np.int64)
         self.slot_node = z(cap, dtype=np.int64)
-        self.vol, self.delta, self.area = z(cap), z(cap), z(cap)
+        self.vol, self.rvol, self.delta, self.area = z(cap), z(cap), z(cap), z(cap)
         self.disp, self.pos, self.grad, self.dp1, self.hold, self.normal = (z((cap, dim)) for _ in range(6))
         self.udisp, self.ugrad = z((cap, dim)), z((cap, dim, dim))  # interfaces: displacement at the node, gradient
         self.stick2, self.applied2, self.stick_total, self.applied_total = (z((cap, dim)) for _ in range(4))
@@ -204,7 +205,7 @@ class ContactWorkspace:
         return SlotMap(self.node_cn, self.cn_ptr, self.slot_group, self.mask, self.spec.n_def_groups)
 
     def sums(self) -> SlotSums:
-        return SlotSums(self.vol, self.disp, self.pos, self.grad, self.udisp, self.ugrad)
+        return SlotSums(self.vol, self.disp, self.pos, self.grad, self.udisp, self.ugrad, self.rvol)
 
     def clouds(self, P, R) -> Clouds:
         return Clouds(self.cloud_ptr, self.cloud_idx, self.cloud_w, self.group, self.rgroup, P.n, P.x, R.x, P.F,
