@@ -5,6 +5,7 @@
     python bench/interfaces.py sphere      # Figs. 12/13: bulk modulus vs D = Dn = Dt, by energy and pressure
     python bench/interfaces.py cost        # particle-steps/s: one body, stick, interface (3 schemes)
     python bench/interfaces.py chart       # redraw the charts from the saved results
+    python bench/interfaces.py inclusion   # a cohesive sphere debonding: docs/figures/cohesive_inclusion.png
 
 Every run is saved as it finishes (results/bench_interfaces/*.json), so an interrupted sweep
 resumes. Runs are single-threaded; `--workers N` runs N at once.
@@ -238,15 +239,58 @@ def cohesive_cost(steps: int = 300, rounds: int = 5):
     print(f"cohesive / elastic: {med['cohesive'] / med['elastic']:.3f}")
 
 
+def inclusion():
+    """The debonding sphere of tests/validation/cohesive_inclusion.py (its defaults: R/h = 10,
+    loaded to 9 MPa): the sphere's interface damage against the polar angle at six far-field
+    stresses, with Goodier's bonded tractions, in docs/figures/cohesive_inclusion.png."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from tests.validation.cohesive_inclusion import Inclusion, run_inclusion
+
+    spec = Inclusion()
+    run = run_inclusion(spec)
+    print(f"onset {run.onset:.3f} MPa = {run.onset / spec.onset_stress:.4f} of Goodier's {spec.onset_stress:.3f}; "
+          f"most damage before it {run.early:.3f}")
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4))
+    order = np.argsort(run.theta)
+    for s in (6.0, 6.5, 7.0, 7.5, 8.0, 8.5):
+        k = np.argmin(np.abs(run.stress - s))
+        ax.plot(run.theta[order], run.damage[k][order], ".-", ms=3, label=f"{run.stress[k]:.1f} MPa")
+    ax.set_xlabel("polar angle from the loading axis (degrees)")
+    ax.set_ylabel("interface damage (sphere side)")
+    ax.set_title(f"debond onset at {run.onset:.2f} MPa (Goodier: {spec.onset_stress:.2f})")
+    ax.legend(title="far-field stress")
+    theta = np.linspace(0.0, 90.0, 91)
+    tn, tt = spec.tractions(np.radians(theta))
+    bx.plot(theta, tn, label="normal")
+    bx.plot(theta, tt, label="shear")
+    bx.plot(theta, np.hypot(np.maximum(tn, 0.0), tt), "k--", label="onset measure (quadratic)")
+    bx.set_xlabel("polar angle (degrees)")
+    bx.set_ylabel("interface traction / applied stress")
+    bx.set_title("Goodier's bonded sphere")
+    bx.legend()
+    fig.tight_layout()
+    FIGURES.mkdir(parents=True, exist_ok=True)
+    fig.savefig(FIGURES / "cohesive_inclusion.png", dpi=110)
+    print(FIGURES / "cohesive_inclusion.png")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["two_layer", "dls", "sphere", "all", "chart", "cost", "cohesive_cost"])
+    ap.add_argument("what", choices=["two_layer", "dls", "sphere", "all", "chart", "cost", "cohesive_cost",
+                                           "inclusion"])
     ap.add_argument("--workers", type=int, default=1)
     a = ap.parse_args()
     if a.what == "cost":
         return cost()
     if a.what == "cohesive_cost":
         return cohesive_cost()
+    if a.what == "inclusion":
+        return inclusion()
     sets = {"two_layer": two_layer_jobs, "dls": dls_jobs, "sphere": sphere_jobs}
     for name in (sets if a.what == "all" else [a.what] if a.what != "chart" else []):
         run_all(sets[name](), a.workers)

@@ -181,7 +181,6 @@ def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix
             continue
         sw = 0.0
         sd = 0.0
-        share = 0.0
         mix = 0.0
         op = 0.0
         r = -1
@@ -192,16 +191,16 @@ def carry_damage(order, fidx, S, pmass, n_nodes, den, trial, slot_area, slot_mix
             s = f - n_nodes
             if trial[s] < 0.0:
                 continue
-            sw += S[p, k]
-            sd += S[p, k] * trial[s]
-            mix += S[p, k] * slot_mix[s]
-            op += S[p, k] * slot_open[s]
-            share += S[p, k] * pmass[p] / den[s] * slot_area[s]
+            w = S[p, k] * pmass[p] / den[s] * slot_area[s]  # its share of the slot's area
+            sw += w
+            sd += w * trial[s]
+            mix += w * slot_mix[s]
+            op += w * slot_open[s]
             r = law_of[s]
         if sw > 0.0:
             opening[p] = op / sw
             if area[p] == 0.0:
-                area[p] = share
+                area[p] = sw
         if sw > 0.0 and sd / sw > damage[p]:
             new = min(sd / sw, 1.0)
             energy += area[p] * dissipation(damage[p], new, mix / sw, params[r])
