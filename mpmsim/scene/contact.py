@@ -257,3 +257,41 @@ def untouched_pairs(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray,
             out.append((("contact", "default", "law"), "a cohesive default law, but no two materials' particles are "
                         "within two cells of each other at the start"))
     return out
+
+
+def inverted_normals(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray, h: float) -> list[str]:
+    """Notices: a specified normal (vector or radial) that points, across a cohesive pair's
+    interface, from the higher-numbered material into the lower (it points from the lower to the
+    higher): the law would read every opening as compression and never soften. Judged from the
+    pair's particles within two cells of each other at the start."""
+    from scipy.spatial import cKDTree
+
+    c = deck.contact
+    if c.normal != "specified":
+        return []
+    pairs = {frozenset(p.between): p.law for p in c.pairs}
+    out = []
+    for k, a in enumerate(deformable):
+        for b in deformable[k + 1:]:
+            if pairs.get(frozenset((a, b)), c.default.law) != "cohesive":
+                continue
+            xa, xb = x[mat == k], x[mat == deformable.index(b)]
+            if not len(xa) or not len(xb):
+                continue
+            near_a = xa[np.isfinite(cKDTree(xb).query(xa, k=1, distance_upper_bound=2.0 * h)[0])]
+            near_b = xb[np.isfinite(cKDTree(xa).query(xb, k=1, distance_upper_bound=2.0 * h)[0])]
+            if not len(near_a) or not len(near_b):
+                continue
+            if c.normal_center is not None:
+                centre = np.asarray(c.normal_center, dtype=float)
+                along = lambda y: np.linalg.norm(y - centre, axis=1)  # noqa: E731
+                key = "normal_center"
+            else:
+                n = np.asarray(c.normal_vector, dtype=float)
+                along = lambda y: y @ (n / np.linalg.norm(n))  # noqa: E731
+                key = "normal_vector"
+            if along(near_a).mean() > along(near_b).mean():
+                out.append(f"contact.{key}: the specified normal points from '{a}' to '{b}' (from the material "
+                           f"listed first to the other), but '{a}' lies beyond '{b}' along it: their cohesive law "
+                           f"would read every opening as compression; list '{b}' first or reverse the normal")
+    return out

@@ -304,3 +304,22 @@ def test_an_interface_crossing_the_axis_opens_there_as_elsewhere():
     middle = P.interface_opening[near & (r > 0.5) & (r < 1.0)].mean()
     assert middle == pytest.approx(T / D, rel=0.05)
     assert axis == pytest.approx(middle, rel=0.02)
+
+
+@pytest.mark.parametrize("normal, warned", [({"normal_vector": [0.0, 1.0]}, False),
+                                            ({"normal_vector": [0.0, -1.0]}, True),
+                                            ({"normal_center": [2.0, -10.0]}, False),
+                                            ({"normal_center": [2.0, 14.0]}, True)])
+def test_a_specified_normal_pointing_the_wrong_way_is_a_notice(normal, warned):
+    """The specified normal points from the material listed first ('a', below) to the other
+    ('b', above). Pointing the other way (down, or radially from a centre above the blocks) a
+    cohesive law reads every opening as compression and never softens (the debonding sphere
+    listed matrix first never debonded at its pole): `check` and `run` say so, naming the key."""
+    data = deck("I")
+    data["contact"].pop("normal_vector")
+    data["contact"].update(normal)
+    notices = build_scene(as_loaded_deck(data, "cohesive", Path("."))).notices
+    said = [n for n in notices if "the specified normal points from 'a' to 'b'" in n]
+    assert bool(said) == warned
+    if warned:
+        assert said[0].startswith(f"contact.{next(iter(normal))}:")
