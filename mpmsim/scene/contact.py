@@ -230,17 +230,23 @@ def grid_spec(deck, materials, default: PairLaw, pairs: list) -> ContactSpec | N
                        cohesive_table(n_groups, cohesive) if cohesive else None)
 
 
+def near(xa: np.ndarray, xb: np.ndarray, dist: float) -> np.ndarray:
+    """Which of the points xa lie within dist of some point of xb (none if either is empty)."""
+    if not len(xa) or not len(xb):
+        return np.zeros(len(xa), dtype=bool)
+    from scipy.spatial import cKDTree
+
+    return cKDTree(xb).query(xa, k=1, distance_upper_bound=dist)[0] < dist
+
+
 def untouched_pairs(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray, h: float) -> list[tuple[tuple, str]]:
     """Deck problems: a cohesive law on a pair of materials whose particles lie nowhere within
     two cells of each other at the start (it would never bond, never act): one per `pairs`
     entry, and for a cohesive `default` only when none of its pairs touches."""
-    from scipy.spatial import cKDTree
 
     def touch(a: str, b: str) -> bool:
-        ia, ib = deformable.index(a), deformable.index(b)
-        xa, xb = x[mat == ia], x[mat == ib]
-        return len(xa) > 0 and len(xb) > 0 and bool(cKDTree(xb).query(xa, k=1, distance_upper_bound=2.0 * h)[0].min()
-                                                      < 2.0 * h)
+        xa, xb = x[mat == deformable.index(a)], x[mat == deformable.index(b)]
+        return bool(near(xa, xb, 2.0 * h).any())
 
     c, out = deck.contact, []
     listed = set()
@@ -264,8 +270,6 @@ def inverted_normals(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray
     interface, from the higher-numbered material into the lower (it points from the lower to the
     higher): the law would read every opening as compression and never soften. Judged from the
     pair's particles within two cells of each other at the start."""
-    from scipy.spatial import cKDTree
-
     c = deck.contact
     if c.normal != "specified":
         return []
@@ -276,10 +280,7 @@ def inverted_normals(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray
             if pairs.get(frozenset((a, b)), c.default.law) != "cohesive":
                 continue
             xa, xb = x[mat == k], x[mat == deformable.index(b)]
-            if not len(xa) or not len(xb):
-                continue
-            near_a = xa[np.isfinite(cKDTree(xb).query(xa, k=1, distance_upper_bound=2.0 * h)[0])]
-            near_b = xb[np.isfinite(cKDTree(xa).query(xb, k=1, distance_upper_bound=2.0 * h)[0])]
+            near_a, near_b = xa[near(xa, xb, 2.0 * h)], xb[near(xb, xa, 2.0 * h)]
             if not len(near_a) or not len(near_b):
                 continue
             if c.normal_center is not None:
