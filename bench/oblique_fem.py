@@ -242,8 +242,10 @@ def plain_deck(scene: Scene, h: float, mu: float, contact: dict | None = None, b
 
 def run_mpm(scene: Scene, rh: float, mu: float, contact: dict | None = None, body: dict | None = None,
             block_body: dict | None = None) -> dict:
-    """The plain MPM deck at R/h = rh: the cylinder's rebound, energy and friction share, and the
-    run's wall time (s)."""
+    """The plain MPM deck at R/h = rh: the cylinder's rebound, energy at the end and friction's
+    share, the largest kinetic + strain energy at any history row (energy_max) and with friction's
+    share added (booked_max), both over E0,
+    the angular momentum about the touch point (touch_momentum), and the run's wall time (s)."""
     from mpmsim.deck.loader import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
@@ -258,27 +260,96 @@ def run_mpm(scene: Scene, rh: float, mu: float, contact: dict | None = None, bod
     mass = float(np.hypot(px[0], py[0]) / np.hypot(*scene.velocity))
     energy = col("kinetic_energy") + col("strain_energy")
     return {"vx": float(px[-1] / mass), "vy": float(py[-1] / mass), "energy_ratio": float(energy[-1] / energy[0]),
-            "friction": float(col("friction_loss")[-1] / energy[0]), "wall_s": wall}
+            "friction": float(col("friction_loss")[-1] / energy[0]),
+            "energy_max": float(np.max(energy) / energy[0]),
+            "booked_max": float(np.max(energy + col("friction_loss")) / energy[0]),
+            "touch_L": touch_momentum(col("L_cylinder"), px, py, scene), "wall_s": wall}
+
+
+def touch_momentum(L: np.ndarray, px: np.ndarray, py: np.ndarray, scene: Scene) -> float:
+    """The cylinder's angular momentum about the first touch point P = (x0, top) at the end over
+    its start (L about the origin less P x p). Contact forces act through P to within the
+    patch's width and its drift (the continuum: 1.000), so 1 - this is the moment the contact
+    forces took: the MPM contact's rolling resistance where the nodes carrying the force lie
+    off the patch."""
+    Lp = L - (scene.x0 * py - scene.top * px)
+    return float(Lp[-1] / Lp[0])
+
+
+def continuum_touch_momentum(record: dict, scene: Scene) -> float:
+    """touch_momentum of a stored continuum run from its end velocity and spin (the centre's
+    drift over the contact, under 0.04 mm, neglected: c - P = (0, R))."""
+    mass = scene.cylinder[2] * math.pi * scene.radius ** 2
+    vx0 = scene.velocity[0]
+    return (record["vx"] - record["spin"] / (mass * scene.radius)) / vx0
+
+
+def contact_nodes(scene: Scene, rh: float, mu: float, contact: dict | None = None, body: dict | None = None,
+                  block_body: dict | None = None) -> None:
+    """The plain deck at R/h = rh, stepped with output.contact_traction: the impulse each contact
+    node gave the cylinder over the impact (pass 2's change, as the history's contact force sums
+    it), by the node's offset from the first touch point P = (x0, top) in cells, and the offset
+    of the normal impulse's centre from the cylinder's centre. Nodes under 0.1% of the total are
+    left out."""
+    from mpmsim.contact.grid.traction import node_tractions
+    from mpmsim.deck.loader import as_loaded_deck
+    from mpmsim.scene import build_scene
+    from mpmsim.solver import Simulation
+
+    data = plain_deck(scene, scene.radius / rh, mu, contact, body, block_body)
+    data["output"]["contact_traction"] = True
+    built = build_scene(as_loaded_deck(data, "oblique_mpm", ROOT))
+    sim = Simulation(built, out_dir=None, threads=1)
+    st, g = sim.state, sim.state.grid
+    h = scene.radius / rh
+    cylinder = int(st.contact.spec.mat_group[built.materials.names.index("cylinder")])
+    impulse: dict[tuple[int, int], np.ndarray] = {}
+    while st.t < sim.end * (1.0 - 1e-9):
+        sim.step()
+        nt = node_tractions(st.contact)
+        if not len(nt.slot):
+            continue
+        # a target of the cylinder takes its force; one of the block gives the cylinder the opposite
+        sign = np.where(nt.group == cylinder, 1.0, -1.0)[:, None]
+        ij = np.stack([nt.node % g.shape[0], (nt.node // g.shape[0]) % g.shape[1]], 1)
+        x = g.origin[:2] + ij * h
+        for k in range(len(nt.slot)):
+            key = (int(round((x[k, 0] - scene.x0) / h)), int(round((x[k, 1] - scene.top) / h)))
+            impulse.setdefault(key, np.zeros(2))
+            impulse[key] += sign[k] * nt.force[k] * st.dt
+    total = sum(impulse.values())
+    print(f"R/h = {rh:g}, mu = {mu:g}: the cylinder's impulse per contact node (m = cylinder mass, "
+          f"J / m in m/s), node offset from P in cells (along x, y)")
+    print("| node (x, y) | Jx / m | Jy / m | share of Jy |")
+    print("|---|---|---|---|")
+    mass = scene.cylinder[2] * math.pi * scene.radius ** 2
+    for key in sorted(impulse):
+        j = impulse[key]
+        if abs(j[1]) >= 1e-3 * abs(total[1]):
+            print(f"| ({key[0]:+d}, {key[1]:+d}) | {j[0] / mass:+.4f} | {j[1] / mass:+.4f} | {j[1] / total[1]:.3f} |")
+    arm = sum(k[0] * h * j[1] for k, j in impulse.items()) / total[1]
+    print(f"total J / m = ({total[0] / mass:+.4f}, {total[1] / mass:+.4f}); the normal impulse's centre "
+          f"{arm:+.3f} mm ({arm / h:+.2f} cells) from P along x")
 
 
 def mpm_table(scene: Scene, rhs: list[float], mus: list[float], contact: dict | None = None,
               body: dict | None = None, block_body: dict | None = None) -> None:
     rows = [r for r in continuum_runs() if Scene(**scene_args(r)) == scene
             and r.get("material", "linear_elastic") == "linear_elastic"]
-    print("| mu | run | vx | vy | E end / E0 | friction / E0 | wall (s) |")
-    print("|---|---|---|---|---|---|---|")
+    print("| mu | run | vx | vy | E end / E0 | friction / E0 | L about P, end / start | wall (s) |")
+    print("|---|---|---|---|---|---|---|---|")
     for mu in mus:
         fem = [r for r in rows if r["mu"] == mu]
         if fem:
             f = max(fem, key=lambda r: r["level"])
             print(f"| {mu:g} | continuum (level {f['level']}) | {f['vx']:.4f} | {f['vy']:.4f} | {f['energy_ratio']:.4f} "
-                  f"| {1 - f['energy_ratio']:.4f} | |")  # (elastic bodies: all the continuum loses is friction's)
+                  f"| {1 - f['energy_ratio']:.4f} | {continuum_touch_momentum(f, scene):.4f} | |")  # (elastic bodies: all the continuum loses is friction's)
         for rh in rhs:
             m = run_mpm(scene, rh, mu, contact, body, block_body)
             cmp = (f" ({100 * (m['vx'] / f['vx'] - 1):+.1f}%)", f" ({100 * (m['vy'] / f['vy'] - 1):+.1f}%)") if fem \
                 else ("", "")
             print(f"| {mu:g} | MPM, R/h = {rh:g} | {m['vx']:.4f}{cmp[0]} | {m['vy']:.4f}{cmp[1]} | "
-                  f"{m['energy_ratio']:.4f} | {m['friction']:.4f} | {m['wall_s']:.0f} |", flush=True)
+                  f"{m['energy_ratio']:.4f} | {m['friction']:.4f} | {m['touch_L']:.4f} | {m['wall_s']:.0f} |", flush=True)
 
 
 STORED = [ROOT / "tests" / "validation" / "data" / f for f in ("oblique_fem_reference.json", "oblique_fem_scene2.json")]
@@ -326,7 +397,7 @@ def key_values(parser: argparse.ArgumentParser, items: list[str], option: str) -
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("command", choices=["run", "table", "mpm"])
+    parser.add_argument("command", choices=["run", "table", "mpm", "nodes"])
     parser.add_argument("--rh", type=float, nargs="+", default=[10.0, 20.0], help="mpm: R/h of the MPM runs")
     parser.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2, 3])
     parser.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.3])
@@ -357,6 +428,12 @@ def main() -> None:
                   tuple(args.block_size), args.end)
     if args.command == "table":
         table()
+        return
+    if args.command == "nodes":
+        for rh in args.rh:
+            for mu in args.mu:
+                contact_nodes(scene, rh, mu, key_values(parser, args.contact, "--contact"),
+                              key_values(parser, args.body, "--body"), key_values(parser, args.block_body, "--block-body"))
         return
     if args.command == "mpm":
         mpm_table(scene, args.rh, args.mu, key_values(parser, args.contact, "--contact"),

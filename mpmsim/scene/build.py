@@ -20,7 +20,7 @@ from ..materials import MaterialTable
 from .materials import build_material_table
 from .geometry import bbox, body_materials, inside
 from ..shapes import shape_function
-from .contact import ContactModel, build_contact_model, inverted_normals, untouched_pairs
+from .contact import ContactModel, build_contact_model, inverted_normals, patch_resolution_notices, untouched_pairs
 from .fem import FemSeed, build_fem
 from .settings import RunSettings, run_settings
 from .grid import FACE_CODES, FACES, FREE, ROLLER, GridSpec, plan_grid
@@ -117,6 +117,8 @@ def build_scene(loaded: LoadedDeck) -> Scene:
             raise_at(problems, loaded)
         notices = list(notices) + inverted_normals(deck, list(mats.deformable), deformable.mat, deformable.x,
                                                    float(grid.h.max()))
+    if contact.grid is not None:
+        notices = list(notices) + patch_resolution_notices(deck, float(grid.h.max()))
     return Scene(loaded, grid, mats, deformable, rigid, semi, deck.thickness, contact,
                  infos(deformable, "particles"), infos(rigid, "rigid particles"), fem, settings,
                  deck_digest(deck), deck.model_dump(mode="json"), tuple(notices), seedings)

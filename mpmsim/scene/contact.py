@@ -25,6 +25,7 @@ from ..contact.grid.spec import (FIRST_PLUGIN_LAW, INTEGRATION_CODES, LAW_CODES,
                                  SEPARATION_CODES, ContactSpec)
 from ..contact.cohesive import law_parameters, stiffnesses
 from ..deck.contact import material_groups
+from ..deck.semantics import body_name
 from ..deck.schema import Implicit, Rigid
 
 
@@ -295,4 +296,39 @@ def inverted_normals(deck, deformable: list[str], mat: np.ndarray, x: np.ndarray
                 out.append(f"contact.{key}: the specified normal points from '{a}' to '{b}' (from the material "
                            f"listed first to the other), but '{a}' lies beyond '{b}' along it: their cohesive law "
                            f"would read every opening as compression; list '{b}' first or reverse the normal")
+    return out
+
+
+# a round body moving into frictional grid contact with fewer cells across its radius is
+# warned about (docs/contact.md, "Resolve the contact patch"; the oblique cylinder's rows in
+# docs/contact-methods.md: vx within 2% of the continuum from R/h = 40)
+RESOLVED_RADIUS_CELLS = 40.0
+
+
+def patch_resolution_notices(deck, h: float) -> list[str]:
+    """Notices: a circle or sphere of particles that moves at the start, in an explicit deck
+    whose contact law for its material is Coulomb, with radius / h under RESOLVED_RADIUS_CELLS.
+    An impact's contact patch is then under a cell wide, the nodes beside it carry its force,
+    and their moment acts as a rolling resistance."""
+    if deck.integrator == "implicit":
+        return []
+    c = deck.contact
+    out = []
+    for i, b in enumerate(deck.bodies):
+        if b.discretization != "particles" or getattr(b, "shape", None) not in ("circle", "sphere"):
+            continue
+        v = b.velocity
+        if v is None or (isinstance(v, (list, tuple)) and not any(v)):
+            continue
+        laws = [c.default.law] + [p.law for p in c.pairs if b.material in p.between]
+        if "coulomb" not in laws:
+            continue
+        cells = b.radius / h
+        if cells < RESOLVED_RADIUS_CELLS:
+            out.append(f"bodies.{i}: '{body_name(b, i)}' is a {b.shape} of radius {cells:.3g} cells moving into "
+                       "frictional contact: an impact's contact patch is then under a cell wide and the nodes "
+                       "beside it, which carry its force, act as a rolling resistance (a cylinder struck "
+                       "obliquely with friction 0.3 rebounds 16%, 5% and 0.3% off the continuum in vx at "
+                       f"10, 20 and 40 cells); use {RESOLVED_RADIUS_CELLS:.0f} or more cells across the radius "
+                       "where the rebound matters (docs/contact.md, \"Resolve the contact patch\")")
     return out

@@ -1,0 +1,58 @@
+"""No contact deck of inputs/ makes energy (issue 77, Must show 4).
+
+Each explicit deck of inputs/ with grid contact runs to its end with the energy ledger, and at
+every history row what the bodies hold plus what friction and fracture took (kinetic + strain
++ internal + interface energy + plastic work + friction_loss + fracture_loss) may exceed the
+initial total plus the external work (walls, pistons, rigid bodies, loads) by at most 0.2% of
+the larger of the two (the work put in so far: E0 + max |external_work|). The numerical
+losses (transfers, contact, conditions, force gap) may only take energy out. The ellipse box
+(inputs/ellipse_box.yaml, ten minutes at its 1/20 mm cells) has its own balance test in
+test_compaction.py; the implicit and FEM decks are judged in their own files.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from mpmsim.scene import build_scene
+from mpmsim.solver import Simulation
+
+from ..conftest import ROOT, deck_from
+
+pytestmark = [pytest.mark.contact_continuum, pytest.mark.validation]
+
+# the explicit contact decks (grid contact between two or more velocity fields); measured
+# largest excess at any row, in units of E0 + max |W| (the suite's bound: 0.002)
+DECKS = ["contact_gap", "contact_gap_midcell", "dls", "nickel_shock_split", "oblique_impact", "sphere_composite",
+         "sphere_composite_rz", "two_layer", "two_blocks", "two_blocks_3d"]
+
+HELD = ("kinetic_energy", "strain_energy", "internal_energy", "interface_energy", "plastic_work", "friction_loss",
+        "fracture_loss")
+
+
+def energy_excess(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(time, excess) of inputs/<name>.yaml run to its end with the ledger and no files:
+    excess = (held - external_work - held at t = 0) / (E0 + the largest |external_work| so far)."""
+    data = yaml.safe_load((ROOT / "inputs" / f"{name}.yaml").read_text())
+    data.setdefault("output", {})["energy_ledger"] = True
+    sim = Simulation(build_scene(deck_from(data, ROOT / "inputs", name)), out_dir=None, threads=1)
+    sim.run()
+    rec = sim.recorder
+    names = set(rec.names)
+    held = sum(rec.column(n) for n in HELD if n in names)
+    work = rec.column("external_work")
+    scale = held[0] + np.maximum.accumulate(np.abs(work))
+    excess = (held - work - held[0]) / np.where(scale > 0.0, scale, 1.0)
+    return rec.column("time"), excess
+
+
+@pytest.mark.parametrize("name", DECKS)
+def test_no_contact_deck_makes_energy(name, measure):
+    t, excess = energy_excess(name)
+    i = int(np.argmax(excess))
+    measure(f"inputs/{name}.yaml: largest excess over E0 + external work, at t", f"{excess[i]:+.2e} at {t[i]:.4g}",
+            "<= 0.002")
+    assert len(excess) > 10
+    assert excess[i] <= 0.002, (name, t[i], excess[i])
