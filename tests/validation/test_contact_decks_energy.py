@@ -4,7 +4,7 @@ Each explicit deck of inputs/ with grid contact runs to its end with the energy 
 every history row what the bodies hold plus what friction and fracture took (kinetic + strain
 + internal + interface energy + plastic work + friction_loss + fracture_loss) may exceed the
 initial total plus the external work (walls, pistons, rigid bodies, loads) by at most 0.2% of
-the larger of the two (the work put in so far: E0 + max |external_work|). The numerical
+the energy put in so far (E0 plus the largest |external_work| up to that row). The numerical
 losses (transfers, contact, conditions, force gap) may only take energy out. The ellipse box
 (inputs/ellipse_box.yaml, ten minutes at its 1/20 mm cells) has its own balance test in
 test_compaction.py; the implicit and FEM decks are judged in their own files.
@@ -23,10 +23,26 @@ from ..conftest import ROOT, deck_from
 
 pytestmark = [pytest.mark.contact_continuum, pytest.mark.validation]
 
-# the explicit contact decks (grid contact between two or more velocity fields); measured
-# largest excess at any row, in units of E0 + max |W| (the suite's bound: 0.002)
-DECKS = ["contact_gap", "contact_gap_midcell", "dls", "nickel_shock_split", "oblique_impact", "sphere_composite",
-         "sphere_composite_rz", "two_layer", "two_blocks", "two_blocks_3d"]
+OWN_TEST = {"ellipse_box"}
+
+
+def contact_decks() -> list[str]:
+    """The decks of inputs/ run by the explicit step with only particle bodies and a contact
+    section, but those with their own energy test."""
+    out = []
+    for path in sorted((ROOT / "inputs").glob("*.yaml")):
+        data = yaml.safe_load(path.read_text())
+        explicit = data.get("integrator", "explicit") == "explicit"
+        particles = all(b.get("discretization", "particles") == "particles" for b in data.get("bodies") or [])
+        if explicit and particles and "contact" in data and path.stem not in OWN_TEST:
+            out.append(path.stem)
+    return out
+
+
+# Largest excess measured (units of E0 + max |W|; bound 0.002): two_blocks +1.55e-3 at its end,
+# two_blocks_3d +7.1e-4, the others (contact_gap, contact_gap_midcell, dcb, dls,
+# nickel_shock_split, oblique_impact, sphere_composite, sphere_composite_rz, two_layer) none.
+DECKS = contact_decks()
 
 HELD = ("kinetic_energy", "strain_energy", "internal_energy", "interface_energy", "plastic_work", "friction_loss",
         "fracture_loss")
@@ -56,3 +72,8 @@ def test_no_contact_deck_makes_energy(name, measure):
             "<= 0.002")
     assert len(excess) > 10
     assert excess[i] <= 0.002, (name, t[i], excess[i])
+
+
+def test_the_contact_decks_are_found():
+    """The glob finds the decks it is meant to (a renamed key must not empty the list)."""
+    assert {"contact_gap", "dcb", "oblique_impact", "two_blocks", "two_blocks_3d", "two_layer"} <= set(DECKS)
