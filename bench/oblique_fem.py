@@ -11,13 +11,18 @@ moving.
     python bench/oblique_fem.py table       # results/bench_oblique_fem/*.json
     python bench/oblique_fem.py mpm [--rh 10 20] [--mu 0 0.3] [--contact KEY=VALUE ...] [--body KEY=VALUE ...]
                                     [--block-body KEY=VALUE ...] [the scene arguments]
+    python bench/oblique_fem.py nodes [--rh 10] [--mu 0.3] [the same keys and scene arguments]
 
 `mpm` runs the same scene as a plainly written MPM deck (`plain_deck`: the defaults, the cylinder
 seeded to its surface, its centre R above the block: a touching start) and prints the rebound
 beside the finest stored level of the continuum for that scene and mu, with the energy at the
 end and what friction took (the ledger's friction_loss), both over the initial energy, and the
 run's wall time; the continuum's friction share is 1 - E end / E0 (elastic bodies lose nothing
-else). `--contact KEY=VALUE` (repeatable; VALUE read as YAML) adds a key to the deck's `contact`
+else). Its last column is the cylinder's angular momentum about the first touch point P at the
+end over its start (`touch_momentum`): the continuum keeps it to 0.2%, and its shortfall is the
+moment the MPM contact's forces took. `nodes` steps the plain deck and prints the impulse each
+contact node gave the cylinder over the impact and where the normal impulse's centre lies from P
+(docs/contact-methods.md, "Why the coarse rows miss"). `--contact KEY=VALUE` (repeatable; VALUE read as YAML) adds a key to the deck's `contact`
 section, `--body KEY=VALUE` to the cylinder (e.g. `--body seeding=lattice`) and `--block-body KEY=VALUE`
 to the block (a rectangle: it takes no `seeding`, its particles are always the lattice's).
 
@@ -244,8 +249,8 @@ def run_mpm(scene: Scene, rh: float, mu: float, contact: dict | None = None, bod
             block_body: dict | None = None) -> dict:
     """The plain MPM deck at R/h = rh: the cylinder's rebound, energy at the end and friction's
     share, the largest kinetic + strain energy at any history row (energy_max) and with friction's
-    share added (booked_max), both over E0,
-    the angular momentum about the touch point (touch_momentum), and the run's wall time (s)."""
+    share added (booked_max), both over E0, the angular momentum about the touch point
+    (touch_momentum), and the run's wall time (s)."""
     from mpmsim.deck.loader import as_loaded_deck
     from mpmsim.scene import build_scene
     from mpmsim.solver import Simulation
@@ -289,8 +294,7 @@ def contact_nodes(scene: Scene, rh: float, mu: float, contact: dict | None = Non
     """The plain deck at R/h = rh, stepped with output.contact_traction: the impulse each contact
     node gave the cylinder over the impact (pass 2's change, as the history's contact force sums
     it), by the node's offset from the first touch point P = (x0, top) in cells, and the offset
-    of the normal impulse's centre from the cylinder's centre. Nodes under 0.1% of the total are
-    left out."""
+    of the normal impulse's centre from P along x. Nodes under 0.1% of the total are left out."""
     from mpmsim.contact.grid.traction import node_tractions
     from mpmsim.deck.loader import as_loaded_deck
     from mpmsim.scene import build_scene
@@ -342,8 +346,9 @@ def mpm_table(scene: Scene, rhs: list[float], mus: list[float], contact: dict | 
         fem = [r for r in rows if r["mu"] == mu]
         if fem:
             f = max(fem, key=lambda r: r["level"])
+            # (elastic bodies: all the continuum loses is friction's)
             print(f"| {mu:g} | continuum (level {f['level']}) | {f['vx']:.4f} | {f['vy']:.4f} | {f['energy_ratio']:.4f} "
-                  f"| {1 - f['energy_ratio']:.4f} | {continuum_touch_momentum(f, scene):.4f} | |")  # (elastic bodies: all the continuum loses is friction's)
+                  f"| {1 - f['energy_ratio']:.4f} | {continuum_touch_momentum(f, scene):.4f} | |")
         for rh in rhs:
             m = run_mpm(scene, rh, mu, contact, body, block_body)
             cmp = (f" ({100 * (m['vx'] / f['vx'] - 1):+.1f}%)", f" ({100 * (m['vy'] / f['vy'] - 1):+.1f}%)") if fem \
