@@ -332,8 +332,8 @@ def test_the_plain_deck_converges_to_the_continuum_with_friction(which, measure)
     keeps the cylinder sliding too long: its angular momentum there is 3-5% short, and the
     test asks that the shortfall at R/h = 40 be under half of it. Energy: kinetic + strain
     never above the start by 0.2% at any row (with the ledger's friction_loss added it ends
-    1-7% above: at stuck nodes the ledger books as friction work that the transfers return,
-    docs/contact-methods.md; the split is open). Issue 77 asked for 2% at
+    1-7% above: at sliding targets the ledger books friction work that the transfers and the
+    force gap return, docs/contact-methods.md; the split is open). Issue 77 asked for 2% at
     R/h = 20 and 4% at R/h = 10; docs/contact-methods.md has the evidence why nodal contact
     cannot give that and these bounds replace it."""
     stored = FEM if which == "default" else SCENE2
