@@ -4,8 +4,9 @@ Each explicit deck of inputs/ with grid contact runs to its end with the energy 
 every history row what the bodies hold plus what friction and fracture took (kinetic + strain
 + internal + interface energy + plastic work + friction_loss + fracture_loss) may exceed the
 initial total plus the external work (walls, pistons, rigid bodies, loads) by at most 0.2% of
-the energy put in so far (E0 plus the largest |external_work| up to that row). The numerical
-losses (transfers, contact, conditions, force gap) may only take energy out. The ellipse box
+the energy put in so far (E0 plus the largest |external_work| up to that row): the numerical
+losses together (transfers, contact, conditions, force gap, and the ledger's residual) may only
+take energy out, whatever each does alone. The ellipse box
 (inputs/ellipse_box.yaml, ten minutes at its 1/20 mm cells) has its own balance test in
 test_compaction.py; the implicit and FEM decks are judged in their own files.
 """
