@@ -43,6 +43,8 @@ def contact_decks() -> list[str]:
 # Largest excess measured (units of E0 + max |W|; bound 0.002): two_blocks +1.55e-3 at its end,
 # two_blocks_3d +7.1e-4, the others (contact_gap, contact_gap_midcell, dcb, dls,
 # nickel_shock_split, oblique_impact, sphere_composite, sphere_composite_rz, two_layer) none.
+# A contact that feeds energy in fails it: contact_gap with velocity-only contact (AVG normals,
+# the energy check relaxed) reaches +4.1e-2 at 3.19 ms.
 DECKS = contact_decks()
 
 HELD = ("kinetic_energy", "strain_energy", "internal_energy", "interface_energy", "plastic_work", "friction_loss",
